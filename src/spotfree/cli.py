@@ -1,0 +1,184 @@
+"""The ``spotfree`` command (contract in DESIGN.md).
+
+Exit status: 0 on success, 2 on bad input with a one-line message that says what to fix.
+"""
+
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+from typing import Callable, Optional
+
+import typer
+from rich.console import Console
+
+from spotfree.errors import NotBuiltError, SpotfreeError
+
+app = typer.Typer(
+    name="spotfree",
+    help="Ride assistance for two-wheeled mobility robots: spotting-free continuous signal pattern classification.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+hand_app = typer.Typer(help="Hand posture and gesture recognition for steering a power wheelchair.", no_args_is_help=True)
+fleet_app = typer.Typer(help="Fleet scale: the ride database and batch processing.", no_args_is_help=True)
+app.add_typer(hand_app, name="hand")
+app.add_typer(fleet_app, name="fleet")
+
+err = Console(stderr=True, highlight=False, soft_wrap=True)
+out = Console(highlight=False)
+
+
+def user_errors(command: Callable) -> Callable:
+    """Turn spotfree's own errors (and unreadable files) into one line on stderr and exit status 2."""
+
+    @functools.wraps(command)
+    def wrapper(*args, **kwargs):
+        try:
+            return command(*args, **kwargs)
+        except SpotfreeError as exc:
+            err.print(f"[bold red]error:[/] {exc}", markup=True)
+        except OSError as exc:
+            where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+            err.print(f"[bold red]error:[/] {where}{exc.strerror or exc}", markup=True)
+        raise typer.Exit(2)
+
+    return wrapper
+
+
+def _not_built(what: str, issue: int) -> None:
+    raise NotBuiltError(f"'{what}' is not built yet (tracked in issue {issue}); nothing was done")
+
+
+@app.command()
+@user_errors
+def simulate(
+    scenario: str = typer.Argument(..., help="normal-braking | sudden-braking | cruising | lateral | road"),
+    output: Path = typer.Option(..., "-o", "--output", help="CSV file to write"),
+    repeats: int = typer.Option(7, "--repeats", min=1, help="number of separate experiments (rides)"),
+    seed: int = typer.Option(0, "--seed", help="random seed; the same seed gives the same file"),
+    rate: float = typer.Option(20.0, "--rate", help="IMU sampling rate, Hz"),
+) -> None:
+    """Simulate rides of a self-balancing transporter with a tablet on the handlebar."""
+    from spotfree.sim.scenarios import simulate_scenario
+    from spotfree.io.csvlog import write_csv
+
+    rec = simulate_scenario(scenario, repeats=repeats, seed=seed, rate=rate)
+    write_csv(rec, output)
+    out.print(f"wrote {output}: {repeats} experiment(s), {len(rec)} samples at {rate:g} Hz, {rec.duration:.1f} s")
+
+
+@app.command()
+@user_errors
+def features(
+    source: str = typer.Argument(..., metavar="IN", help="any supported log; PATH@K selects experiment K"),
+    output: Path = typer.Option(..., "-o", "--output", help="CSV file to write"),
+    orientation: str = typer.Option("default", "--orientation", help="default | paper | vqf"),
+    rate: float = typer.Option(20.0, "--rate", help="grid rate for logs that are not uniform, Hz"),
+    zero_phase: bool = typer.Option(False, "--zero-phase", help="offline zero-phase Butterworth on accelerations"),
+) -> None:
+    """Roll, pitch, pitch rate and gravity-free vehicle-frame accelerations from a raw IMU log."""
+    from spotfree.io import read_recording
+    from spotfree.io.csvlog import write_csv
+    from spotfree.signal.features import ride_features
+
+    rec = read_recording(source, rate=rate)
+    feats = ride_features(rec, orientation=orientation, zero_phase=zero_phase)
+    write_csv(feats, output, truth=False)
+    for gap in rec.gaps:
+        err.print(f"warning: {rec.source}: {gap}; features are empty there")
+    out.print(f"wrote {output}: {len(feats)} samples, orientation '{orientation}'")
+
+
+@app.command()
+@user_errors
+def train(
+    output: Path = typer.Option(..., "-o", "--output"),
+    experiment: list[str] = typer.Option(..., "--experiment", help="PATH=CLASS[,CLASS...]"),
+    channels: Optional[str] = typer.Option(None, "--channels"),
+    window: Optional[int] = typer.Option(None, "--window"),
+    step: Optional[int] = typer.Option(None, "--step"),
+) -> None:
+    """Build a dictionary of pure class representatives without spotting (not built yet)."""
+    _not_built("spotfree train", 3)
+
+
+@app.command()
+@user_errors
+def classify(
+    model: Path = typer.Argument(...),
+    source: str = typer.Argument(..., metavar="IN"),
+    output: Path = typer.Option(..., "-o", "--output"),
+    method: str = typer.Option("crc", "--method", help="crc | src | bsrc"),
+) -> None:
+    """Label every sample of a log with a trained model (not built yet)."""
+    _not_built("spotfree classify", 4)
+
+
+@app.command()
+@user_errors
+def evaluate(output: Path = typer.Option(..., "-o", "--output")) -> None:
+    """Reproduce the paper's experiments on the simulator (not built yet)."""
+    _not_built("spotfree evaluate", 4)
+
+
+@app.command()
+@user_errors
+def serve(
+    host: str = typer.Option("127.0.0.1", "--host"),
+    port: int = typer.Option(8000, "--port"),
+    database: Optional[str] = typer.Option(None, "--database"),
+) -> None:
+    """The live ride assistant: phone page, rider and operator views (not built yet)."""
+    _not_built("spotfree serve", 5)
+
+
+@hand_app.command("simulate")
+@user_errors
+def hand_simulate(
+    output: Path = typer.Option(..., "-o", "--output"),
+    people: int = typer.Option(6, "--people"),
+    seed: int = typer.Option(0, "--seed"),
+) -> None:
+    """Simulate hand-tracking frames (not built yet)."""
+    _not_built("spotfree hand simulate", 6)
+
+
+@hand_app.command("train")
+@user_errors
+def hand_train(output: Path = typer.Option(..., "-o", "--output"), logs: list[Path] = typer.Argument(None)) -> None:
+    """Train the two-stage posture / gesture recogniser (not built yet)."""
+    _not_built("spotfree hand train", 6)
+
+
+@hand_app.command("run")
+@user_errors
+def hand_run(model: Path, log: Path, output: Path = typer.Option(..., "-o", "--output")) -> None:
+    """Recognise postures and gestures in a log and emit wheelchair commands (not built yet)."""
+    _not_built("spotfree hand run", 6)
+
+
+@fleet_app.command("ingest")
+@user_errors
+def fleet_ingest(paths: list[Path] = typer.Argument(None)) -> None:
+    """Ingest many ride logs into the ride store (not built yet)."""
+    _not_built("spotfree fleet ingest", 8)
+
+
+@fleet_app.command("process")
+@user_errors
+def fleet_process() -> None:
+    """Process stored rides in parallel (not built yet)."""
+    _not_built("spotfree fleet process", 8)
+
+
+@fleet_app.command("stats")
+@user_errors
+def fleet_stats() -> None:
+    """Ride statistics by rider group, vehicle and place (not built yet)."""
+    _not_built("spotfree fleet stats", 8)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    app()
