@@ -8,6 +8,9 @@ consumes one. Conventions:
   Raw IMU channels are ``ax ay az`` (m/s^2, gravity included) and ``gx gy gz`` (rad/s) in the device frame
   (Android: x right, y up, z out of the screen).
 * Samples inside a reported gap are NaN in every channel; :meth:`Recording.segments` yields the gap-free pieces.
+* GPS channels (``lat lon alt speed heading gps_accuracy``) are sparse: a value where a fix arrived, NaN
+  elsewhere; they never make a gap.
+* ``meta['repairs']`` lists every repair a reader made (one line each), so the user is told.
 * ``truth`` holds string columns of ground truth (``label``, ``event``) for evaluation; training never reads it.
 * ``experiment`` numbers separate experiments (rides) held in one file; a window never spans two of them.
 """
@@ -23,6 +26,8 @@ IMU_CHANNELS = ("ax", "ay", "az", "gx", "gy", "gz")
 ACC_CHANNELS = IMU_CHANNELS[:3]
 GYRO_CHANNELS = IMU_CHANNELS[3:]
 TRUTH_COLUMNS = ("label", "event")
+GPS_CHANNELS = ("lat", "lon", "alt", "speed", "heading", "gps_accuracy")
+"""Sparse channels: a value only on the samples where a fix arrived (about 1 Hz), NaN elsewhere."""
 
 
 @dataclass(frozen=True)
@@ -135,10 +140,14 @@ class Recording:
         raise InputError(f"{self.source}: no experiment {k}; the file holds experiments {available}")
 
     def valid(self) -> np.ndarray:
-        """Boolean mask of samples where every channel is finite (False inside gaps)."""
-        if not self.channels:
+        """Boolean mask of samples where every dense channel is finite (False inside gaps).
+
+        GPS channels (:data:`GPS_CHANNELS`) are sparse by nature and do not count.
+        """
+        dense = [c for c in self.channels if c not in GPS_CHANNELS]
+        if not dense:
             return np.ones(len(self), dtype=bool)
-        return np.all(np.isfinite(self.array()), axis=1)
+        return np.all(np.isfinite(self.array(dense)), axis=1)
 
     def segments(self) -> list[tuple[int, int]]:
         """``(start, stop)`` index ranges of the gap-free stretches, each within one experiment."""
