@@ -47,6 +47,14 @@ def user_errors(command: Callable) -> Callable:
     return wrapper
 
 
+def _report_repairs_and_gaps(rec) -> None:
+    """Tell the user every repair a reader made and every gap it found (never silently)."""
+    for repair in rec.meta.get("repairs", []):
+        err.print(f"note: {repair}")
+    for gap in rec.gaps:
+        err.print(f"warning: {rec.source}: {gap}; no output there")
+
+
 def _not_built(what: str, issue: int) -> None:
     raise NotBuiltError(f"'{what}' is not built yet (tracked in issue {issue}); nothing was done")
 
@@ -86,8 +94,7 @@ def features(
     rec = read_recording(source, rate=rate)
     feats = ride_features(rec, orientation=orientation, zero_phase=zero_phase)
     write_csv(feats, output, truth=False)
-    for gap in rec.gaps:
-        err.print(f"warning: {rec.source}: {gap}; features are empty there")
+    _report_repairs_and_gaps(rec)
     out.print(f"wrote {output}: {len(feats)} samples, orientation '{orientation}'")
 
 

@@ -1,0 +1,97 @@
+"""The command-line contract of DESIGN.md: commands listed, unbuilt ones refuse with exit 2, bad input exits 2."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from spotfree.cli import app
+
+runner = CliRunner()
+
+CONTRACT = ["simulate", "features", "train", "classify", "evaluate", "serve", "hand", "fleet"]
+UNBUILT = [
+    ["train", "-o", "m.npz", "--experiment", "a.csv=sudden-braking"],
+    ["classify", "m.npz", "in.csv", "-o", "out.csv"],
+    ["evaluate", "-o", "report"],
+    ["serve"],
+    ["hand", "simulate", "-o", "h.jsonl"],
+    ["hand", "train", "-o", "h.npz"],
+    ["hand", "run", "h.npz", "h.jsonl", "-o", "o.csv"],
+    ["fleet", "ingest"],
+    ["fleet", "process"],
+    ["fleet", "stats"],
+]
+
+
+def test_help_lists_every_command_of_the_contract():
+    result = runner.invoke(app, ["--help"])
+    assert result.exit_code == 0
+    for command in CONTRACT:
+        assert command in result.output
+
+
+@pytest.mark.parametrize("argv", UNBUILT, ids=lambda a: " ".join(a[:2]))
+def test_unbuilt_commands_say_so_and_exit_2(argv, tmp_path):
+    result = runner.invoke(app, argv, catch_exceptions=False)
+    assert result.exit_code == 2
+    assert "not built yet" in result.output
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_console_script_exits_2_with_one_line_on_missing_file(tmp_path):
+    missing = tmp_path / "nope.csv"
+    proc = subprocess.run(
+        [sys.executable, "-m", "spotfree.cli", "features", str(missing), "-o", str(tmp_path / "f.csv")],
+        capture_output=True,
+        text=True,
+    )
+    assert proc.returncode == 2
+    assert "Traceback" not in proc.stderr
+    lines = [line for line in proc.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and "nope.csv" in lines[0]
+
+
+def test_simulate_then_features_end_to_end(tmp_path):
+    ride = tmp_path / "ride.csv"
+    feats = tmp_path / "features.csv"
+    result = runner.invoke(app, ["simulate", "sudden-braking", "-o", str(ride), "--repeats", "2", "--seed", "3"])
+    assert result.exit_code == 0, result.output
+    table = pd.read_csv(ride)
+    assert list(table.columns) == [
+        "experiment", "time", "ax", "ay", "az", "gx", "gy", "gz", "lat", "lon", "speed", "label", "event",
+    ]
+    assert sorted(table["experiment"].unique()) == [1, 2]
+
+    result = runner.invoke(app, ["features", f"{ride}@2", "-o", str(feats)])
+    assert result.exit_code == 0, result.output
+    out = pd.read_csv(feats)
+    assert list(out.columns)[-6:] == ["roll", "pitch", "pitch_rate", "acc_x", "acc_y", "acc_z"]
+    assert len(out) == int((table["experiment"] == 2).sum())
+    assert np.isfinite(out[["roll", "pitch", "acc_x"]].to_numpy()).all()
+
+
+def test_features_rejects_unknown_orientation(tmp_path):
+    ride = tmp_path / "ride.csv"
+    assert runner.invoke(app, ["simulate", "cruising", "-o", str(ride), "--repeats", "1"]).exit_code == 0
+    result = runner.invoke(app, ["features", str(ride), "-o", str(tmp_path / "f.csv"), "--orientation", "kalman"])
+    assert result.exit_code == 2
+    assert "kalman" in result.output
+    assert not (tmp_path / "f.csv").exists()
+
+
+def test_simulate_unknown_scenario_exits_2(tmp_path):
+    result = runner.invoke(app, ["simulate", "wheelie", "-o", str(tmp_path / "x.csv")])
+    assert result.exit_code == 2
+    assert "wheelie" in result.output and "sudden-braking" in result.output
+    assert not (tmp_path / "x.csv").exists()
+
+
+def test_simulate_is_deterministic_under_the_seed(tmp_path):
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    for path in (a, b):
+        assert runner.invoke(app, ["simulate", "normal-braking", "-o", str(path), "--repeats", "2", "--seed", "9"]).exit_code == 0
+    assert a.read_bytes() == b.read_bytes()
