@@ -1,0 +1,130 @@
+"""Model files: a dictionary of class representatives and everything needed to window new data like it.
+
+A model file is a NumPy ``.npz`` archive holding
+
+* ``dictionary``  ``(d, N)`` float: the training windows kept as pure class representatives (one per column),
+* ``column_class`` ``(N,)`` int: index into ``classes`` of every column,
+* ``scale``       ``(c,)`` float: the per-channel scale the windows were divided by,
+* ``metadata``    a JSON string (schema version, classes, channels, rate, window, step, normalisation, feature
+  pipeline, training parameters and the training summary).
+
+Loading uses ``allow_pickle=False``: a model file can never execute code.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from spotfree.errors import InputError
+
+SCHEMA_VERSION = 1
+
+
+@dataclass
+class DictionaryModel:
+    """A trained dictionary: ``dictionary[:, j]`` is a window of class ``classes[column_class[j]]``.
+
+    ``channels`` are the feature channels in window order, sampled at ``rate`` Hz; a window is ``window`` samples,
+    each channel divided by ``scale`` and the column normalised by ``normalisation`` (see :mod:`spotfree.windows`).
+    ``features`` names how channels are made from a raw log (``"ride"`` for :func:`ride_features` with
+    ``orientation``, ``"channels"`` when the input columns are used as they are).
+    """
+
+    classes: list[str]
+    channels: list[str]
+    rate: float
+    window: int
+    step: int
+    normalisation: str
+    scale: np.ndarray
+    dictionary: np.ndarray
+    column_class: np.ndarray
+    features: str = "ride"
+    orientation: str = "default"
+    parameters: dict = field(default_factory=dict)
+    summary: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.scale = np.asarray(self.scale, dtype=float)
+        self.dictionary = np.asarray(self.dictionary, dtype=float)
+        self.column_class = np.asarray(self.column_class, dtype=int)
+        d = len(self.channels) * self.window
+        if self.dictionary.ndim != 2 or self.dictionary.shape[0] != d:
+            raise InputError(f"model dictionary must have {d} rows (channels x window), has {self.dictionary.shape}")
+        if self.column_class.shape != (self.dictionary.shape[1],):
+            raise InputError("model column_class must give one class per dictionary column")
+        if self.scale.shape != (len(self.channels),):
+            raise InputError("model scale must give one scale per channel")
+        if len(self.column_class) and not 0 <= self.column_class.min() <= self.column_class.max() < len(self.classes):
+            raise InputError("model column_class indexes a class that is not in classes")
+
+    def metadata(self) -> dict:
+        return {
+            "schema_version": SCHEMA_VERSION,
+            "classes": list(self.classes),
+            "channels": list(self.channels),
+            "rate": float(self.rate),
+            "window": int(self.window),
+            "step": int(self.step),
+            "normalisation": self.normalisation,
+            "features": self.features,
+            "orientation": self.orientation,
+            "parameters": self.parameters,
+            "summary": self.summary,
+        }
+
+    def save(self, path: str | Path) -> None:
+        """Write the model atomically: a failed write never leaves a half-written file at ``path``."""
+        path = Path(path)
+        if path.suffix != ".npz":
+            raise InputError(f"{path}: a model file must end in .npz")
+        fd, tmp = tempfile.mkstemp(prefix=path.name, suffix=".tmp.npz", dir=path.parent if str(path.parent) else ".")
+        os.close(fd)
+        try:
+            np.savez_compressed(
+                tmp,
+                dictionary=self.dictionary,
+                column_class=self.column_class,
+                scale=self.scale,
+                metadata=np.array(json.dumps(self.metadata(), sort_keys=True)),
+            )
+            os.replace(tmp, path)
+        finally:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+
+    @classmethod
+    def load(cls, path: str | Path) -> "DictionaryModel":
+        """Read a model file written by :meth:`save`; never unpickles."""
+        path = Path(path)
+        if not path.exists():
+            raise InputError(f"{path}: no such model file; train one with 'spotfree train -o {path.name} ...'")
+        try:
+            with np.load(path, allow_pickle=False) as archive:
+                meta = json.loads(str(archive["metadata"]))
+                arrays = {k: archive[k] for k in ("dictionary", "column_class", "scale")}
+        except (OSError, ValueError, KeyError, json.JSONDecodeError) as exc:
+            raise InputError(f"{path}: not a spotfree model file ({exc})") from None
+        if meta.get("schema_version") != SCHEMA_VERSION:
+            raise InputError(
+                f"{path}: model schema version {meta.get('schema_version')} is not {SCHEMA_VERSION}; retrain it"
+            )
+        return cls(
+            classes=meta["classes"],
+            channels=meta["channels"],
+            rate=meta["rate"],
+            window=meta["window"],
+            step=meta["step"],
+            normalisation=meta["normalisation"],
+            features=meta["features"],
+            orientation=meta["orientation"],
+            parameters=meta["parameters"],
+            summary=meta["summary"],
+            **arrays,
+        )

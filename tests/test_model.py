@@ -1,0 +1,68 @@
+import numpy as np
+import pytest
+
+from spotfree.errors import InputError
+from spotfree.model import DictionaryModel
+
+
+def _model():
+    rng = np.random.default_rng(0)
+    return DictionaryModel(
+        classes=["cruising", "sudden-braking"],
+        channels=["pitch", "pitch_rate"],
+        rate=20.0,
+        window=5,
+        step=1,
+        normalisation="scale",
+        scale=[0.1, 0.3],
+        dictionary=rng.normal(size=(10, 7)),
+        column_class=[0, 0, 0, 1, 1, 0, 1],
+        summary={"clusters": [{"name": "cruising", "confidence": 0.9}]},
+    )
+
+
+def test_round_trip_keeps_every_field(tmp_path):
+    model = _model()
+    model.save(tmp_path / "m.npz")
+    loaded = DictionaryModel.load(tmp_path / "m.npz")
+    np.testing.assert_array_equal(loaded.dictionary, model.dictionary)
+    np.testing.assert_array_equal(loaded.column_class, model.column_class)
+    assert loaded.metadata() == model.metadata()
+
+
+def test_same_model_gives_the_same_bytes(tmp_path):
+    _model().save(tmp_path / "a.npz")
+    _model().save(tmp_path / "b.npz")
+    a = np.load(tmp_path / "a.npz", allow_pickle=False)
+    b = np.load(tmp_path / "b.npz", allow_pickle=False)
+    assert all(np.array_equal(a[k], b[k]) for k in a.files)
+
+
+def test_garbage_file_is_a_clear_error_and_pickles_are_refused(tmp_path):
+    (tmp_path / "junk.npz").write_bytes(b"not a zip")
+    with pytest.raises(InputError, match="not a spotfree model"):
+        DictionaryModel.load(tmp_path / "junk.npz")
+    np.savez(tmp_path / "obj.npz", metadata=np.array([{"a": 1}], dtype=object), dictionary=np.zeros((2, 2)))
+    with pytest.raises(InputError, match="not a spotfree model"):
+        DictionaryModel.load(tmp_path / "obj.npz")
+
+
+def test_inconsistent_shapes_are_rejected():
+    with pytest.raises(InputError, match="rows"):
+        DictionaryModel(classes=["a"], channels=["x"], rate=20, window=3, step=1, normalisation="scale",
+                        scale=[1.0], dictionary=np.zeros((4, 2)), column_class=[0, 0])
+
+
+def test_failed_save_keeps_the_existing_file(tmp_path, monkeypatch):
+    path = tmp_path / "m.npz"
+    _model().save(path)
+    before = path.read_bytes()
+
+    def boom(*args, **kwargs):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(np, "savez_compressed", boom)
+    with pytest.raises(OSError):
+        _model().save(path)
+    assert path.read_bytes() == before
+    assert [p.name for p in tmp_path.iterdir()] == ["m.npz"]
