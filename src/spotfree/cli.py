@@ -12,7 +12,7 @@ from typing import Callable, Optional
 import typer
 from rich.console import Console
 
-from spotfree.errors import NotBuiltError, SpotfreeError
+from spotfree.errors import InputError, NotBuiltError, SpotfreeError
 
 app = typer.Typer(
     name="spotfree",
@@ -101,14 +101,75 @@ def features(
 @app.command()
 @user_errors
 def train(
-    output: Path = typer.Option(..., "-o", "--output"),
-    experiment: list[str] = typer.Option(..., "--experiment", help="PATH=CLASS[,CLASS...]"),
-    channels: Optional[str] = typer.Option(None, "--channels"),
-    window: Optional[int] = typer.Option(None, "--window"),
-    step: Optional[int] = typer.Option(None, "--step"),
+    output: Path = typer.Option(..., "-o", "--output", help="model file to write (.npz)"),
+    experiment: list[str] = typer.Option(..., "--experiment", help="PATH=CLASS[,CLASS...]: classes that occur in it"),
+    channels: Optional[str] = typer.Option(None, "--channels", help="feature channels, comma-separated"),
+    window: int = typer.Option(20, "--window", help="window length, samples"),
+    step: int = typer.Option(1, "--step", help="classification stride, samples"),
+    orientation: str = typer.Option("default", "--orientation", help="default | paper | vqf"),
+    recipe: str = typer.Option("evidence", "--recipe", help="evidence | paper (the paper's recipe, literally)"),
+    background: Optional[str] = typer.Option(None, "--background", help="the background class (default: the "
+                                             "first class declared in every recording)"),
+    name: list[str] = typer.Option([], "--name", help="CLUSTER=CLASS: override the name of a level-1 cluster"),
+    extra_clusters: int = typer.Option(3, "--extra-clusters", help="clusters beyond the declared classes"),
+    seed: int = typer.Option(0, "--seed"),
+    figure: Optional[Path] = typer.Option(None, "--figure", help="diagnostic figure (default: MODEL.png)"),
 ) -> None:
-    """Build a dictionary of pure class representatives without spotting (not built yet)."""
-    _not_built("spotfree train", 3)
+    """Build a dictionary of pure class representatives from whole recordings, without spotting."""
+    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+    from rich.table import Table
+
+    from spotfree.figures import training_figure
+    from spotfree.pipeline import feature_recording
+    from spotfree.training import DEFAULT_CHANNELS, TrainingConfig, TrainingExperiment
+    from spotfree.training import train as train_dictionary
+
+    config = TrainingConfig(
+        channels=tuple(c.strip() for c in channels.split(",")) if channels else DEFAULT_CHANNELS,
+        window=window, step=step, recipe=recipe, background=background, overrides=_parse_names(name),
+        extra_clusters=extra_clusters, seed=seed,
+    )
+    with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=err,
+                  transient=True) as bar:
+        task = bar.add_task("reading recordings")
+        experiments = []
+        for spec in experiment:
+            path, classes = _parse_experiment(spec)
+            bar.update(task, description=f"features of {path}")
+            experiments.append(TrainingExperiment(feature_recording(path, orientation=orientation), classes))
+        result = train_dictionary(experiments, config, progress=lambda m: bar.update(task, description=m))
+    result.model.save(output)
+    figure = figure or output.with_suffix(".png")
+    training_figure(result, experiments, figure)
+    table = Table(title=f"{output}: {result.model.dictionary.shape[1]} columns, window {window} samples")
+    for column in ("cluster", "windows per recording", "name", "confidence", "how it was named"):
+        table.add_column(column)
+    for n in result.names:
+        table.add_row(str(n.cluster), " ".join(map(str, n.counts)), n.name, f"{n.confidence:.2f}", n.rule)
+    out.print(table)
+    out.print("columns per class: " + ", ".join(f"{c} {k}" for c, k in
+                                                result.model.summary["columns_per_class"].items()))
+    for warning in result.warnings:
+        err.print(f"[bold yellow]warning:[/] {warning}", markup=True)
+    out.print(f"figure: {figure}")
+
+
+def _parse_experiment(spec: str) -> tuple[str, list[str]]:
+    path, sep, classes = spec.rpartition("=")
+    names = [c.strip() for c in classes.split(",") if c.strip()]
+    if not sep or not path or not names:
+        raise InputError(f"--experiment '{spec}': write PATH=CLASS[,CLASS...], e.g. ride.csv@1=cruising,sudden-braking")
+    return path, names
+
+
+def _parse_names(specs: list[str]) -> dict[int, str]:
+    overrides = {}
+    for spec in specs:
+        cluster, sep, name = spec.partition("=")
+        if not sep or not cluster.strip().isdigit() or not name.strip():
+            raise InputError(f"--name '{spec}': write CLUSTER=CLASS with the cluster number of the summary, e.g. 3=cruising")
+        overrides[int(cluster)] = name.strip()
+    return overrides
 
 
 @app.command()

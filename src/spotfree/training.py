@@ -1,0 +1,310 @@
+"""Spotting-free dictionary building (the paper's section IV-B, made to survive real recordings).
+
+Input: training recordings, each with the set of classes that occur somewhere in it (nothing is labelled).
+Output: a :class:`~spotfree.model.DictionaryModel` whose columns are windows kept as pure class representatives.
+
+``recipe="evidence"`` (default):
+
+1. Feature channels of every recording, per-channel scale learned over all of them (amplitude kept).
+2. Windows of all recordings pooled; Ordered Subspace Clustering into ``n_classes + extra_clusters`` groups, more
+   groups than declared classes, so that a confounder (a turn, a bump, a change of speed) gets a group of its own
+   instead of being merged with a manoeuvre.
+3. Groups named by evidence across recordings (:mod:`spotfree.naming`); the user may override any name.
+4. Nesting: every group named a manoeuvre is checked against the known, less specific classes (background first):
+   its windows are classified by CRC against those classes' windows and its own windows outside the run being
+   tested; a group that a known class explains takes that name. Groups that stay are split in two by OSC again and
+   each half is checked the same way (the paper's second clustering of the sudden-stop experiment, which
+   separates the normal braking hidden around each sudden stop).
+5. Purification: windows within ``margin`` windows of a change of name straddle two states and are dropped, and so
+   are windows that the rest of the dictionary classifies otherwise (leave-run-out CRC: a run of windows is
+   classified against all kept windows outside it). At most ``max_columns`` per class are kept, evenly over time.
+
+``recipe="paper"`` is the paper's procedure taken literally, kept to measure the gain: each recording alone, unit-
+norm windows, split in two, the larger cluster named the background and the smaller the recording's most specific
+class; a recording declaring a third class has that cluster split once more, the larger half kept.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from spotfree.classify.crc import CRCClassifier
+from spotfree.cluster.osc import OrderedSubspaceClustering
+from spotfree.errors import InputError
+from spotfree.io.recording import Recording
+from spotfree.model import DictionaryModel
+from spotfree.naming import ClusterName, background_class, name_clusters, presence_matrix
+from spotfree.windows import ChannelScaling, recording_windows
+
+RECIPES = ("evidence", "paper")
+DEFAULT_CHANNELS = ("pitch", "pitch_rate", "acc_x")
+
+Progress = Callable[[str], None]
+
+
+@dataclass
+class TrainingExperiment:
+    """One ``--experiment PATH=CLASS,...``: a feature Recording and the classes that occur somewhere in it."""
+
+    recording: Recording
+    classes: list[str]
+
+
+@dataclass
+class TrainingConfig:
+    """Training parameters; window and step in samples, ``train_step`` is the stride of the training windows."""
+
+    channels: tuple[str, ...] = DEFAULT_CHANNELS
+    window: int = 20
+    step: int = 1
+    train_step: int = 2
+    normalisation: str = "scale"
+    recipe: str = "evidence"
+    extra_clusters: int = 3
+    background: str | None = None
+    overrides: dict[int, str] = field(default_factory=dict)
+    max_columns: int = 100
+    margin: int | None = None
+    seed: int = 0
+
+
+@dataclass
+class TrainingResult:
+    """The model, the names with their evidence, and per-window cluster labels for the diagnostic figure."""
+
+    model: DictionaryModel
+    names: list[ClusterName]
+    levels: list[list[np.ndarray]]
+    window_names: list[np.ndarray]
+    ends: list[np.ndarray]
+    kept: list[np.ndarray]
+    column_source: list[tuple[int, int]]
+    warnings: list[str]
+
+
+def train(experiments: list[TrainingExperiment], config: TrainingConfig | None = None,
+          progress: Progress | None = None) -> TrainingResult:
+    """Build a dictionary from whole recordings (see the module docstring)."""
+    config = config or TrainingConfig()
+    say = progress or (lambda message: None)
+    _validate(experiments, config)
+    scaling = ChannelScaling(tuple(config.channels)).fit([e.recording for e in experiments])
+    normalisation = "unit" if config.recipe == "paper" else config.normalisation
+    windows = [
+        recording_windows(e.recording, tuple(config.channels), config.window, config.train_step, scaling,
+                          normalisation)
+        for e in experiments
+    ]
+    declared = [list(e.classes) for e in experiments]
+    say(f"{sum(w.matrix.shape[1] for w in windows)} windows from {len(experiments)} recordings")
+    if config.recipe == "paper":
+        names_per_window, levels, names, warnings = _paper_recipe(windows, declared, config, say)
+    else:
+        names_per_window, levels, names, warnings = _evidence_recipe(windows, declared, config, say)
+    kept = _purify(windows, names_per_window, config, say)
+    classes = sorted({n for per in names_per_window for n in per[per != ""]})
+    missing = sorted({c for d in declared for c in d} - set(classes))
+    warnings += [f"declared class '{c}' was given no cluster; the model cannot recognise it" for c in missing]
+    columns, column_class, column_source = [], [], []
+    for r, (w, per, keep) in enumerate(zip(windows, names_per_window, kept)):
+        for k in np.flatnonzero(keep):
+            columns.append(w.matrix[:, k])
+            column_class.append(classes.index(per[k]))
+            column_source.append((r, int(w.ends[k])))
+    columns, column_class, column_source = _cap(np.array(columns).T, np.array(column_class), column_source,
+                                                len(classes), config.max_columns)
+    model = DictionaryModel(
+        classes=classes,
+        channels=list(config.channels),
+        rate=experiments[0].recording.rate,
+        window=config.window,
+        step=config.step,
+        normalisation=normalisation,
+        scale=scaling.scale,
+        dictionary=columns,
+        column_class=column_class,
+        features="ride" if experiments[0].recording.meta.get("features") == "ride" else "channels",
+        orientation=experiments[0].recording.meta.get("orientation", "default"),
+        parameters={"recipe": config.recipe, "extra_clusters": config.extra_clusters, "seed": config.seed,
+                    "train_step": config.train_step, "max_columns": config.max_columns},
+        summary={
+            "clusters": [vars(n) for n in names],
+            "columns_per_class": {c: int((column_class == i).sum()) for i, c in enumerate(classes)},
+            "warnings": warnings,
+        },
+    )
+    return TrainingResult(model, names, levels, names_per_window, [w.ends for w in windows], kept, column_source,
+                          warnings)
+
+
+def _validate(experiments: list[TrainingExperiment], config: TrainingConfig) -> None:
+    if not experiments:
+        raise InputError("no training recording given; add --experiment PATH=CLASS[,CLASS...]")
+    if config.recipe not in RECIPES:
+        raise InputError(f"unknown training recipe '{config.recipe}'; use one of {', '.join(RECIPES)}")
+    rates = {e.recording.rate for e in experiments}
+    if max(rates) - min(rates) > 1e-6 * max(rates):
+        raise InputError(f"training recordings have different rates {sorted(rates)} Hz; resample them to one rate")
+    for e in experiments:
+        if not e.classes:
+            raise InputError(f"{e.recording.source}: declare the classes that occur in it (PATH=CLASS[,CLASS...])")
+        if not np.isfinite(e.recording.array(config.channels)).any():
+            raise InputError(f"{e.recording.source}: channels {', '.join(config.channels)} hold no finite sample")
+    if config.window < 2:
+        raise InputError(f"window must be at least 2 samples, got {config.window}")
+
+
+def _cluster(matrix: np.ndarray, n_clusters: int, seed: int) -> np.ndarray:
+    """OSC labels of the columns of a block-Hankel ``matrix`` (windows as columns)."""
+    n_clusters = max(1, min(n_clusters, matrix.shape[1]))
+    if n_clusters == 1:
+        return np.zeros(matrix.shape[1], dtype=int)
+    return OrderedSubspaceClustering(n_clusters=n_clusters, random_state=seed).fit(matrix.T).labels_
+
+
+def _evidence_recipe(windows, declared, config, say):
+    background = background_class(declared, config.background)
+    n_classes = len({c for d in declared for c in d})
+    pooled = np.hstack([w.matrix for w in windows])
+    recording = np.concatenate([np.full(w.matrix.shape[1], r) for r, w in enumerate(windows)])
+    say(f"clustering {pooled.shape[1]} windows into {n_classes + config.extra_clusters} groups")
+    labels = _cluster(pooled, n_clusters=n_classes + config.extra_clusters, seed=config.seed)
+    counts = presence_matrix(labels, recording, labels.max() + 1, len(windows))
+    names = name_clusters(counts, declared, background)
+    for cluster, name in config.overrides.items():
+        if not 0 <= cluster < len(names):
+            raise InputError(f"--name {cluster}={name}: there are only clusters 0..{len(names) - 1}")
+        names[cluster] = ClusterName(cluster, name, "named by the user", 1.0, names[cluster].counts)
+    per_window = np.array([names[j].name for j in labels], dtype=object)
+    level2 = labels.copy()
+    specificity = {c: sum(c in d for d in declared) for d in declared for c in d}
+    manoeuvres = sorted({n.name for n in names} - {background}, key=lambda c: (-specificity.get(c, 0), c))
+    next_label = labels.max() + 1
+    for cls in manoeuvres:
+        known = [c for c in manoeuvres if specificity[c] > specificity[cls]] + [background]
+        for j in [n.cluster for n in names if n.name == cls and n.rule != "named by the user"]:
+            members = np.flatnonzero(labels == j)
+            say(f"nesting: checking group {j} ({cls}, {len(members)} windows) against {', '.join(known)}")
+            halves = _cluster(pooled[:, members], 2, config.seed) if len(members) >= 4 * config.window else None
+            parts = [members] if halves is None else [members[halves == 0], members[halves == 1]]
+            if halves is not None:
+                level2[members[halves == 1]] = next_label
+                next_label += 1
+            for part in parts:
+                explained = _explained_by(pooled, recording, per_window, part, cls, known, config)
+                if explained is not None:
+                    per_window[part] = explained[0]
+                    names.append(ClusterName(int(level2[part[0]]), explained[0],
+                                             f"nested: part of group {j} explained by known class "
+                                             f"{explained[0]} ({explained[1]:.0%} of its windows)",
+                                             explained[1], []))
+    split = np.cumsum([0] + [w.matrix.shape[1] for w in windows])
+    per_recording = [per_window[split[r]:split[r + 1]].astype(str) for r in range(len(windows))]
+    levels = [[labels[split[r]:split[r + 1]] for r in range(len(windows))],
+              [level2[split[r]:split[r + 1]] for r in range(len(windows))]]
+    return per_recording, levels, names, []
+
+
+def _explained_by(pooled, recording, per_window, part, cls, known, config):
+    """``(class, fraction)`` when a known class explains most windows of ``part`` under leave-run-out CRC."""
+    dictionary_mask = np.isin(per_window, known)
+    if not dictionary_mask.any() or len(part) < 2:
+        return None
+    votes = []
+    runs = np.split(part, np.flatnonzero((np.diff(part) > 1) | (np.diff(recording[part]) != 0)) + 1)
+    for run in runs:
+        own = np.setdiff1d(part, np.arange(run[0] - config.window, run[-1] + config.window + 1))
+        if len(own) == 0:
+            continue
+        atoms = np.hstack([pooled[:, own], pooled[:, dictionary_mask]])
+        atom_class = np.r_[np.full(len(own), cls, dtype=object), per_window[dictionary_mask]].astype(str)
+        votes.append(CRCClassifier().fit(atoms.T, atom_class).predict(pooled[:, run].T))
+    if not votes:
+        return None
+    values, counts = np.unique(np.concatenate(votes), return_counts=True)
+    best = int(np.argmax(counts))
+    fraction = counts[best] / counts.sum()
+    if values[best] != cls and fraction > 0.5:
+        return str(values[best]), float(fraction)
+    return None
+
+
+def _paper_recipe(windows, declared, config, say):
+    per_recording, level1, level2, names = [], [], [], []
+    for r, (w, classes) in enumerate(zip(windows, declared)):
+        say(f"paper recipe: recording {r + 1}, two-way split")
+        labels = _cluster(w.matrix, 2, config.seed)
+        larger = int(np.bincount(labels, minlength=2).argmax())
+        per = np.where(labels == larger, classes[0], classes[min(1, len(classes) - 1)]).astype(object)
+        second = labels.copy()
+        if len(classes) > 2:
+            members = np.flatnonzero(labels != larger)
+            halves = _cluster(w.matrix[:, members], 2, config.seed)
+            keep_half = int(np.bincount(halves, minlength=2).argmax())
+            per[members] = np.where(halves == keep_half, classes[-1], "")
+            second[members] = 2 + halves
+        per_recording.append(per.astype(str))
+        level1.append(labels)
+        level2.append(second)
+        names.append(ClusterName(r, classes[0], "paper: larger cluster of the two-way split", 1.0, []))
+    return per_recording, [level1, level2], names, []
+
+
+def _purify(windows, names_per_window, config, say) -> list[np.ndarray]:
+    """Keep windows away from a change of name and consistent with the rest of the dictionary."""
+    margin = config.margin if config.margin is not None else max(1, config.window // (2 * config.train_step))
+    kept = []
+    for per in names_per_window:
+        named = per != ""
+        change = np.flatnonzero(per[1:] != per[:-1]) + 1
+        near = np.zeros(len(per), dtype=bool)
+        for c in change:
+            near[max(0, c - margin):c + margin] = True
+        kept.append(named & ~near)
+    say("purifying: leave-run-out consistency of the kept windows")
+    pooled = np.hstack([w.matrix for w in windows])
+    names = np.concatenate(names_per_window)
+    keep = np.concatenate(kept)
+    recording = np.concatenate([np.full(w.matrix.shape[1], r) for r, w in enumerate(windows)])
+    index = np.flatnonzero(keep)
+    if len(np.unique(names[index])) > 1:
+        runs = np.split(index, np.flatnonzero((np.diff(index) > 1) | (np.diff(recording[index]) != 0)
+                                              | (names[index][1:] != names[index][:-1])) + 1)
+        for run in runs:
+            others = np.setdiff1d(index, np.arange(run[0] - config.window, run[-1] + config.window + 1))
+            if len(np.unique(names[others])) < 2:
+                continue
+            clf = CRCClassifier().fit(pooled[:, others].T, names[others])
+            keep[run] &= clf.predict(pooled[:, run].T) == names[run]
+    split = np.cumsum([0] + [w.matrix.shape[1] for w in windows])
+    return [keep[split[r]:split[r + 1]] for r in range(len(windows))]
+
+
+def _cap(columns, column_class, column_source, n_classes, max_columns):
+    """At most ``max_columns`` columns per class, chosen evenly over time."""
+    chosen = []
+    for i in range(n_classes):
+        index = np.flatnonzero(column_class == i)
+        if len(index) > max_columns:
+            index = index[np.linspace(0, len(index) - 1, max_columns).round().astype(int)]
+        chosen.append(index)
+    chosen = np.sort(np.concatenate(chosen)) if chosen else np.empty(0, dtype=int)
+    if columns.size == 0:
+        raise InputError("training kept no window; the recordings may be too short or the classes inseparable")
+    return columns[:, chosen], column_class[chosen], [column_source[k] for k in chosen]
+
+
+def dictionary_purity(result: TrainingResult, experiments: list[TrainingExperiment]) -> dict[str, float]:
+    """Per class, the fraction of dictionary columns whose window centre has that class in the hidden ``label``.
+
+    For evaluation only: training itself never reads ``label``.
+    """
+    model = result.model
+    truth = np.array([
+        experiments[r].recording.truth["label"][end - model.window // 2] for r, end in result.column_source
+    ])
+    named = np.array(model.classes)[model.column_class]
+    return {c: float(np.mean(truth[named == c] == c)) for c in model.classes if (named == c).any()}

@@ -1,0 +1,52 @@
+"""Naming clusters by evidence across recordings: presence, enrichment, background."""
+
+import numpy as np
+import pytest
+
+from spotfree.errors import InputError
+from spotfree.naming import background_class, name_clusters, presence_matrix
+
+NB = ["cruising", "normal-braking"]
+SB = ["cruising", "normal-braking", "sudden-braking"]
+
+
+def _names(counts, declared=(NB, SB)):
+    declared = [list(d) for d in declared]
+    return [n.name for n in name_clusters(np.array(counts), declared, background_class(declared))]
+
+
+def test_group_present_only_where_a_class_is_declared_takes_that_class():
+    # columns: normal-braking recording, sudden-braking recording
+    names = _names([[600, 700], [300, 40], [1, 60]])
+    assert names == ["cruising", "normal-braking", "sudden-braking"]
+
+
+def test_confounder_spread_over_every_recording_stays_background():
+    # a turn group, equally common in both rides, is not forced into a manoeuvre class
+    names = _names([[600, 700], [250, 60], [1, 60], [50, 55]])
+    assert names[3] == "cruising"
+
+
+def test_larger_cluster_is_not_needed_to_find_the_background():
+    # the normal-braking recording is half braking: size alone would name the wrong group
+    names = _names([[480, 800], [520, 90], [0, 60]])
+    assert names[:2] == ["cruising", "normal-braking"]
+
+
+def test_group_in_recordings_with_no_common_class_goes_to_background():
+    declared = [["cruising", "normal-braking"], ["cruising", "sudden-braking"]]
+    names = _names([[500, 500], [100, 0], [0, 100], [10, 0]], declared)
+    assert names == ["cruising", "normal-braking", "sudden-braking", "normal-braking"]
+
+
+def test_background_must_be_declared_everywhere():
+    with pytest.raises(InputError, match="every --experiment"):
+        background_class([["cruising"], ["sudden-braking"]])
+    with pytest.raises(InputError, match="not declared in every"):
+        background_class([NB, SB], background="sudden-braking")
+    assert background_class([NB, SB], background="normal-braking") == "normal-braking"
+
+
+def test_presence_matrix_counts_windows():
+    counts = presence_matrix(np.array([0, 1, 1, 2]), np.array([0, 0, 1, 1]), 3, 2)
+    np.testing.assert_array_equal(counts, [[1, 0], [1, 1], [0, 1]])
