@@ -1,0 +1,314 @@
+"""Shared input helpers for the readers: files and archives, CSV dialects, numeric cells, time columns, units.
+
+Every check raises :class:`~spotfree.errors.InputError` with one line that names the file, the column and the
+fix; every safe repair appends one line to the ``repairs`` list it is given (it ends up in
+``Recording.meta['repairs']``).
+"""
+
+from __future__ import annotations
+
+import csv
+import difflib
+import io
+import os
+import re
+import tempfile
+import zipfile
+from pathlib import Path, PurePosixPath
+
+import numpy as np
+import pandas as pd
+
+from spotfree.errors import InputError
+from spotfree.signal.frame import GRAVITY
+
+MAX_FILL_RUN = 2
+"""Longest run of missing samples (in a uniform file) that is filled by linear interpolation."""
+
+MIN_RATE, MAX_RATE = 0.1, 10_000.0
+"""Plausible sampling rates (Hz) of a time column in seconds; outside them the unit is wrong."""
+
+G_RANGE = (0.7, 1.3)
+"""A median specific-force norm in this range (times 1 m/s^2) means the accelerations are in g."""
+
+
+# ---------------------------------------------------------------- files and archives
+
+
+class Archive:
+    """The files of a folder or a zip archive, addressed by their path inside it ('/'-separated)."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = Path(path)
+        if self.path.is_dir():
+            self._zip = None
+            self.members = sorted(
+                p.relative_to(self.path).as_posix() for p in self.path.rglob("*") if p.is_file()
+            )
+        else:
+            try:
+                self._zip = zipfile.ZipFile(self.path)
+                self.members = sorted(n for n in self._zip.namelist() if not n.endswith("/"))
+            except (zipfile.BadZipFile, OSError, EOFError, ValueError) as exc:
+                raise InputError(f"{self.path}: not a readable zip archive ({exc}); export it again") from None
+
+    def __enter__(self) -> "Archive":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._zip is not None:
+            self._zip.close()
+
+    def find(self, name: str) -> str | None:
+        """The member whose file name (any folder, any case) is ``name``, or None; the shallowest one wins."""
+        hits = [m for m in self.members if PurePosixPath(m).name.lower() == name.lower()]
+        return min(hits, key=lambda m: m.count("/")) if hits else None
+
+    def label(self, member: str) -> str:
+        """How a member is named in messages: ``archive.zip:Gyroscope.csv`` or ``folder/Gyroscope.csv``."""
+        return f"{self.path}/{member}" if self._zip is None else f"{self.path}:{member}"
+
+    def read_text(self, member: str) -> str:
+        """A member decoded as UTF-8 text."""
+        return decode(self._read(member), self.label(member))
+
+    def head(self, member: str, size: int) -> str:
+        """The first ``size`` bytes of a member as text (undecodable bytes replaced), to recognise its format."""
+        return self._read(member, size).decode("utf-8-sig", errors="replace")
+
+    def _read(self, member: str, size: int = -1) -> bytes:
+        try:
+            if self._zip is None:
+                with open(self.path / member, "rb") as stream:
+                    return stream.read(size)
+            with self._zip.open(member) as stream:
+                return stream.read(size)
+        except (zipfile.BadZipFile, OSError, EOFError, ValueError, NotImplementedError, RuntimeError) as exc:
+            raise InputError(f"{self.label(member)}: cannot be read ({exc}); export it again") from None
+
+
+def decode(raw: bytes, source: str) -> str:
+    """Bytes as UTF-8 text (a byte-order mark is dropped)."""
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{source}: not UTF-8 text (byte {exc.start}); save the file as UTF-8 CSV") from None
+
+
+def read_text(path: Path) -> str:
+    """A file decoded as UTF-8 text; a missing or unreadable file is an InputError."""
+    try:
+        raw = Path(path).read_bytes()
+    except FileNotFoundError:
+        raise InputError(f"{path}: file not found; check the path") from None
+    except OSError as exc:
+        raise InputError(f"{path}: cannot be read ({exc.strerror or exc}); check the path") from None
+    return decode(raw, str(path))
+
+
+def write_text(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file in the same folder, so ``path`` is never half written."""
+    path = Path(path)
+    folder = path.parent
+    if not folder.is_dir():
+        raise InputError(f"{path}: folder '{folder}' does not exist; create it first")
+    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    try:
+        with os.fdopen(handle, "w", encoding="utf-8", newline="") as stream:
+            stream.write(text)
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+
+
+# ---------------------------------------------------------------- CSV dialects and tables
+
+_SEPARATORS = (",", "\t", ";")
+_DECIMAL_COMMA = re.compile(r"(?:^|[\t;])\s*[-+]?\d+,\d")
+
+
+def detect_dialect(text: str) -> tuple[str, str]:
+    """``(separator, decimal mark)`` of CSV ``text``: comma, tab or semicolon; decimal point or comma.
+
+    The separator is the candidate found most often in the header line (quoted header names are skipped, so a
+    comma inside ``"Acceleration x (m/s^2)"`` does not count). A comma separator implies a decimal point;
+    otherwise a comma between digits in the first data lines means a decimal comma (phyphox's tab/decimal comma
+    and semicolon/decimal comma dialects).
+    """
+    lines = text.splitlines()
+    header = lines[0] if lines else ""
+    unquoted = re.sub(r'"[^"]*"', "", header)
+    counts = {sep: unquoted.count(sep) for sep in _SEPARATORS}
+    sep = max(_SEPARATORS, key=lambda s: counts[s])
+    if counts[sep] == 0:
+        sep = ","
+    if sep == ",":
+        return sep, "."
+    body = "\n".join(lines[1:20])
+    return sep, "," if any(_DECIMAL_COMMA.search(line) for line in body.splitlines()) else "."
+
+
+def read_table(text: str, source: str, sep: str = ",", unique: bool = True) -> pd.DataFrame:
+    """CSV ``text`` as a table of strings (empty cells are ''); with ``unique``, a repeated column name is refused.
+
+    (Without ``unique``, pandas numbers repeats: ``Time (s)``, ``Time (s).1``, ...)
+    """
+    if not text.strip():
+        raise InputError(f"{source}: the file is empty; export the recording again")
+    try:
+        header = next(csv.reader([text.lstrip().splitlines()[0]], delimiter=sep))
+    except csv.Error as exc:
+        raise InputError(f"{source}: unreadable header line ({exc}); the first line must name the columns") from None
+    repeated = [name for i, name in enumerate(header) if name in header[:i]]
+    if unique and repeated:
+        raise InputError(f"{source}: column '{repeated[0]}' appears twice; rename or drop one of them")
+    try:
+        table = pd.read_csv(
+            io.StringIO(text), sep=sep, dtype=str, keep_default_na=False, na_filter=False,
+            skip_blank_lines=True, engine="c",
+        )
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError) as exc:
+        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise InputError(f"{source}: not a readable CSV table ({first}); check the separator and quoting") from None
+    if table.shape[1] == 0:
+        raise InputError(f"{source}: no columns; the first line must name the columns")
+    return table
+
+
+def numbers(table: pd.DataFrame, column: str, source: str, decimal: str = ".") -> np.ndarray:
+    """Column ``column`` of a string table as floats; '' and NaN are missing values, anything else must parse.
+
+    A cell that is not a number raises an InputError naming its line in the file (header on line 1).
+    """
+    cells = table[column].astype(str).str.strip()
+    if decimal == ",":
+        cells = cells.str.replace(",", ".", regex=False)
+    values = pd.to_numeric(cells.where(cells != "", "nan"), errors="coerce").to_numpy(dtype=float)
+    bad = np.isnan(values) & ~cells.str.lower().isin(["", "nan"]).to_numpy()
+    if bad.any():
+        row = int(np.flatnonzero(bad)[0])
+        raise InputError(
+            f"{source}: column '{column}', line {row + 2}: '{table[column].iloc[row]}' is not a number; "
+            f"fix the cell or delete the line"
+        )
+    return values
+
+
+def suggest(name: str, known: list[str] | tuple[str, ...], cutoff: float = 0.75) -> str | None:
+    """The known column name closest to ``name`` (difflib ratio at least ``cutoff``), or None."""
+    hits = difflib.get_close_matches(name.strip().lower(), list(known), n=1, cutoff=cutoff)
+    return hits[0] if hits else None
+
+
+# ---------------------------------------------------------------- time columns
+
+
+def check_time(t: np.ndarray, source: str, column: str, first_line: int = 2) -> None:
+    """Every time cell is a finite number and the median step is a plausible sampling period in seconds.
+
+    A step far outside ``1/MAX_RATE .. 1/MIN_RATE`` s means the column is in ms, us or ns, or is not a time.
+    """
+    missing = ~np.isfinite(t)
+    if missing.any():
+        row = int(np.flatnonzero(missing)[0])
+        raise InputError(f"{source}: column '{column}', line {row + first_line}: empty time cell; fill or delete it")
+    if len(t) < 2:
+        raise InputError(f"{source}: only {len(t)} sample(s); a recording needs at least two rows")
+    steps = np.abs(np.diff(t))
+    step = float(np.median(steps[steps > 0])) if (steps > 0).any() else 0.0
+    if step == 0.0:
+        raise InputError(f"{source}: column '{column}' never changes; it must hold the sample times in seconds")
+    rate = 1.0 / step
+    if rate < MIN_RATE or rate > MAX_RATE:
+        unit = {1e-3: "milliseconds", 1e-6: "microseconds", 1e-9: "nanoseconds"}
+        guess = next((u for f, u in unit.items() if MIN_RATE <= rate / f <= MAX_RATE), None)
+        hint = f"it looks like {guess}; convert it to seconds" if guess else "it must be in seconds"
+        raise InputError(
+            f"{source}: column '{column}' has a median step of {step:g}, i.e. {rate:g} Hz; {hint}"
+        )
+
+
+def order_and_deduplicate(
+    t: np.ndarray, values: np.ndarray, source: str, column: str, repairs: list[str], first_line: int = 2
+) -> np.ndarray:
+    """Indices of the rows to keep, in time order, when only a few rows are out of order or repeat a time.
+
+    ``t`` (n,) are the sample times and ``values`` (n, k) the numbers of each row. At most
+    ``max(1, n // 100)`` out-of-order rows are sorted (stable) and rows repeating an earlier timestamp are
+    dropped (the first is kept); more than that raises an InputError naming the first offending line.
+    """
+    n = len(t)
+    limit = max(1, n // 100)
+    order = np.arange(n)
+    back = np.flatnonzero(np.diff(t) < 0)
+    if len(back):
+        if len(back) > limit:
+            row = int(back[0]) + 1
+            raise InputError(
+                f"{source}: column '{column}' goes back in time at line {row + first_line} "
+                f"({t[row]:g} after {t[row - 1]:g}) and {len(back) - 1} more times; the times must increase "
+                f"(several rides in one file need an 'experiment' column)"
+            )
+        order = np.argsort(t, kind="stable")
+        repairs.append(f"{source}: sorted {len(back)} out-of-order row(s) by '{column}'")
+    ts, vs = t[order], values[order]
+    repeat = np.r_[False, ts[1:] == ts[:-1]]
+    if repeat.any():
+        equal = (vs[1:] == vs[:-1]) | (np.isnan(vs[1:]) & np.isnan(vs[:-1]))
+        same = repeat & np.r_[False, np.all(equal, axis=1)]
+        differing = int(repeat.sum() - same.sum())
+        if differing > limit:
+            row = int(order[np.flatnonzero(repeat & ~same)[0]])
+            raise InputError(
+                f"{source}: column '{column}' repeats the time {t[row]:g} with different values at line "
+                f"{row + first_line} and {differing - 1} more; each row needs its own time"
+            )
+        kinds = [f"{int(same.sum())} duplicated row(s)"] if same.any() else []
+        kinds += [f"{differing} row(s) repeating an earlier time with other values"] if differing else []
+        repairs.append(f"{source}: dropped {' and '.join(kinds)} in '{column}' (kept the first)")
+        order = order[~repeat]
+    return order
+
+
+# ---------------------------------------------------------------- missing samples and units
+
+
+def nan_runs(missing: np.ndarray) -> list[tuple[int, int]]:
+    """``(start, stop)`` index ranges of the True runs of a boolean vector."""
+    edges = np.diff(np.r_[0, missing.astype(np.int8), 0])
+    return list(zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist()))
+
+
+def fill_short_runs(values: np.ndarray, name: str, source: str, repairs: list[str]) -> np.ndarray:
+    """A uniformly sampled channel with interior NaN runs of at most :data:`MAX_FILL_RUN` samples filled linearly.
+
+    Longer runs and runs touching either end stay NaN (they are gaps, reported by the caller).
+    """
+    values = np.array(values, dtype=float)
+    missing = np.isnan(values)
+    short = [(a, b) for a, b in nan_runs(missing) if b - a <= MAX_FILL_RUN and a > 0 and b < len(values)]
+    if short:
+        index = np.arange(len(values))
+        fill = np.concatenate([index[a:b] for a, b in short])
+        values[fill] = np.interp(fill, index[~missing], values[~missing])
+        repairs.append(
+            f"{source}: interpolated {len(fill)} missing sample(s) of '{name}' in {len(short)} run(s) "
+            f"of at most {MAX_FILL_RUN}"
+        )
+    return values
+
+
+def check_acceleration_units(acc: np.ndarray, source: str, columns: str) -> None:
+    """Specific force ``(n, 3)`` (device frame, gravity included) must be in m/s^2, not g.
+
+    The median norm of a phone's specific force is close to g = 9.81 m/s^2; a median in
+    :data:`G_RANGE` means the numbers are in g.
+    """
+    norm = np.linalg.norm(acc, axis=1)
+    norm = norm[np.isfinite(norm)]
+    if len(norm) and G_RANGE[0] <= float(np.median(norm)) <= G_RANGE[1]:
+        raise InputError(
+            f"{source}: columns {columns} have a median magnitude of {float(np.median(norm)):.3f}, i.e. they are "
+            f"in g; multiply them by {GRAVITY} to get m/s^2"
+        )

@@ -1,0 +1,251 @@
+"""Sensor Logger exports (the app by Kelvin Choi, tszheichoi): a folder or zip of per-sensor CSVs, or the JSON export.
+
+What the export holds (github.com/tszheichoi/awesome-sensor-logger: README.md, UNITS.md, COORDINATES.md,
+CROSSPLATFORM.md):
+
+* one CSV per sensor, e.g. ``Accelerometer.csv``, ``Gyroscope.csv``, ``Gravity.csv``, ``TotalAcceleration.csv``,
+  ``Location.csv``, ``Metadata.csv``; motion sensors have the columns ``time,seconds_elapsed,z,y,x`` (z first).
+  ``time`` is UNIX epoch nanoseconds, ``seconds_elapsed`` seconds since the recording started.
+* the JSON export is one array of records, each ``{"sensor": "Gyroscope", "time": "...", "z": "...", ...}`` with
+  the values as strings; the ``Metadata`` record holds ``platform``, ``sensors``, ``sampleRateMs``, ...
+* ``Metadata.csv``: ``version, device name, recording epoch time, recording time, recording timezone, platform
+  (android | ios), appVersion, device id, sensors, sampleRateMs, standardisation, platform version``.
+* units: Accelerometer (gravity removed), Gravity and TotalAcceleration in m/s^2 (g = 9.80665), Gyroscope rad/s,
+  Location latitude/longitude degrees, altitude m, speed m/s, bearing degrees (negative = invalid).
+* TotalAcceleration (gravity included) is logged on Android only; on iOS, total = Accelerometer + Gravity.
+* iOS vs Android, when "Standardise Units & Frames" is off (the default): Accelerometer and Gravity differ by a
+  negative sign on all three axes (iOS follows CoreMotion: a phone lying face up reads gravity on -z), and
+  AccelerometerUncalibrated is in g on iOS. Gyroscope agrees on both platforms. With standardisation on, iOS
+  follows Android's convention and units.
+
+The Recording uses Android's convention (specific force: face up reads az = +9.81 m/s^2), so iOS data without
+standardisation is negated (and uncalibrated accelerations multiplied by -9.80665); each conversion is logged in
+``meta['repairs']``. Specific force comes from TotalAcceleration when present, else Accelerometer + Gravity
+(gravity interpolated onto the accelerometer's times), else AccelerometerUncalibrated. Times are seconds since
+the first motion sample; ``meta['start_epoch']`` is that instant in UNIX seconds. A measured rate far from the
+declared ``sampleRateMs`` (factor 2) is reported in ``meta['warnings']``.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from spotfree.errors import InputError
+from spotfree.io import checks
+from spotfree.io.recording import Recording
+from spotfree.io.resample import Stream, merge_streams
+from spotfree.signal.frame import GRAVITY
+
+SENSORS = (
+    "TotalAcceleration", "Accelerometer", "Gravity", "AccelerometerUncalibrated", "Gyroscope", "Location", "Metadata",
+)
+"""The Sensor Logger files this reader uses."""
+
+LOCATION_COLUMNS = {
+    "latitude": "lat", "longitude": "lon", "altitude": "alt", "speed": "speed", "bearing": "heading",
+    "horizontalAccuracy": "gps_accuracy",
+}
+"""Location.csv column -> channel; speed, bearing and accuracy are invalid when negative."""
+
+RATE_FACTOR = 2.0
+"""A measured rate more than this factor away from the declared one is reported."""
+
+
+class _Sensor:
+    """One sensor's table of strings and the name used for it in messages."""
+
+    def __init__(self, table: pd.DataFrame, label: str) -> None:
+        self.table, self.label = table, label
+
+    def times(self) -> np.ndarray:
+        """Sample times in UNIX seconds (from ``time`` in ns, else ``seconds_elapsed``)."""
+        column = "time" if "time" in self.table.columns else "seconds_elapsed"
+        self._require(column)
+        values = checks.numbers(self.table, column, self.label)
+        seconds = values * 1e-9 if column == "time" else values
+        checks.check_time(seconds, self.label, column)
+        return seconds
+
+    def columns(self, names: list[str]) -> np.ndarray:
+        """The named columns as floats, ``(n, len(names))``."""
+        for name in names:
+            self._require(name)
+        return np.column_stack([checks.numbers(self.table, n, self.label) for n in names])
+
+    def _require(self, column: str) -> None:
+        if column not in self.table.columns:
+            raise InputError(
+                f"{self.label}: no column '{column}' (found {', '.join(self.table.columns)}); "
+                f"export the recording again from Sensor Logger"
+            )
+
+
+def read_sensorlogger(path: str | Path, rate: float = 20.0, max_gap: float = 0.5) -> Recording:
+    """A Sensor Logger export (folder, zip or ``.json``) as a Recording at ``rate`` Hz (see the module docstring)."""
+    path = Path(path)
+    sensors = _json_sensors(path) if path.suffix.lower() == ".json" else _archive_sensors(path)
+    return _recording(sensors, str(path), rate, max_gap)
+
+
+def is_sensorlogger_table(header: str) -> bool:
+    """True when a CSV header line is a Sensor Logger sensor file (it has ``seconds_elapsed``)."""
+    return "seconds_elapsed" in header.split("\n", 1)[0]
+
+
+def _archive_sensors(path: Path) -> dict[str, _Sensor]:
+    sensors = {}
+    with checks.Archive(path) as archive:
+        for name in SENSORS:
+            member = archive.find(f"{name}.csv")
+            if member is not None:
+                label = archive.label(member)
+                sensors[name] = _Sensor(checks.read_table(archive.read_text(member), label), label)
+    return sensors
+
+
+def _json_sensors(path: Path) -> dict[str, _Sensor]:
+    try:
+        records = json.loads(checks.read_text(path))
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{path}: not valid JSON (line {exc.lineno}: {exc.msg}); export the recording again") from None
+    if not isinstance(records, list) or not records or not all(isinstance(r, dict) and "sensor" in r for r in records):
+        raise InputError(f"{path}: not a Sensor Logger JSON export (an array of records with a 'sensor' field)")
+    frame = pd.DataFrame.from_records(records)
+    sensors = {}
+    for name in SENSORS:
+        rows = frame[frame["sensor"].astype(str) == name].drop(columns="sensor").dropna(axis=1, how="all")
+        if len(rows):
+            table = rows.map(lambda v: "" if v is None else str(v)).reset_index(drop=True)
+            sensors[name] = _Sensor(table, f"{path}:{name}")
+    return sensors
+
+
+def _recording(sensors: dict[str, _Sensor], source: str, rate: float, max_gap: float) -> Recording:
+    repairs: list[str] = []
+    warnings: list[str] = []
+    metadata = _metadata(sensors.get("Metadata"))
+    motion = {}
+    acc = _specific_force(sensors, metadata, source, repairs)
+    if acc is not None:
+        motion["acceleration"] = acc
+    if "Gyroscope" in sensors:
+        motion["Gyroscope"] = _xyz(sensors["Gyroscope"], ("gx", "gy", "gz"), repairs)
+    if not motion:
+        raise InputError(
+            f"{source}: no accelerometer or gyroscope file (TotalAcceleration.csv, Accelerometer.csv + Gravity.csv, "
+            f"Gyroscope.csv); enable them in Sensor Logger and record again"
+        )
+    streams = dict(motion)
+    if "Location" in sensors:
+        streams["Location"] = _location(sensors["Location"], repairs)
+    origin = min(float(s.time[0]) for s in motion.values())
+    streams = {k: Stream(s.time - origin, s.values, s.names) for k, s in streams.items()}
+    rec = merge_streams(streams, rate=rate, max_gap=max_gap, source=source)
+    if acc is not None:
+        checks.check_acceleration_units(rec.array(["ax", "ay", "az"]), source, "'x', 'y', 'z' of the accelerometer")
+    warnings += _rate_warnings(rec.meta["native_rates"], metadata, source)
+    rec.meta.update(repairs=repairs, warnings=warnings, start_epoch=origin, platform=metadata.get("platform", ""))
+    return rec
+
+
+def _metadata(sensor: _Sensor | None) -> dict[str, str]:
+    """The first row of Metadata.csv as strings ('platform' lower-cased); empty without the file."""
+    if sensor is None or not len(sensor.table):
+        return {}
+    row = {str(k).strip(): str(v).strip() for k, v in sensor.table.iloc[0].items()}
+    row["platform"] = row.get("platform", "").lower()
+    return row
+
+
+def _xyz(sensor: _Sensor, names: tuple[str, str, str], repairs: list[str]) -> Stream:
+    """A motion sensor's ``x, y, z`` columns (the file stores them z, y, x) as a stream in UNIX seconds."""
+    t = sensor.times()
+    values = sensor.columns(["x", "y", "z"])
+    keep = checks.order_and_deduplicate(t, values, sensor.label, "time", repairs)
+    return Stream(t[keep], values[keep], names)
+
+
+def _specific_force(
+    sensors: dict[str, _Sensor], metadata: dict[str, str], source: str, repairs: list[str]
+) -> Stream | None:
+    """Accelerations with gravity in Android's convention, m/s^2, device frame; None without any accelerometer."""
+    names = ("ax", "ay", "az")
+    if "TotalAcceleration" in sensors:
+        return _xyz(sensors["TotalAcceleration"], names, repairs)
+    ios_native = metadata.get("platform") == "ios" and metadata.get("standardisation", "").lower() != "true"
+    if "Accelerometer" in sensors and "Gravity" in sensors:
+        _require_platform(metadata, source, "Accelerometer.csv + Gravity.csv")
+        linear = _xyz(sensors["Accelerometer"], names, repairs)
+        gravity = _xyz(sensors["Gravity"], names, repairs)
+        inside = (linear.time >= gravity.time[0]) & (linear.time <= gravity.time[-1])
+        if inside.sum() < 2:
+            raise InputError(f"{source}: Accelerometer.csv and Gravity.csv do not overlap in time; export again")
+        t = linear.time[inside]
+        total = linear.values[inside] + np.column_stack([np.interp(t, gravity.time, g) for g in gravity.values.T])
+        if ios_native:
+            total = -total
+            repairs.append(f"{source}: iOS export without standardised frames: negated Accelerometer + Gravity "
+                           f"to Android's sign convention")
+        return Stream(t, total, names)
+    if "AccelerometerUncalibrated" in sensors:
+        _require_platform(metadata, source, "AccelerometerUncalibrated.csv")
+        raw = _xyz(sensors["AccelerometerUncalibrated"], names, repairs)
+        if ios_native:
+            repairs.append(f"{source}: iOS uncalibrated accelerations in g with CoreMotion's sign: multiplied by "
+                           f"-{GRAVITY} to m/s^2 in Android's convention")
+            return Stream(raw.time, -GRAVITY * raw.values, names)
+        return raw
+    if "Accelerometer" in sensors:
+        raise InputError(
+            f"{source}: Accelerometer.csv holds acceleration without gravity and there is no Gravity.csv or "
+            f"TotalAcceleration.csv; enable Gravity in Sensor Logger and record again"
+        )
+    return None
+
+
+def _require_platform(metadata: dict[str, str], source: str, files: str) -> None:
+    """iOS and Android differ in sign for these files, so Metadata.csv must say which one recorded them."""
+    if metadata.get("platform") not in ("ios", "android"):
+        raise InputError(
+            f"{source}: {files} need Metadata.csv (column 'platform') to tell iOS from Android signs; "
+            f"export the whole recording, Metadata.csv included"
+        )
+
+
+def _location(sensor: _Sensor, repairs: list[str]) -> Stream:
+    """Location.csv as a GPS stream: lat, lon (deg), alt (m), speed (m/s), heading (rad), gps_accuracy (m)."""
+    t = sensor.times()
+    present = {c: n for c, n in LOCATION_COLUMNS.items() if c in sensor.table.columns or n in ("lat", "lon")}
+    values = sensor.columns(list(present))
+    for j, column in enumerate(present):
+        if column in ("speed", "bearing", "horizontalAccuracy"):
+            values[values[:, j] < 0, j] = np.nan
+        if column == "bearing":
+            values[:, j] = np.deg2rad(values[:, j])
+    keep = checks.order_and_deduplicate(t, values, sensor.label, "time", repairs)
+    return Stream(t[keep], values[keep], tuple(present.values()))
+
+
+def _rate_warnings(native: dict[str, float], metadata: dict[str, str], source: str) -> list[str]:
+    """Sensors whose measured rate is more than :data:`RATE_FACTOR` away from ``sampleRateMs`` in Metadata.csv."""
+    names = metadata.get("sensors", "").split("|")
+    periods = metadata.get("sampleRateMs", "").split("|")
+    declared = {}
+    for name, period in zip(names, periods):
+        try:
+            if float(period) > 0:
+                declared[name] = 1000.0 / float(period)
+        except ValueError:
+            continue
+    declared.setdefault("acceleration", declared.get("TotalAcceleration", declared.get("Accelerometer", 0.0)))
+    out = []
+    for key, measured in native.items():
+        expected = declared.get(key, 0.0)
+        if expected > 0 and not expected / RATE_FACTOR <= measured <= expected * RATE_FACTOR:
+            out.append(f"{source}: {key} measured at {measured:.3g} Hz but declared at {expected:.3g} Hz "
+                       f"(sampleRateMs); check the phone did not throttle the sensor")
+    return out
