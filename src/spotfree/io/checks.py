@@ -234,24 +234,25 @@ def order_and_deduplicate(
 ) -> np.ndarray:
     """Indices of the rows to keep, in time order, when only a few rows are out of order or repeat a time.
 
-    ``t`` (n,) are the sample times and ``values`` (n, k) the numbers of each row. At most
-    ``max(1, n // 100)`` out-of-order rows are sorted (stable) and rows repeating an earlier timestamp are
-    dropped (the first is kept); more than that raises an InputError naming the first offending line.
+    ``t`` (n,) are the sample times and ``values`` (n, k) the numbers of each row. A row is out of order when it
+    is earlier than some row above it; at most ``max(1, n // 100)`` such rows are sorted (stable) and as many
+    rows repeating an earlier timestamp with other values are dropped (the first is kept; exact duplicates are
+    always dropped). More than that raises an InputError naming the first offending line.
     """
     n = len(t)
     limit = max(1, n // 100)
     order = np.arange(n)
-    back = np.flatnonzero(np.diff(t) < 0)
-    if len(back):
-        if len(back) > limit:
-            row = int(back[0]) + 1
+    late = np.flatnonzero(t[1:] < np.maximum.accumulate(t)[:-1]) + 1  # rows earlier than a row above them
+    if len(late):
+        if len(late) > limit:
+            row = int(late[0])
             raise InputError(
                 f"{source}: column '{column}' goes back in time at line {row + first_line} "
-                f"({t[row]:g} after {t[row - 1]:g}) and {len(back) - 1} more times; the times must increase "
+                f"({t[row]:g} after {t[row - 1]:g}), {len(late)} rows out of order; the times must increase "
                 f"(several rides in one file need an 'experiment' column)"
             )
         order = np.argsort(t, kind="stable")
-        repairs.append(f"{source}: sorted {len(back)} out-of-order row(s) by '{column}'")
+        repairs.append(f"{source}: sorted {len(late)} out-of-order row(s) by '{column}'")
     ts, vs = t[order], values[order]
     repeat = np.r_[False, ts[1:] == ts[:-1]]
     if repeat.any():

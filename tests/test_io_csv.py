@@ -1,0 +1,353 @@
+"""The generic CSV reader and writer, and read_recording's handling of paths."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from spotfree.errors import InputError
+from spotfree.io import checks, read_recording
+from spotfree.io.csvlog import read_csv, write_csv
+from spotfree.io.recording import Recording
+
+RATE = 20.0
+
+
+def ride(n=120, rate=RATE, experiments=(1, 2), restart=True, seed=0):
+    """A simulator-like Recording: IMU with gravity, sparse GPS at 1 Hz, truth, several experiments."""
+    rng = np.random.default_rng(seed)
+    parts = []
+    for k, number in enumerate(experiments):
+        t = np.arange(n) / rate + (0 if restart else k * n / rate)
+        gps = np.full(n, np.nan)
+        gps[:: int(rate)] = 1.0
+        parts.append(pd.DataFrame({
+            "experiment": number, "time": t,
+            "ax": rng.normal(0, 0.5, n), "ay": rng.normal(0, 0.5, n), "az": 9.81 + rng.normal(0, 0.5, n),
+            "gx": rng.normal(0, 0.1, n), "gy": rng.normal(0, 0.1, n), "gz": rng.normal(0, 0.1, n),
+            "lat": 35.7 + 1e-5 * np.arange(n) * gps, "lon": 139.7 + 1e-5 * np.arange(n) * gps,
+            "speed": 3.0 * gps,
+            "label": np.where(np.arange(n) < n // 2, "cruising", "sudden-braking"),
+            "event": np.where(np.arange(n) % 17 == 0, "bump, small", ""),
+        }))
+    table = pd.concat(parts, ignore_index=True)
+    channels = {c: table[c].to_numpy() for c in ["ax", "ay", "az", "gx", "gy", "gz", "lat", "lon", "speed"]}
+    return Recording(
+        time=table["time"].to_numpy(), channels=channels, rate=rate, experiment=table["experiment"].to_numpy(),
+        truth={"label": table["label"].to_numpy(dtype=str), "event": table["event"].to_numpy(dtype=str)},
+    )
+
+
+def write_table(path, columns: dict, sep=","):
+    pd.DataFrame(columns).to_csv(path, index=False, sep=sep)
+    return path
+
+
+def imu_table(n=100, rate=RATE, seed=0):
+    rng = np.random.default_rng(seed)
+    return {
+        "time": np.arange(n) / rate,
+        "ax": rng.normal(0, 0.3, n), "ay": rng.normal(0, 0.3, n), "az": 9.81 + rng.normal(0, 0.3, n),
+        "gx": rng.normal(0, 0.1, n), "gy": rng.normal(0, 0.1, n), "gz": rng.normal(0, 0.1, n),
+    }
+
+
+def assert_same(a: Recording, b: Recording):
+    assert a.names == b.names
+    for name in a.names:
+        np.testing.assert_allclose(a.channels[name], b.channels[name], rtol=1e-9, atol=0, equal_nan=True)
+    np.testing.assert_allclose(a.time, b.time, rtol=0, atol=1e-9)
+    assert a.rate == b.rate
+    assert set(a.truth) == set(b.truth)
+    for name in a.truth:
+        assert a.truth[name].tolist() == b.truth[name].tolist()
+    if a.experiment is None:
+        assert b.experiment is None
+    else:
+        assert a.experiment.tolist() == b.experiment.tolist()
+
+
+# ---------------------------------------------------------------- round trips
+
+
+@pytest.mark.parametrize("restart", [True, False], ids=["time-restarts", "time-continues"])
+def test_simulator_files_round_trip_exactly(tmp_path, restart):
+    rec = ride(restart=restart)
+    write_csv(rec, tmp_path / "ride.csv")
+    back = read_csv(tmp_path / "ride.csv")
+    assert_same(rec, back)
+    assert back.meta["repairs"] == [] and back.meta["warnings"] == [] and back.gaps == []
+    header = (tmp_path / "ride.csv").read_text().splitlines()[0]
+    assert header == "experiment,time,ax,ay,az,gx,gy,gz,lat,lon,speed,label,event"
+
+
+def test_gps_cells_are_empty_where_there_is_no_fix(tmp_path):
+    write_csv(ride(n=40), tmp_path / "ride.csv")
+    table = pd.read_csv(tmp_path / "ride.csv", dtype=str, keep_default_na=False)
+    assert (table["lat"] == "").sum() == 2 * 38
+    assert "nan" not in (tmp_path / "ride.csv").read_text().lower()
+
+
+def test_writing_without_truth_drops_label_and_event(tmp_path):
+    write_csv(ride(n=30), tmp_path / "f.csv", truth=False)
+    assert not {"label", "event"} & set(pd.read_csv(tmp_path / "f.csv").columns)
+
+
+def test_a_file_at_its_own_rate_keeps_it_and_says_so(tmp_path):
+    rec = ride(n=300, rate=100.0, experiments=(1,))
+    write_csv(rec, tmp_path / "fast.csv")
+    back = read_csv(tmp_path / "fast.csv", rate=20.0)
+    assert back.rate == 100.0 and len(back) == 300
+    assert any("100 Hz" in w and "20 Hz" in w for w in back.meta["warnings"])
+
+
+def test_jittered_times_are_snapped_to_the_files_rate(tmp_path):
+    columns = imu_table(n=200)
+    columns["time"] = columns["time"] + np.random.default_rng(2).uniform(-0.005, 0.005, 200)
+    rec = read_csv(write_table(tmp_path / "j.csv", columns))
+    assert rec.rate == pytest.approx(20.0, rel=1e-3)
+    assert np.allclose(np.diff(rec.time), 1 / rec.rate)
+    assert np.array_equal(rec.channels["gx"], columns["gx"])
+
+
+def test_a_failed_write_leaves_the_old_file_intact(tmp_path, monkeypatch):
+    target = tmp_path / "ride.csv"
+    target.write_text("old content\n")
+
+    def broken_replace(src, dst):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(checks.os, "replace", broken_replace)
+    with pytest.raises(OSError):
+        write_csv(ride(n=30), target)
+    assert target.read_text() == "old content\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["ride.csv"]
+
+
+def test_writing_into_a_missing_folder_is_an_input_error(tmp_path):
+    with pytest.raises(InputError, match="does not exist"):
+        write_csv(ride(n=30), tmp_path / "nope" / "ride.csv")
+
+
+# ---------------------------------------------------------------- columns
+
+
+def test_case_and_spaces_in_standard_names_are_renamed_and_logged(tmp_path):
+    columns = imu_table()
+    columns["Time"] = columns.pop("time")
+    columns[" ax "] = columns.pop("ax")
+    rec = read_csv(write_table(tmp_path / "c.csv", columns))
+    assert {"ax", "gx"} <= set(rec.names)
+    assert any("'Time' -> 'time'" in r and "' ax ' -> 'ax'" in r for r in rec.meta["repairs"])
+
+
+@pytest.mark.parametrize(
+    "wrong, right", [("acc_x", "ax"), ("gyro_z", "gz"), ("Accel X", "ax"), ("tiem", "time"), ("latitude", "lat")]
+)
+def test_misspelt_columns_are_refused_with_the_right_name(tmp_path, wrong, right):
+    columns = imu_table()
+    columns["lat"] = np.full(100, 35.0)
+    columns[wrong] = columns.pop(right)
+    path = write_table(tmp_path / "m.csv", columns)
+    with pytest.raises(InputError) as info:
+        read_csv(path)
+    message = str(info.value)
+    assert str(path) in message and f"'{wrong}' should be '{right}'" in message and "\n" not in message
+
+
+def test_a_missing_time_column_is_named(tmp_path):
+    columns = imu_table()
+    columns["clock"] = columns.pop("time")
+    path = write_table(tmp_path / "t.csv", columns)
+    with pytest.raises(InputError, match=r"t\.csv: no 'time' column.*'clock'"):
+        read_csv(path)
+
+
+def test_gravity_free_ride_features_named_acc_x_are_accepted(tmp_path):
+    rng = np.random.default_rng(0)
+    columns = {"time": np.arange(50) / 20, "roll": rng.normal(0, 0.01, 50), "pitch": rng.normal(0, 0.01, 50),
+               "acc_x": rng.normal(0, 0.2, 50), "acc_y": rng.normal(0, 0.2, 50), "acc_z": rng.normal(0, 0.2, 50)}
+    rec = read_csv(write_table(tmp_path / "features.csv", columns))
+    assert rec.names == ["roll", "pitch", "acc_x", "acc_y", "acc_z"]
+
+
+def test_acc_x_with_gravity_is_a_misspelt_raw_column(tmp_path):
+    rng = np.random.default_rng(0)
+    columns = {"time": np.arange(50) / 20, "acc_x": rng.normal(0, 0.2, 50), "acc_y": rng.normal(0, 0.2, 50),
+               "acc_z": 9.8 + rng.normal(0, 0.2, 50)}
+    with pytest.raises(InputError, match="'acc_x' should be 'ax'"):
+        read_csv(write_table(tmp_path / "raw.csv", columns))
+
+
+def test_a_repeated_column_name_is_refused(tmp_path):
+    path = tmp_path / "dup.csv"
+    path.write_text("time,ax,ax\n0,1,2\n0.05,1,2\n")
+    with pytest.raises(InputError, match=r"dup\.csv: column 'ax' appears twice"):
+        read_csv(path)
+
+
+# ---------------------------------------------------------------- cells
+
+
+def test_an_empty_file_is_refused(tmp_path):
+    path = tmp_path / "empty.csv"
+    path.write_text("")
+    with pytest.raises(InputError, match=r"empty\.csv: the file is empty"):
+        read_csv(path)
+
+
+def test_a_header_without_rows_is_refused(tmp_path):
+    path = tmp_path / "header.csv"
+    path.write_text("time,ax,ay,az\n")
+    with pytest.raises(InputError, match=r"header\.csv: 0 data row"):
+        read_csv(path)
+
+
+def test_a_non_numeric_cell_is_named_with_its_line(tmp_path):
+    columns = {k: v.astype(object) for k, v in imu_table().items()}
+    columns["gy"][6] = "1.2.3"
+    with pytest.raises(InputError, match=r"n\.csv: column 'gy', line 8: '1\.2\.3' is not a number"):
+        read_csv(write_table(tmp_path / "n.csv", columns))
+
+
+def test_a_text_column_is_refused_as_a_whole(tmp_path):
+    columns = imu_table()
+    columns["note"] = ["ok"] * 100
+    with pytest.raises(InputError, match="column 'note' holds text"):
+        read_csv(write_table(tmp_path / "text.csv", columns))
+
+
+def test_an_empty_column_is_refused(tmp_path):
+    columns = imu_table()
+    columns["gz"] = np.full(100, np.nan)
+    with pytest.raises(InputError, match="column 'gz' holds no numbers"):
+        read_csv(write_table(tmp_path / "e.csv", columns))
+
+
+def test_short_nan_runs_are_filled_and_long_ones_are_gaps(tmp_path):
+    columns = imu_table(n=100)
+    truth = columns["gx"].copy()
+    columns["gx"][[10, 11]] = np.nan  # two samples: filled
+    columns["ay"][50:60] = np.nan  # ten samples: a gap
+    rec = read_csv(write_table(tmp_path / "nan.csv", columns))
+    assert np.isfinite(rec.channels["gx"][10:12]).all()
+    assert rec.channels["gx"][10] == pytest.approx(truth[9] + (truth[12] - truth[9]) / 3)
+    assert any("interpolated 2 missing sample(s) of 'gx'" in r for r in rec.meta["repairs"])
+    assert len(rec.gaps) == 1 and rec.gaps[0].channel == "ay"
+    assert rec.gaps[0].start == pytest.approx(49 / 20) and rec.gaps[0].end == pytest.approx(60 / 20)
+    assert np.isnan(rec.array()[50:60]).all() and np.isfinite(rec.array()[60:]).all()
+
+
+# ---------------------------------------------------------------- time
+
+
+def test_a_few_out_of_order_rows_are_sorted_and_logged(tmp_path):
+    columns = imu_table(n=200)
+    order = np.arange(200)
+    order[[50, 51]] = order[[51, 50]]
+    table = {k: v[order] for k, v in columns.items()}
+    rec = read_csv(write_table(tmp_path / "o.csv", table))
+    assert np.array_equal(rec.channels["ax"], columns["ax"])
+    assert any("sorted 1 out-of-order row" in r for r in rec.meta["repairs"])
+
+
+def test_time_going_back_often_is_refused_with_the_line(tmp_path):
+    columns = imu_table(n=100)
+    columns["time"] = np.tile(np.arange(50) / 20, 2)
+    with pytest.raises(InputError, match=r"b\.csv: column 'time' goes back in time at line 52"):
+        read_csv(write_table(tmp_path / "b.csv", columns))
+
+
+def test_duplicated_rows_are_dropped_and_logged(tmp_path):
+    columns = imu_table(n=100)
+    table = {k: np.insert(v, 30, v[30]) for k, v in columns.items()}
+    rec = read_csv(write_table(tmp_path / "d.csv", table))
+    assert len(rec) == 100 and np.array_equal(rec.channels["az"], columns["az"])
+    assert any("dropped 1 duplicated row" in r for r in rec.meta["repairs"])
+
+
+def test_many_repeated_timestamps_with_other_values_are_refused(tmp_path):
+    columns = imu_table(n=100)
+    columns["time"] = np.repeat(np.arange(50) / 20, 2)
+    with pytest.raises(InputError, match=r"r\.csv: column 'time' repeats the time"):
+        read_csv(write_table(tmp_path / "r.csv", columns))
+
+
+def test_time_in_milliseconds_is_refused_with_the_fix(tmp_path):
+    columns = imu_table()
+    columns["time"] = columns["time"] * 1000
+    with pytest.raises(InputError, match=r"ms\.csv: column 'time'.*milliseconds; convert it to seconds"):
+        read_csv(write_table(tmp_path / "ms.csv", columns))
+
+
+def test_irregular_times_are_resampled_and_long_holes_reported(tmp_path):
+    rng = np.random.default_rng(3)
+    t = np.cumsum(rng.uniform(0.005, 0.015, 2000))
+    t = t[(t < 6) | (t > 7)]
+    columns = {"time": t, "gx": np.sin(t), "gy": np.cos(t), "label": np.where(t < 5, "a", "b")}
+    rec = read_csv(write_table(tmp_path / "irregular.csv", columns), rate=25.0)
+    assert rec.rate == 25.0 and np.allclose(np.diff(rec.time), 0.04)
+    ok = rec.valid()
+    assert np.allclose(rec.channels["gx"][ok], np.sin(rec.time[ok]), atol=2e-3)
+    assert len(rec.gaps) == 1 and 5.9 < rec.gaps[0].start < 6.0 and 7.0 < rec.gaps[0].end < 7.1
+    assert set(rec.truth["label"][rec.time < 4.9]) == {"a"} and set(rec.truth["label"][rec.time > 5.1]) == {"b"}
+    assert any("resampled onto a 25 Hz grid" in r for r in rec.meta["repairs"])
+
+
+# ---------------------------------------------------------------- units and experiments
+
+
+def test_accelerations_in_g_are_refused_with_the_factor(tmp_path):
+    columns = imu_table()
+    for c in ("ax", "ay", "az"):
+        columns[c] = columns[c] / 9.80665
+    with pytest.raises(InputError, match=r"g\.csv: columns 'ax', 'ay', 'az'.*in g; multiply them by 9\.80665"):
+        read_csv(write_table(tmp_path / "g.csv", columns))
+
+
+def test_gravity_free_accelerations_are_reported(tmp_path):
+    columns = imu_table()
+    columns["az"] = columns["az"] - 9.81
+    rec = read_csv(write_table(tmp_path / "lin.csv", columns))
+    assert any("include gravity" in w for w in rec.meta["warnings"])
+
+
+def test_an_experiment_split_in_two_blocks_is_refused(tmp_path):
+    columns = imu_table(n=90)
+    columns["experiment"] = np.repeat([1, 2, 1], 30)
+    columns["time"] = np.tile(np.arange(30) / 20, 3)
+    with pytest.raises(InputError, match=r"x\.csv: column 'experiment', line 62: experiment 1 starts again"):
+        read_csv(write_table(tmp_path / "x.csv", columns))
+
+
+def test_a_fractional_experiment_number_is_refused(tmp_path):
+    columns = imu_table(n=40)
+    columns["experiment"] = np.r_[np.ones(20), np.full(20, 1.5)]
+    with pytest.raises(InputError, match=r"f\.csv: column 'experiment', line 22: '1\.5' is not a whole number"):
+        read_csv(write_table(tmp_path / "f.csv", columns))
+
+
+def test_semicolon_and_decimal_comma_are_read(tmp_path):
+    columns = imu_table(n=60)
+    path = tmp_path / "eu.csv"
+    pd.DataFrame(columns).to_csv(path, index=False, sep=";", decimal=",")
+    rec = read_csv(path)
+    np.testing.assert_allclose(rec.channels["az"], columns["az"], rtol=1e-12)
+
+
+# ---------------------------------------------------------------- read_recording
+
+
+def test_read_recording_selects_an_experiment(tmp_path):
+    rec = ride()
+    write_csv(rec, tmp_path / "ride.csv")
+    second = read_recording(f"{tmp_path / 'ride.csv'}@2")
+    assert len(second) == 120 and set(second.experiment) == {2}
+    with pytest.raises(InputError, match="no experiment 5"):
+        read_recording(f"{tmp_path / 'ride.csv'}@5")
+    with pytest.raises(InputError, match="experiment number"):
+        read_recording(f"{tmp_path / 'ride.csv'}@two")
+
+
+def test_read_recording_names_a_missing_file(tmp_path):
+    with pytest.raises(InputError, match=r"nope\.csv: file not found"):
+        read_recording(tmp_path / "nope.csv")
