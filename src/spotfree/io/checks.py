@@ -28,6 +28,9 @@ MAX_FILL_RUN = 2
 MIN_RATE, MAX_RATE = 0.1, 10_000.0
 """Plausible sampling rates (Hz) of a time column in seconds; outside them the unit is wrong."""
 
+MIN_MOTION_RATE = 2.0
+"""Lowest plausible rate (Hz) of a phone's accelerometer or gyroscope."""
+
 G_RANGE = (0.7, 1.3)
 """A median specific-force norm in this range (times 1 m/s^2) means the accelerations are in g."""
 
@@ -204,10 +207,11 @@ def suggest(name: str, known: list[str] | tuple[str, ...], cutoff: float = 0.75)
 # ---------------------------------------------------------------- time columns
 
 
-def check_time(t: np.ndarray, source: str, column: str, first_line: int = 2) -> None:
+def check_time(t: np.ndarray, source: str, column: str, first_line: int = 2, min_rate: float = MIN_RATE) -> None:
     """Every time cell is a finite number and the median step is a plausible sampling period in seconds.
 
-    A step far outside ``1/MAX_RATE .. 1/MIN_RATE`` s means the column is in ms, us or ns, or is not a time.
+    A median step outside ``1/MAX_RATE .. 1/min_rate`` s means the column is in ms, us or ns, or is not a
+    time (``min_rate`` is :data:`MIN_MOTION_RATE` for accelerometer and gyroscope times).
     """
     missing = ~np.isfinite(t)
     if missing.any():
@@ -220,9 +224,9 @@ def check_time(t: np.ndarray, source: str, column: str, first_line: int = 2) -> 
     if step == 0.0:
         raise InputError(f"{source}: column '{column}' never changes; it must hold the sample times in seconds")
     rate = 1.0 / step
-    if rate < MIN_RATE or rate > MAX_RATE:
+    if rate < min_rate or rate > MAX_RATE:
         unit = {1e-3: "milliseconds", 1e-6: "microseconds", 1e-9: "nanoseconds"}
-        guess = next((u for f, u in unit.items() if MIN_RATE <= rate / f <= MAX_RATE), None)
+        guess = next((u for f, u in unit.items() if min_rate <= rate / f <= MAX_RATE), None)
         hint = f"it looks like {guess}; convert it to seconds" if guess else "it must be in seconds"
         raise InputError(
             f"{source}: column '{column}' has a median step of {step:g}, i.e. {rate:g} Hz; {hint}"

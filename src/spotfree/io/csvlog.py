@@ -19,7 +19,8 @@ Reading rules (every repair is logged in ``meta['repairs']``, every doubt in ``m
   ``acc_x acc_y acc_z`` are accepted as they are when they hold gravity-free ride features (no gravity in their
   magnitude and no gyroscope column in the file).
 * time: a few out-of-order rows are sorted and repeated timestamps dropped; many are refused. The median step
-  must be a plausible sampling period in seconds (0.1 Hz to 10 kHz), else the unit is wrong.
+  must be a plausible sampling period in seconds (2 Hz to 10 kHz with IMU columns, 0.1 Hz to 10 kHz without),
+  else the unit is wrong.
 * a **uniform** experiment (every step within +-25 % of the median) keeps the file's own rate
   ``f = (n - 1) / (t_last - t_first)`` (rounded to 6 significant digits when that moves it by < 1 ppm) and its
   rows are snapped to ``t_0 + k / f``. A rate more than 10 % away from the requested ``rate`` is kept and
@@ -94,7 +95,8 @@ def read_csv(path: str | Path, rate: float = 20.0, max_gap: float = 0.5) -> Reco
     if not channel_names:
         raise InputError(f"{source}: no channel columns besides 'time'; add the sensor columns (ax, ay, az, ...)")
     time = checks.numbers(table, "time", source, decimal)
-    checks.check_time(time, source, "time")
+    motion = any(c in IMU_CHANNELS for c in channel_names)
+    checks.check_time(time, source, "time", min_rate=checks.MIN_MOTION_RATE if motion else checks.MIN_RATE)
     values = np.column_stack([_channel(table, c, source, decimal) for c in channel_names])
     empty = [c for c, column in zip(channel_names, values.T) if np.isnan(column).all()]
     if empty:

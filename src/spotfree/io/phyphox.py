@@ -132,7 +132,8 @@ def _streams(text: str, label: str, repairs: list[str]) -> list[tuple[str, Strea
         t = checks.numbers(table, time_column, label, decimal) * _factor(time_column, "s", label)
         padded = np.flatnonzero(np.isfinite(t))
         t = t[: padded[-1] + 1] if len(padded) else t
-        checks.check_time(t, label, time_column)
+        motion = any(r[1] in ("acceleration", "linear", "Gyroscope") for r in recognised)
+        checks.check_time(t, label, time_column, min_rate=checks.MIN_MOTION_RATE if motion else checks.MIN_RATE)
         for key in dict.fromkeys(r[1] for r in recognised):
             part = [r for r in recognised if r[1] == key]
             values = np.column_stack([checks.numbers(table, c, label, decimal)[: len(t)] * f for c, _, _, f in part])

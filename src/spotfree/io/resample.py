@@ -128,7 +128,7 @@ def _check_dense(stream: Stream, key: str, max_gap: float, source: str) -> None:
     if 1.0 / stream.native_rate > max_gap:
         raise InputError(
             f"{source}: sensor '{key}' samples every {1.0 / stream.native_rate:.3g} s, longer than the gap limit "
-            f"{max_gap:g} s; raise max_gap"
+            f"{max_gap:g} s; check that its times are in seconds, or raise max_gap"
         )
 
 

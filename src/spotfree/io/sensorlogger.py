@@ -61,13 +61,13 @@ class _Sensor:
     def __init__(self, table: pd.DataFrame, label: str) -> None:
         self.table, self.label = table, label
 
-    def times(self) -> np.ndarray:
-        """Sample times in UNIX seconds (from ``time`` in ns, else ``seconds_elapsed``)."""
+    def times(self, min_rate: float = checks.MIN_MOTION_RATE) -> np.ndarray:
+        """Sample times in UNIX seconds (from ``time`` in ns, else ``seconds_elapsed``), checked for their unit."""
         column = "time" if "time" in self.table.columns else "seconds_elapsed"
         self._require(column)
         values = checks.numbers(self.table, column, self.label)
         seconds = values * 1e-9 if column == "time" else values
-        checks.check_time(seconds, self.label, column)
+        checks.check_time(seconds, self.label, column, min_rate=min_rate)
         return seconds
 
     def columns(self, names: list[str]) -> np.ndarray:
@@ -218,7 +218,7 @@ def _require_platform(metadata: dict[str, str], source: str, files: str) -> None
 
 def _location(sensor: _Sensor, repairs: list[str]) -> Stream:
     """Location.csv as a GPS stream: lat, lon (deg), alt (m), speed (m/s), heading (rad), gps_accuracy (m)."""
-    t = sensor.times()
+    t = sensor.times(min_rate=checks.MIN_RATE)
     present = {c: n for c, n in LOCATION_COLUMNS.items() if c in sensor.table.columns or n in ("lat", "lon")}
     values = sensor.columns(list(present))
     for j, column in enumerate(present):
