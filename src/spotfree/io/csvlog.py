@@ -98,7 +98,7 @@ def read_csv(path: str | Path, rate: float = 20.0, max_gap: float = 0.5) -> Reco
     motion = any(c in IMU_CHANNELS for c in channel_names)
     checks.check_time(time, source, "time", min_rate=checks.MIN_MOTION_RATE if motion else checks.MIN_RATE)
     values = np.column_stack([_channel(table, c, source, decimal) for c in channel_names])
-    empty = [c for c, column in zip(channel_names, values.T) if np.isnan(column).all()]
+    empty = [c for c, column in zip(channel_names, values.T) if np.isnan(column).all() and c not in GPS_CHANNELS]
     if empty:
         raise InputError(f"{source}: column '{empty[0]}' holds no numbers; fill it or drop the column")
     truth = {c: table[c].to_numpy(dtype=str) for c in truth_names}
