@@ -1,0 +1,75 @@
+"""Ride features: attitude, pitch rate and gravity-free level accelerations from a raw IMU log.
+
+Per sample, with the raw device-frame IMU re-expressed on the nominal vehicle axes (``MOUNT``, x forward,
+y left, z up):
+
+* ``roll``, ``pitch`` (rad): the attitude filter chosen by ``orientation``
+  (:mod:`spotfree.signal.orientation`), eq. (1) convention, positive pitch nose down;
+* ``pitch_rate`` (rad/s): the gyro rate about the vehicle y axis (positive nose down);
+* ``acc_x, acc_y, acc_z`` (m/s^2): specific force rotated to the level vehicle frame with the filtered roll and
+  pitch, gravity removed (``R_y(pitch) R_x(roll) a - [0, 0, g]``), then low-passed by the third-order
+  Butterworth of :mod:`spotfree.signal.butterworth` (causal, or zero-phase offline).
+
+:func:`ride_features` runs each gap-free stretch of each experiment with fresh filter state (NaN in gaps);
+:class:`FeatureStream` does the same sample by sample and gives the causal batch result to rounding.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from spotfree.errors import InputError
+from spotfree.io.recording import ACC_CHANNELS, GYRO_CHANNELS, IMU_CHANNELS, Recording
+from spotfree.signal.butterworth import LowpassStream, butter_lowpass, lowpass
+from spotfree.signal.frame import MOUNT, device_to_vehicle_axes, gravity_free_level, gravity_free_level_sample
+from spotfree.signal.orientation import attitude_filter
+
+FEATURE_CHANNELS = ("roll", "pitch", "pitch_rate", "acc_x", "acc_y", "acc_z")
+"""Channel names of the ride features, in output order."""
+
+
+def ride_features(rec: Recording, orientation: str = "default", zero_phase: bool = False) -> Recording:
+    """The six :data:`FEATURE_CHANNELS` of ``rec`` on its own grid (same experiment column, truth and gaps)."""
+    missing = [c for c in IMU_CHANNELS if c not in rec.channels]
+    if missing:
+        raise InputError(
+            f"{rec.source}: no column {', '.join(missing)}; features need ax ay az (m/s^2) and gx gy gz (rad/s)"
+        )
+    attitude = attitude_filter(orientation, rec.rate)
+    sos = butter_lowpass(rec.rate)
+    acc_all = device_to_vehicle_axes(rec.array(ACC_CHANNELS))
+    gyr_all = device_to_vehicle_axes(rec.array(GYRO_CHANNELS))
+    out = np.full((len(rec), len(FEATURE_CHANNELS)), np.nan)
+    for start, stop in rec.segments():
+        acc, gyr = acc_all[start:stop], gyr_all[start:stop]
+        roll, pitch = attitude.run(acc, gyr).T
+        level = lowpass(gravity_free_level(acc, roll, pitch), sos, zero_phase=zero_phase)
+        out[start:stop] = np.column_stack([roll, pitch, gyr[:, 1], level])
+    return rec.with_channels(dict(zip(FEATURE_CHANNELS, out.T)))
+
+
+class FeatureStream:
+    """The causal :func:`ride_features` one sample at a time (one gap-free segment; :meth:`reset` between)."""
+
+    def __init__(self, rate: float, orientation: str = "default"):
+        self.rate = rate
+        self.orientation = orientation
+        self._attitude = attitude_filter(orientation, rate)
+        self._lowpass = LowpassStream(butter_lowpass(rate), channels=3)
+        self._mount = tuple(tuple(float(v) for v in row) for row in MOUNT)
+
+    def reset(self) -> None:
+        """Start a new segment: fresh attitude and low-pass state."""
+        self._attitude.reset()
+        self._lowpass.reset()
+
+    def update(self, acc, gyr) -> np.ndarray:
+        """Features ``(6,)`` for one sample: ``acc`` (m/s^2) and ``gyr`` (rad/s) 3-vectors in the device frame."""
+        (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = self._mount
+        a0, a1, a2 = float(acc[0]), float(acc[1]), float(acc[2])
+        w0, w1, w2 = float(gyr[0]), float(gyr[1]), float(gyr[2])
+        acc_v = (m00 * a0 + m01 * a1 + m02 * a2, m10 * a0 + m11 * a1 + m12 * a2, m20 * a0 + m21 * a1 + m22 * a2)
+        gyr_v = (m00 * w0 + m01 * w1 + m02 * w2, m10 * w0 + m11 * w1 + m12 * w2, m20 * w0 + m21 * w1 + m22 * w2)
+        roll, pitch = self._attitude.update(acc_v, gyr_v)
+        level = self._lowpass.update(gravity_free_level_sample(acc_v, roll, pitch))
+        return np.array([roll, pitch, gyr_v[1], *level])

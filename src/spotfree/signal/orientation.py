@@ -1,0 +1,261 @@
+"""Roll and pitch from an IMU: the orientation backends ``paper``, ``default`` and ``vqf``.
+
+Every backend takes, per sample, the specific force ``acc`` (m/s^2, gravity included, +g up at rest) and the
+angular rate ``gyr`` (rad/s) in one body frame -- the vehicle axes (x forward, y left, z up) in spotfree, or an
+IMU's own axes -- and returns roll and pitch (rad) in the convention of the paper's eq. (1): the body's vertical
+(unit "up" vector in body coordinates) is ``[-sin(pitch), sin(roll) cos(pitch), cos(roll) cos(pitch)]``.
+
+Each backend has a streaming form (``update(acc, gyr) -> (roll, pitch)``, ``reset()``) and a batch form
+(``run(acc, gyr) -> (n, 2)``, from a fresh state) that agree to 1e-12. All are causal.
+
+``paper``
+    The paper's PI complementary filter (:mod:`spotfree.signal.complementary`) with Kp = 7.5924, Ki = 20.7015,
+    discretised at the recording's rate, run on roll and pitch separately. The gyro enters as the body rates
+    about the roll axis (x) and the pitch axis (y): the paper integrates the gyroscope readings, and eq. (3) is
+    linear. The Euler-angle rates (``roll' = p + tan(pitch) (q sin(roll) + r cos(roll))``,
+    ``pitch' = q cos(roll) - r sin(roll)``) would need the filter's own output (a nonlinear filter, not eq. 3)
+    or the accelerometer angles (corrupted by the very accelerations the gyro path is there to ignore); the
+    difference is second order in the angles, small for a handlebar, and large rotations are the default
+    backend's business. The accelerometer roll is unwrapped before filtering and the output wrapped back to
+    [-pi, pi).
+``default``
+    :class:`GravityPI`, a Mahony-type PI filter on the gravity direction with gain scheduling, a bounded
+    correction rate and rest-phase gyro-bias estimation. Valid for any rotation, tuned on BROAD at 20 Hz.
+``vqf``
+    The ``vqf`` package (Laidig and Seel 2023), 6D quaternion, default parameters.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from spotfree.errors import InputError
+from spotfree.signal.complementary import PAPER_KI, PAPER_KP, PIComplementaryStream, pi_complementary, pi_complementary_design
+from spotfree.signal.frame import GRAVITY, accel_roll_pitch
+
+ORIENTATIONS = ("default", "paper", "vqf")
+"""Valid names of the orientation backends."""
+
+TWO_PI = 2.0 * math.pi
+
+
+def _wrap(angle):
+    """Angle(s) wrapped to [-pi, pi)."""
+    return (angle + math.pi) % TWO_PI - math.pi
+
+
+class PaperAttitude:
+    """The paper's filter: eq. (1) on the accelerometer, eq. (3) per angle with body rates ``gyr[0:2]``."""
+
+    def __init__(self, rate: float, kp: float = PAPER_KP, ki: float = PAPER_KI):
+        self.rate = rate
+        self.design = pi_complementary_design(kp, ki, rate)
+        self._stream = PIComplementaryStream(self.design, channels=2)
+        self.reset()
+
+    def reset(self) -> None:
+        self._stream.reset()
+        self._roll_prev: float | None = None
+        self._turns = 0.0
+
+    def update(self, acc, gyr) -> tuple[float, float]:
+        """Roll and pitch (rad) after one sample; ``acc`` (m/s^2) and ``gyr`` (rad/s) body-frame 3-vectors."""
+        ax, ay, az = float(acc[0]), float(acc[1]), float(acc[2])
+        roll_acc = math.atan2(ay, az)
+        pitch_acc = math.atan2(-ax, math.hypot(ay, az))
+        if self._roll_prev is not None:
+            self._turns -= round((roll_acc - self._roll_prev) / TWO_PI) * TWO_PI
+        self._roll_prev = roll_acc
+        roll, pitch = self._stream.update((roll_acc + self._turns, pitch_acc), (float(gyr[0]), float(gyr[1])))
+        return _wrap(roll), pitch
+
+    def run(self, acc: np.ndarray, gyr: np.ndarray) -> np.ndarray:
+        """``(n, 2)`` roll and pitch (rad) for ``(n, 3)`` body-frame ``acc`` (m/s^2) and ``gyr`` (rad/s)."""
+        roll_acc, pitch_acc = accel_roll_pitch(acc)
+        turns = -np.cumsum(np.r_[0.0, np.round(np.diff(roll_acc) / TWO_PI) * TWO_PI])
+        angles = pi_complementary(np.column_stack([roll_acc + turns, pitch_acc]), np.asarray(gyr)[:, :2], self.design)
+        angles[:, 0] = _wrap(angles[:, 0])
+        return angles
+
+
+def _rotate(ux: float, uy: float, uz: float, wx: float, wy: float, wz: float, dt: float):
+    """Body coordinates of a world-fixed vector ``u`` after the body turns at ``w`` (rad/s) for ``dt`` (s).
+
+    ``u <- exp(-[w dt]x) u`` by Rodrigues' formula (``u' = -w x u`` integrated exactly for constant ``w``).
+    """
+    norm = math.sqrt(wx * wx + wy * wy + wz * wz)
+    angle = norm * dt
+    if angle < 1e-12:
+        return ux, uy, uz
+    kx, ky, kz = -wx / norm, -wy / norm, -wz / norm
+    c, s = math.cos(angle), math.sin(angle)
+    d = (kx * ux + ky * uy + kz * uz) * (1.0 - c)
+    return (
+        ux * c + (ky * uz - kz * uy) * s + kx * d,
+        uy * c + (kz * ux - kx * uz) * s + ky * d,
+        uz * c + (kx * uy - ky * ux) * s + kz * d,
+    )
+
+
+class GravityPI:
+    """Mahony-type PI complementary filter on the gravity direction, for ~20 Hz phone IMUs (the default).
+
+    State: the unit vertical ``u`` (body frame), the gyro bias ``b`` (rad/s, body frame) and the time the body
+    has looked still. Each sample ``(a, w_m)`` is taken to describe the interval ``(t - T, t]`` (``w_m`` its
+    mean rate, ``a`` its mean specific force, as block-averaged or anti-aliased streams deliver them), so with
+    ``w = w_m - b``:
+
+    1. propagate to mid-interval: ``u <- exp(-[w T/2]x) u``;
+    2. error ``e = (a / |a|) x u`` (``|e|`` is the sine of the angle between measured and estimated vertical);
+    3. correct: ``u <- exp(-[k e T]x) u``, which turns ``u`` towards ``a`` at the rate ``k |e|``; integral term
+       ``b <- b - ki (k / kp) e T`` (bias estimation by the PI's integral, at the same trust);
+    4. propagate to the end of the interval: ``u <- exp(-[w T/2]x) u``, renormalise.
+
+    The gain is scheduled as a steady-state Kalman gain ``k ~ sqrt(q / r)`` would be, with the gyro's error
+    growing with the rotation rate and the accelerometer's with its departure from gravity::
+
+        k = kp * sqrt(1 + |w|^2 / rate_scale^2) / sqrt(1 + (|a| - g)^2 / acc_scale^2)
+
+    and the correction rate is bounded, ``k |e| <= k sin(max_error)`` (a Huber-type limit: a large disagreement
+    is more likely linear acceleration than attitude error; Madgwick's filter applies a fixed rate always).
+
+    At rest (``|w| < rest_gyr`` and ``||a| - g| < rest_acc`` for ``rest_time`` s) there is no linear
+    acceleration, so ``k = rest_gain`` and the bias follows the measured rate, ``b <- b + (T / rest_tau) w``,
+    observing all three axes (the integral term cannot see the bias about the vertical).
+
+    Defaults: ``kp, ki, acc_scale, rate_scale, max_error`` were tuned on the four BROAD trials at 20.4 Hz
+    (``benchmarks/tune_orientation.py``); the rest constants are physical (phone gyro noise and bias
+    are well below 2 deg/s, 0.5 m/s^2 passes handlebar vibration) and were not tuned.
+    """
+
+    def __init__(
+        self,
+        rate: float,
+        kp: float = 0.3,
+        ki: float = 0.001,
+        acc_scale: float = 10.0,
+        rate_scale: float = 8.0,
+        max_error: float = 0.1,
+        rest_gyr: float = math.radians(2.0),
+        rest_acc: float = 0.5,
+        rest_time: float = 1.5,
+        rest_gain: float = 1.0,
+        rest_tau: float = 1.0,
+        g: float = GRAVITY,
+    ):
+        if not (np.isfinite(rate) and rate > 0):
+            raise InputError(f"orientation filter: rate must be a positive number of Hz, got {rate}")
+        self.rate = rate
+        self.kp, self.ki = kp, ki
+        self.acc_scale, self.rate_scale, self.max_error = acc_scale, rate_scale, max_error
+        self.rest_gyr, self.rest_acc, self.rest_time = rest_gyr, rest_acc, rest_time
+        self.rest_gain, self.rest_tau, self.g = rest_gain, rest_tau, g
+        self.reset()
+
+    def reset(self) -> None:
+        self._u: tuple[float, float, float] | None = None
+        self.bias_ = [0.0, 0.0, 0.0]
+        self._still = 0.0
+
+    def update(self, acc, gyr) -> tuple[float, float]:
+        """Roll and pitch (rad) after one sample; ``acc`` (m/s^2) and ``gyr`` (rad/s) body-frame 3-vectors."""
+        ax, ay, az = float(acc[0]), float(acc[1]), float(acc[2])
+        norm_a = math.sqrt(ax * ax + ay * ay + az * az)
+        if self._u is None:
+            self._u = (ax / norm_a, ay / norm_a, az / norm_a) if norm_a > 0 else (0.0, 0.0, 1.0)
+        b = self.bias_
+        wx, wy, wz = float(gyr[0]) - b[0], float(gyr[1]) - b[1], float(gyr[2]) - b[2]
+        half = 0.5 / self.rate
+        ux, uy, uz = _rotate(*self._u, wx, wy, wz, half)
+        w2 = wx * wx + wy * wy + wz * wz
+        departure = norm_a - self.g
+        if w2 < self.rest_gyr * self.rest_gyr and abs(departure) < self.rest_acc:
+            self._still += 2.0 * half
+        else:
+            self._still = 0.0
+        if norm_a > 0:
+            nx, ny, nz = ax / norm_a, ay / norm_a, az / norm_a
+            ex, ey, ez = ny * uz - nz * uy, nz * ux - nx * uz, nx * uy - ny * ux
+            if self._still >= self.rest_time:
+                k = self.rest_gain
+                step = 2.0 * half / self.rest_tau
+                b[0] += step * wx
+                b[1] += step * wy
+                b[2] += step * wz
+            else:
+                trust = math.sqrt((1.0 + w2 / self.rate_scale**2) / (1.0 + (departure / self.acc_scale) ** 2))
+                k = self.kp * trust
+                sine = math.sqrt(ex * ex + ey * ey + ez * ez)
+                limit = math.sin(self.max_error)
+                if sine > limit:
+                    k *= limit / sine
+                integral = self.ki * (k / self.kp) * 2.0 * half
+                b[0] -= integral * ex
+                b[1] -= integral * ey
+                b[2] -= integral * ez
+            ux, uy, uz = _rotate(ux, uy, uz, k * ex, k * ey, k * ez, 2.0 * half)
+        ux, uy, uz = _rotate(ux, uy, uz, wx, wy, wz, half)
+        norm_u = math.sqrt(ux * ux + uy * uy + uz * uz)
+        self._u = (ux / norm_u, uy / norm_u, uz / norm_u)
+        return math.atan2(self._u[1], self._u[2]), math.atan2(-self._u[0], math.hypot(self._u[1], self._u[2]))
+
+    def run(self, acc: np.ndarray, gyr: np.ndarray) -> np.ndarray:
+        """``(n, 2)`` roll and pitch (rad) for ``(n, 3)`` body-frame ``acc`` (m/s^2) and ``gyr`` (rad/s)."""
+        self.reset()
+        acc, gyr = np.asarray(acc, dtype=float).tolist(), np.asarray(gyr, dtype=float).tolist()
+        return np.array([self.update(a, w) for a, w in zip(acc, gyr)]).reshape(-1, 2)
+
+
+class VQFAttitude:
+    """The ``vqf`` package's 6D filter (default parameters) behind the same interface."""
+
+    def __init__(self, rate: float):
+        try:
+            import vqf
+        except ImportError as exc:
+            raise InputError("orientation 'vqf' needs the vqf package: pip install vqf") from exc
+        self.rate = rate
+        self._vqf = vqf.VQF(1.0 / rate)
+
+    def reset(self) -> None:
+        self._vqf.resetState()
+
+    def update(self, acc, gyr) -> tuple[float, float]:
+        """Roll and pitch (rad) after one sample; ``acc`` (m/s^2) and ``gyr`` (rad/s) body-frame 3-vectors."""
+        self._vqf.update(np.ascontiguousarray(gyr, dtype=float), np.ascontiguousarray(acc, dtype=float))
+        roll, pitch = _quaternion_roll_pitch(*self._vqf.getQuat6D())
+        return float(roll), float(pitch)
+
+    def run(self, acc: np.ndarray, gyr: np.ndarray) -> np.ndarray:
+        """``(n, 2)`` roll and pitch (rad) for ``(n, 3)`` body-frame ``acc`` (m/s^2) and ``gyr`` (rad/s)."""
+        self.reset()
+        out = self._vqf.updateBatch(np.ascontiguousarray(gyr, dtype=float), np.ascontiguousarray(acc, dtype=float))
+        return np.column_stack(_quaternion_roll_pitch(*out["quat6D"].T))
+
+
+def _quaternion_roll_pitch(w, x, y, z):
+    """Roll and pitch (rad) of body-to-world (z up) quaternions [w, x, y, z] (floats or arrays).
+
+    The body's vertical is the third row of the rotation matrix, ``[2(xz - wy), 2(yz + wx), 1 - 2(x^2 + y^2)]``,
+    and eq. (1) gives the angles.
+    """
+    ux, uy, uz = 2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)
+    return np.arctan2(uy, uz), np.arctan2(-ux, np.hypot(uy, uz))
+
+
+def attitude_filter(orientation: str, rate: float):
+    """A fresh backend named ``orientation`` (one of :data:`ORIENTATIONS`) for samples at ``rate`` Hz."""
+    if orientation == "default":
+        return GravityPI(rate)
+    if orientation == "paper":
+        return PaperAttitude(rate)
+    if orientation == "vqf":
+        return VQFAttitude(rate)
+    raise InputError(f"unknown orientation '{orientation}'; choose one of: {', '.join(ORIENTATIONS)}")
+
+
+def estimate_attitude(acc: np.ndarray, gyr: np.ndarray, rate: float, orientation: str = "default") -> np.ndarray:
+    """``(n, 2)`` roll and pitch (rad) of one gap-free segment, ``acc`` (m/s^2), ``gyr`` (rad/s) ``(n, 3)`` body frame."""
+    return attitude_filter(orientation, rate).run(acc, gyr)
