@@ -1,12 +1,14 @@
 """Grid search of the default orientation filter's gains on the four BROAD trials at ~20 Hz.
 
-    python benchmarks/tune_orientation.py [--top 10]
+    python benchmarks/tune_orientation.py [--top 10] [--peers]
 
 Runs :class:`spotfree.signal.orientation.GravityPI` on every trial block-averaged by 14 (20.41 Hz) for each point
 of a small grid over ``kp, ki, acc_scale, rate_scale, max_error`` (the rest-detection constants stay at their
 physical defaults) and prints the best points by mean inclination RMSE (degrees, movement phase) as a markdown
 table. ``ki`` is searched from 0.001 up, not from 0: BROAD trials start with 30-45 s of rest, which hands the
 rest-phase estimator the bias, whereas a ride may start moving; the integral term must stay on.
+With ``--peers`` it sweeps the fixed gain of each peer of ``broad_orientation.py`` instead (ahrs Complementary,
+Mahony, Madgwick; imufusion) and prints each peer's best gain by mean RMSE, the "best" rows of that benchmark.
 Deterministic: no randomness, same output every run.
 """
 
@@ -18,6 +20,7 @@ import itertools
 import numpy as np
 
 import broad
+import broad_orientation as peers
 from spotfree.signal.frame import gravity_direction
 from spotfree.signal.orientation import GravityPI
 
@@ -39,11 +42,39 @@ def score(trials: list[broad.Trial], **params: float) -> np.ndarray:
     return np.array(out)
 
 
+PEER_GRID = {
+    "Complementary": (peers.ahrs_complementary, (0.5, 0.8, 0.9, 0.95, 0.98, 0.99, 0.995, 0.999)),
+    "Mahony": (peers.ahrs_mahony, [(kp, ki) for kp in (0.1, 0.3, 1.0, 3.0) for ki in (1e-9, 0.01, 0.1, 0.3)]),
+    "Madgwick": (peers.ahrs_madgwick, (0.005, 0.01, 0.02, 0.033, 0.05, 0.1, 0.2, 0.4)),
+    "imufusion": (peers.fusion, (0.1, 0.2, 0.5, 1.0, 2.0)),
+}
+
+
+def sweep_peers(trials: list[broad.Trial]) -> None:
+    """Print every peer gain's RMSE per trial, best (lowest mean) first within each peer."""
+    names = [name[:2] for name in broad.TRIALS]
+    print("| peer | gain | " + " | ".join(names) + " | mean |")
+    print("|---|---|" + "---:|" * (len(names) + 1))
+    for peer, (make, gains) in PEER_GRID.items():
+        rows = []
+        for gain in gains:
+            runner = make(*gain) if isinstance(gain, tuple) else make(gain)
+            rmse, _ = peers.evaluate(trials, runner)
+            rows.append((gain, rmse))
+        for gain, rmse in sorted(rows, key=lambda row: row[1].mean()):
+            cells = [f"{r:.2f}" for r in rmse] + [f"{rmse.mean():.2f}"]
+            print(f"| {peer} | {gain} | " + " | ".join(cells) + " |", flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--top", type=int, default=10, help="rows to print")
+    parser.add_argument("--peers", action="store_true", help="sweep the peers' fixed gains instead")
     args = parser.parse_args()
     trials = [broad.block_average(broad.load_trial(name)) for name in broad.TRIALS]
+    if args.peers:
+        sweep_peers(trials)
+        return
     rows = []
     for values in itertools.product(*GRID.values()):
         params = dict(zip(GRID, values))

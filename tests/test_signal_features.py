@@ -31,14 +31,13 @@ def braking_ride(seed: int = 0, n: int = 600, brake: float = 2.0):
     pitch = 0.08 * np.sin(2 * np.pi * t / 6.0) ** 2  # nose down up to 4.6 deg and back, repeatedly
     roll = 0.03 * np.sin(2 * np.pi * t / 9.0)
     decel = -brake * np.sin(2 * np.pi * t / 6.0) ** 2  # level-frame x acceleration, m/s^2, in step with the pitch
-    up = gravity_direction(roll, pitch)
     # specific force in body axes: R^T (a_level + g z), R = R_y(pitch) R_x(roll)
     cr, sr, cp, sp = np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch)
     fx, fz = decel, np.full(n, GRAVITY)
     acc = np.column_stack([cp * fx - sp * fz, sr * (sp * fx + cp * fz), cr * (sp * fx + cp * fz)])
     gyr = np.column_stack([np.gradient(roll, 1 / RATE), np.gradient(pitch, 1 / RATE), np.zeros(n)])
     acc += rng.normal(0, 0.02, acc.shape)
-    return acc, gyr, roll, pitch, decel, up
+    return acc, gyr, roll, pitch, decel
 
 
 def test_channels_grid_experiment_and_truth_are_kept():
@@ -66,12 +65,12 @@ def test_static_tilted_handlebar_gives_its_angles_and_no_acceleration():
 
 
 def test_braking_signs_nose_down_pitch_and_negative_acc_x():
-    acc, gyr, roll, pitch, _, _ = braking_ride(brake=0.0)
+    acc, gyr, roll, pitch, _ = braking_ride(brake=0.0)
     ch = ride_features(device_recording(acc, gyr)).channels
     np.testing.assert_allclose(ch["pitch_rate"], gyr[:, 1], atol=1e-12)  # about vehicle y, nose down positive
     assert np.corrcoef(ch["pitch"], pitch)[0, 1] > 0.99
     assert np.corrcoef(ch["roll"], roll)[0, 1] > 0.99
-    acc, gyr, roll, pitch, decel, _ = braking_ride(brake=2.0)
+    acc, gyr, roll, pitch, decel = braking_ride(brake=2.0)
     ch = ride_features(device_recording(acc, gyr), zero_phase=True).channels
     assert np.corrcoef(ch["acc_x"], decel)[0, 1] > 0.9
     # a sustained deceleration tilts the specific force like a nose-up pitch; the filter attributes part of it

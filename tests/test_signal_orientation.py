@@ -59,7 +59,8 @@ def inclination_rmse_deg(roll_pitch: np.ndarray, up: np.ndarray, skip: int = 0) 
 
 @pytest.mark.parametrize("orientation", ORIENTATIONS)
 def test_batch_and_streaming_agree(orientation):
-    pytest.importorskip("vqf") if orientation == "vqf" else None
+    if orientation == "vqf":
+        pytest.importorskip("vqf")
     acc, gyr, _ = synthetic_ride(seed=1, seconds=60.0)
     batch = estimate_attitude(acc, gyr, 20.0, orientation)
     stream = attitude_filter(orientation, 20.0)
@@ -71,7 +72,8 @@ def test_batch_and_streaming_agree(orientation):
 
 @pytest.mark.parametrize("orientation", ORIENTATIONS)
 def test_static_tilt_gives_eq1_angles(orientation):
-    pytest.importorskip("vqf") if orientation == "vqf" else None
+    if orientation == "vqf":
+        pytest.importorskip("vqf")
     roll, pitch = np.radians(12.0), np.radians(-7.0)
     up = gravity_direction(np.array([roll]), np.array([pitch]))
     n = 400

@@ -253,7 +253,7 @@ def attitude_filter(orientation: str, rate: float):
         return PaperAttitude(rate)
     if orientation == "vqf":
         return VQFAttitude(rate)
-    raise InputError(f"unknown orientation '{orientation}'; choose one of: {', '.join(ORIENTATIONS)}")
+    raise InputError(f"--orientation: unknown orientation '{orientation}'; choose one of: {', '.join(ORIENTATIONS)}")
 
 
 def estimate_attitude(acc: np.ndarray, gyr: np.ndarray, rate: float, orientation: str = "default") -> np.ndarray:
