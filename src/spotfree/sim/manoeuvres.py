@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 from typing import Callable, NamedTuple
 
 import numpy as np
+from scipy.fft import next_fast_len
 from scipy.integrate import cumulative_trapezoid
 from scipy.ndimage import uniform_filter1d
 from scipy.signal import butter, sosfiltfilt
@@ -193,11 +194,12 @@ def iso8608_profile(n: int, dx: float, gd0: float, rng: np.random.Generator, n_m
     Unit white noise sampled every ``dx`` has one-sided PSD ``2 dx``; shaping its spectrum by
     ``sqrt(Gd(n) / (2 dx))`` gives the ISO 8608 PSD ``Gd(n)`` (m^3, ``n`` in cycles/m).
     """
-    freq = np.fft.rfftfreq(n, dx)
+    m = next_fast_len(n, real=True)
+    freq = np.fft.rfftfreq(m, dx)
     psd = np.zeros_like(freq)
     band = freq >= n_min
     psd[band] = gd0 * (freq[band] / 0.1) ** -2
-    return np.fft.irfft(np.fft.rfft(rng.standard_normal(n)) * np.sqrt(psd / (2.0 * dx)), n)
+    return np.fft.irfft(np.fft.rfft(rng.standard_normal(m)) * np.sqrt(psd / (2.0 * dx)), m)[:n]
 
 
 def _two_tracks(n: int, dx: float, gd0: float, rng: np.random.Generator) -> np.ndarray:
@@ -543,22 +545,29 @@ def _draw_lateral(kind: str, vehicle: Vehicle, rng: np.random.Generator, v: floa
 def lateral(rider, vehicle, rng, share, near_sudden, rate) -> Programme:
     """Straight riding with gentle turns, sharp turns (slowing down first) and slaloms.
 
-    Manoeuvres are drawn until their turning time reaches the share, or their time with the slowing down and
-    speeding up around them fills the ride.
+    Manoeuvres are drawn until their turning time reaches the share, as long as their time with the slowing down
+    and speeding up around them fits in the ride; high shares favour slaloms over sharp turns.
     """
     plan = Plan()
     duration = rng.uniform(58.0, 72.0)
-    v = _cruise_speed(rider, rng)
+    v = max(_cruise_speed(rider, rng) * (1.0 - 0.8 * share), 2.5)  # a course dense with turns is ridden slower
     fixed = v / rider.accel + v / rider.normal_decel + 8.0
-    manoeuvres, busy, cost = [], 0.0, 0.0
-    while busy < share * duration or not manoeuvres:
-        m = _draw_lateral(str(rng.choice(["gentle", "sharp", "slalom"], p=[0.45, 0.3, 0.25])), vehicle, rng, v)
-        extra = m.lobes * m.length + (2.0 * (v - m.speed) / 0.6 + 1.5 if m.speed < v - 0.1 else 0.0)
-        if manoeuvres and cost + extra + 2.0 * (len(manoeuvres) + 2) > duration - fixed:
+    odds = [0.45, 0.3, 0.25] if share < 0.3 else [0.45, 0.15, 0.4]  # sharp turns cost slowing down
+    need, manoeuvres, busy, cost = share * duration, [], 0.0, 0.0
+    for _ in range(30):
+        if busy >= need and manoeuvres:
             break
+        m = _draw_lateral(str(rng.choice(["gentle", "sharp", "slalom"], p=odds)), vehicle, rng, v)
+        turning = m.lobes * m.length * (1.0 if m.lobes > 1 else 0.65)  # a lone lobe is straight at its ends
+        extra = m.lobes * m.length + (2.0 * (v - m.speed) / 0.6 + 1.5 if m.speed < v - 0.1 else 0.0)
+        if busy + turning > max(1.3 * need, 4.0) or cost + extra + 2.0 * (len(manoeuvres) + 2) > duration - fixed:
+            continue
         manoeuvres.append(m)
-        busy += m.lobes * m.length
+        busy += turning
         cost += extra
+    if not manoeuvres:
+        manoeuvres.append(_draw_lateral("gentle", vehicle, rng, v))
+        cost = manoeuvres[0].lobes * manoeuvres[0].length
     gaps = _split(duration - fixed - cost, len(manoeuvres) + 1, rng, 2.0)
     stop_gap = int(np.argmax(gaps)) if rng.random() < 0.5 else -1
     plan.wait(rng.uniform(1.0, 2.5))

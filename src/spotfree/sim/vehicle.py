@@ -25,14 +25,19 @@ produce the transient torque::
 Road. The left and right hub paths (from :class:`Road`) excite the platform through the tyres, its only spring
 (no suspension on the transporter); the rider's legs damp it: ``T(s) = w^2 / (s^2 + 2 z w s + w^2)``, heave
 (``w_t``) from the mean of both tracks, roll (``w_r``, slower: a tall rider on a narrow track) from their
-difference over the track width. The contact force leans with the local road slope ``s = dz/dx``, a horizontal
-disturbance ``a_road = -(g + z_p'') s`` that
+difference over the track width. The contact force leans with the local road slope ``s = dz/dx``: a horizontal
+force per unit mass ``a_road = -(g + z_p'') s``. The controller holds the wheels' speed and position (a critically
+damped loop, so a steady force, such as standing on a sloping stone, leaves no speed error); the axle's speed and
+acceleration are perturbed by ``dv = dx'`` and ``da = dx''``::
 
-* pitches the whole vehicle until the balance loop restores it: ``alpha_road'' + 2 z_p w_p alpha_road' +
-  w_p^2 alpha_road = -a_road / L``;
-* changes the speed briefly, ``dv' = a_road - dv / tau`` (the speed loop recovers it);
+    dx'' + 2 w_v dx' + w_v^2 dx = a_road
+
+which in turn
+
+* pitches the vehicle until the balance loop restores it (the pendulum feels the axle's acceleration):
+  ``alpha_road'' + 2 z_p w_p alpha_road' + w_p^2 alpha_road = -da / L``;
 * bends the handlebar column, a lightly damped mode ``theta_column'' + 2 z_c w_c theta_column' +
-  w_c^2 theta_column = -(a_road + c z_p'') / l + m |v| w(t)`` with motor torque ripple ``w`` (white).
+  w_c^2 theta_column = -(da + c z_p'') / l + m |v| w(t)`` with motor torque ripple ``w`` (white).
 
 Steering (lean-steer handlebar): yaw rate ``r = G(v) phi_steer``, ``G(v) = G_0 / (1 + |v| / v_f)``, so the
 handlebar rolls by ``phi_steer = r / G(v)``; the turn's centripetal acceleration is ``v r``.
@@ -47,7 +52,7 @@ and the specific force at the tablet, a height ``l`` up the column from the axle
 
     f = R_x(phi)^T R_y(theta)^T ([a_t, v r, z_p''] + [0, 0, g]) + w' x rho + w x (w x rho),   rho = [0, 0, l]
 
-with ``a_t = a_base + dv'`` the tangential acceleration of the axle and ``v`` its speed.
+with ``a_t = a_base + da`` the tangential acceleration of the axle and ``v = v_lean + dv`` its speed.
 """
 
 from __future__ import annotations
@@ -57,7 +62,7 @@ from typing import Callable
 
 import numpy as np
 from scipy.integrate import cumulative_trapezoid
-from scipy.signal import bilinear, lfilter
+from scipy.signal import bilinear_zpk, sosfilt, tf2zpk, zpk2sos
 
 from spotfree.signal.frame import GRAVITY
 
@@ -86,8 +91,8 @@ class Vehicle:
     pitch_loop_freq: float = 2.0
     """Balance loop restoring the vehicle's pitch after a road disturbance, Hz."""
     pitch_loop_damping: float = 0.7
-    speed_loop_time: float = 1.0
-    """Time constant of the speed recovery after a road disturbance, s."""
+    speed_loop_freq: float = 0.3
+    """``w_v / 2 pi``: how fast the wheels' speed and position recover from a road disturbance, Hz."""
     steer_gain: float = 6.0
     """Yaw rate per rad of handlebar roll at standstill, 1/s."""
     steer_fade_speed: float = 3.0
@@ -200,8 +205,7 @@ class Motion:
 
 def _filter(num: list[float], den: list[float], u: np.ndarray, fs: float) -> np.ndarray:
     """Apply the continuous transfer function ``num(s) / den(s)`` to ``u`` sampled at ``fs`` (bilinear, zero state)."""
-    b, a = bilinear(num, den, fs)
-    return lfilter(b, a, u)
+    return sosfilt(zpk2sos(*bilinear_zpk(*tf2zpk(num, den), fs)), u)
 
 
 def second_order(u: np.ndarray, freq: float, damping: float, fs: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -284,14 +288,14 @@ def simulate_motion(
     ddphi_road = _filter([wr * wr, 0.0], roll_den, roll_rate_in, fs)
     a_road = -(g + heave_acc) * slopes.mean(axis=1)
 
+    _, dv, da = second_order(a_road, vehicle.speed_loop_freq, 1.0, fs)
     alpha_road, dalpha_road, ddalpha_road = second_order(
-        -a_road / body.com_height, vehicle.pitch_loop_freq, vehicle.pitch_loop_damping, fs
+        -da / body.com_height, vehicle.pitch_loop_freq, vehicle.pitch_loop_damping, fs
     )
-    dv = _filter([1.0], [1.0, 1.0 / vehicle.speed_loop_time], a_road, fs)
     speed = v_lean + dv
-    a_t = a_base + a_road - dv / vehicle.speed_loop_time
+    a_t = a_base + da
     ripple = vehicle.motor_ripple * np.abs(speed) * rng.standard_normal(len(time))
-    excitation = -(a_road + vehicle.column_coupling * heave_acc) / vehicle.tablet_height + ripple
+    excitation = -(da + vehicle.column_coupling * heave_acc) / vehicle.tablet_height + ripple
     col, dcol, ddcol = second_order(excitation, vehicle.column_freq, vehicle.column_damping, fs)
 
     # Handlebar attitude and its derivatives.
