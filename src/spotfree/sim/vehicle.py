@@ -39,8 +39,9 @@ which in turn
 * bends the handlebar column, a lightly damped mode ``theta_column'' + 2 z_c w_c theta_column' +
   w_c^2 theta_column = -(da + c z_p'') / l + m |v| w(t)`` with motor torque ripple ``w`` (white).
 
-Steering (lean-steer handlebar): yaw rate ``r = G(v) phi_steer``, ``G(v) = G_0 / (1 + |v| / v_f)``, so the
-handlebar rolls by ``phi_steer = r / G(v)``; the turn's centripetal acceleration is ``v r``.
+Steering (lean-steer handlebar): tilting the handlebar towards a side turns to it, ``r = -G(v) phi_steer`` with
+``G(v) = G_0 / (1 + |v| / v_f)``, so the handlebar rolls by ``phi_steer = -r / G(v)`` (left turn, ``r > 0``: left
+side down, ``phi < 0``); the turn's centripetal acceleration is ``v r`` to the left.
 
 Handlebar kinematics. Body rates from the Euler rates (ZYX)::
 
@@ -303,7 +304,7 @@ def simulate_motion(
     theta = theta_smooth + alpha_road + col
     dtheta = d1(theta_smooth) + dalpha_road + dcol
     ddtheta = d1(d1(theta_smooth)) + ddalpha_road + ddcol
-    phi_steer = np.clip(yaw_rate / vehicle.steer_gain_at(speed), -vehicle.max_steer, vehicle.max_steer)
+    phi_steer = np.clip(-yaw_rate / vehicle.steer_gain_at(speed), -vehicle.max_steer, vehicle.max_steer)
     phi = phi_steer + phi_road
     dphi = d1(phi_steer) + dphi_road
     ddphi = d1(d1(phi_steer)) + ddphi_road
