@@ -34,7 +34,7 @@ from spotfree.errors import InputError
 from spotfree.io.recording import Recording
 from spotfree.sim.gps import GpsSpec, gps_fixes
 from spotfree.sim.imu import ImuSpec, read_imu
-from spotfree.sim.manoeuvres import PLANS, SURFACES, draw_rider
+from spotfree.sim.manoeuvres import PLANS, SURFACES, Programme, draw_rider
 from spotfree.sim.vehicle import Motion, balance_response, draw_vehicle, simulate_motion
 
 SCENARIOS = ("normal-braking", "sudden-braking", "cruising", "lateral", "road")
@@ -180,7 +180,7 @@ def _join(names: list[tuple[str, np.ndarray]], n: int) -> np.ndarray:
 
 
 def _truth_labels(scenario: str, motion: Motion, lean_plan: np.ndarray, fs: float) -> np.ndarray:
-    """The scenario's label at every internal sample (kerb strikes are laid over by the caller)."""
+    """The scenario's label at every internal sample (kerb strikes are laid over by :func:`_ground_truth`)."""
     if scenario == "lateral":
         return lateral_labels(motion.yaw_rate, fs)
     if scenario == "road":
@@ -188,12 +188,35 @@ def _truth_labels(scenario: str, motion: Motion, lean_plan: np.ndarray, fs: floa
     return braking_labels(lean_plan)
 
 
+def _ground_truth(scenario: str, programme: Programme, motion: Motion, lean_plan: np.ndarray, fs: float,
+                  index: np.ndarray, half: int) -> tuple[np.ndarray, np.ndarray]:
+    """``label`` and ``event`` on the output grid: internal samples ``index``, cells of ``half`` samples each side.
+
+    Kerbs and bumps count where their own response exceeds :data:`STRIKE` anywhere in an output sample's cell, so
+    a short strike is never missed between two output samples.
+    """
+    labels = _truth_labels(scenario, motion, lean_plan, fs)[index]
+    events = [(span.name, _span_mask(programme.time, span.start, span.end)[index]) for span in programme.events]
+    strike_window = maximum_filter1d(np.abs(motion.strike_accel), int(0.05 * fs) + 1) >= STRIKE
+    strikes = []
+    for strike in programme.strikes:
+        near = _span_mask(programme.time, strike.time - 0.2, strike.time + 1.5)
+        strikes.append((strike.kind, _any_in_cell(strike_window & near, index, half)))
+    if scenario == "road":
+        if strikes:
+            labels = np.where(np.any([mask for _, mask in strikes], axis=0), "kerb", labels)
+    else:
+        surface = np.asarray(SURFACES)[motion.surface][index]
+        events += strikes + [(name, surface == name) for name in SURFACES[1:]]
+    return np.asarray(labels, dtype=str), _join(events, len(index))
+
+
 def simulate_ride(scenario: str, experiment: int = 1, *, repeats: int = 7, seed: int = 0,
                   rate: float = 20.0) -> SimulatedRide:
     """Experiment ``experiment`` (1..repeats) of ``scenario`` at ``rate`` Hz, with its kinematic truth."""
     _validate(scenario, repeats, seed, rate)
-    if not 1 <= experiment <= repeats:
-        raise InputError(f"simulate: experiment must be between 1 and {repeats}, got {experiment}")
+    if isinstance(experiment, bool) or not isinstance(experiment, (int, np.integer)) or not 1 <= experiment <= repeats:
+        raise InputError(f"simulate: experiment must be a whole number from 1 to {repeats}, got {experiment!r}")
     fs = max(200.0, 10.0 * rate)
     rider_rng = _rng(seed, scenario, experiment, "rider")
     rider, vehicle = draw_rider(rider_rng), draw_vehicle(rider_rng)
@@ -206,22 +229,9 @@ def simulate_ride(scenario: str, experiment: int = 1, *, repeats: int = 7, seed:
                              vehicle, lambda distance: programme.road(distance, road_rng),
                              _rng(seed, scenario, experiment, "vehicle"), heading0)
     lean_plan = balance_response(programme.accel, rider.body, fs)
-    strike_window = maximum_filter1d(np.abs(motion.strike_accel), int(0.05 * fs) + 1) >= STRIKE
-
     n_out = int(np.floor(programme.duration * rate + 1e-9)) + 1
     index = np.minimum(np.rint(np.arange(n_out) * fs / rate).astype(int), len(programme.time) - 1)
-    half = int(fs / (2.0 * rate))
-    labels = _truth_labels(scenario, motion, lean_plan, fs)[index]
-    events = [(span.name, _span_mask(programme.time, span.start, span.end)[index]) for span in programme.events]
-    strike_events = []
-    for strike in programme.strikes:
-        near = _span_mask(programme.time, strike.time - 0.2, strike.time + 1.5)
-        strike_events.append((strike.kind, _any_in_cell(strike_window & near, index, half)))
-    if scenario == "road":
-        labels = np.where(np.any([m for _, m in strike_events], axis=0) if strike_events else False, "kerb", labels)
-    else:
-        events += strike_events
-        events += [(name, (np.asarray(SURFACES)[motion.surface] == name)[index]) for name in SURFACES[1:]]
+    labels, events = _ground_truth(scenario, programme, motion, lean_plan, fs, index, int(fs / (2.0 * rate)))
 
     imu = read_imu(programme.time, motion.specific_force, motion.angular_rate, rate, n_out,
                    _rng(seed, scenario, experiment, "imu"))
@@ -233,12 +243,11 @@ def simulate_ride(scenario: str, experiment: int = 1, *, repeats: int = 7, seed:
         "pitch": motion.pitch, "roll": motion.roll, "pitch_rate": motion.pitch_rate,
         "yaw_rate": motion.yaw_rate, "speed": motion.speed, "accel": motion.accel, "lean_accel": lean_plan,
     }
-    share_measured = manoeuvre_share(labels, scenario)
     params = {
         "experiment": experiment,
         "duration_s": round(n_out / rate, 3),
         "share_target": round(share, 4) if scenario != "cruising" else None,
-        "share": round(share_measured, 4),
+        "share": round(manoeuvre_share(labels, scenario), 4),
         "near_sudden_stop": near_sudden,
         "rider": asdict(rider),
         "vehicle": asdict(vehicle),
@@ -250,8 +259,8 @@ def simulate_ride(scenario: str, experiment: int = 1, *, repeats: int = 7, seed:
     return SimulatedRide(
         time=np.arange(n_out) / rate,
         channels=channels,
-        label=np.asarray(labels, dtype=str),
-        event=_join(events, n_out),
+        label=labels,
+        event=events,
         truth={k: v[index] for k, v in truth.items()},
         params=params,
     )

@@ -51,7 +51,7 @@ Handlebar kinematics. Body rates from the Euler rates (ZYX)::
 
 and the specific force at the tablet, a height ``l`` up the column from the axle (the pivot of pitch and roll)::
 
-    f = R_x(phi)^T R_y(theta)^T ([a_t, v r, z_p''] + [0, 0, g]) + w' x rho + w x (w x rho),   rho = [0, 0, l]
+    f = R_x(phi)^T R_y(theta)^T ([a_t, v psi', z_p''] + [0, 0, g]) + w' x rho + w x (w x rho),   rho = [0, 0, l]
 
 with ``a_t = a_base + da`` the tangential acceleration of the axle and ``v = v_lean + dv`` its speed.
 """
