@@ -165,7 +165,7 @@ def read_table(text: str, source: str, sep: str = ",", unique: bool = True) -> p
         raise InputError(f"{source}: unreadable header line ({exc}); the first line must name the columns") from None
     repeated = [name for i, name in enumerate(header) if name in header[:i]]
     if unique and repeated:
-        raise InputError(f"{source}: column '{repeated[0]}' appears twice; rename or drop one of them")
+        raise InputError(f"{source}: column {repeated[0]!r} appears twice; rename or drop one of them")
     try:
         table = pd.read_csv(
             io.StringIO(text), sep=sep, dtype=str, keep_default_na=False, na_filter=False,
@@ -176,6 +176,8 @@ def read_table(text: str, source: str, sep: str = ",", unique: bool = True) -> p
         raise InputError(f"{source}: not a readable CSV table ({first}); check the separator and quoting") from None
     if table.shape[1] == 0:
         raise InputError(f"{source}: no columns; the first line must name the columns")
+    if any("\n" in str(c) or "\r" in str(c) for c in table.columns):
+        raise InputError(f"{source}: a quote in the header line is never closed; fix the first line")
     return table
 
 
@@ -192,7 +194,7 @@ def numbers(table: pd.DataFrame, column: str, source: str, decimal: str = ".") -
     if bad.any():
         row = int(np.flatnonzero(bad)[0])
         raise InputError(
-            f"{source}: column '{column}', line {row + 2}: '{table[column].iloc[row]}' is not a number; "
+            f"{source}: column {column!r}, line {row + 2}: {table[column].iloc[row]!r} is not a number; "
             f"fix the cell or delete the line"
         )
     return values
@@ -216,20 +218,20 @@ def check_time(t: np.ndarray, source: str, column: str, first_line: int = 2, min
     missing = ~np.isfinite(t)
     if missing.any():
         row = int(np.flatnonzero(missing)[0])
-        raise InputError(f"{source}: column '{column}', line {row + first_line}: empty time cell; fill or delete it")
+        raise InputError(f"{source}: column {column!r}, line {row + first_line}: empty time cell; fill or delete it")
     if len(t) < 2:
         raise InputError(f"{source}: only {len(t)} sample(s); a recording needs at least two rows")
     steps = np.abs(np.diff(t))
     step = float(np.median(steps[steps > 0])) if (steps > 0).any() else 0.0
     if step == 0.0:
-        raise InputError(f"{source}: column '{column}' never changes; it must hold the sample times in seconds")
+        raise InputError(f"{source}: column {column!r} never changes; it must hold the sample times in seconds")
     rate = 1.0 / step
     if rate < min_rate or rate > MAX_RATE:
         unit = {1e-3: "milliseconds", 1e-6: "microseconds", 1e-9: "nanoseconds"}
         guess = next((u for f, u in unit.items() if min_rate <= rate / f <= MAX_RATE), None)
         hint = f"it looks like {guess}; convert it to seconds" if guess else "it must be in seconds"
         raise InputError(
-            f"{source}: column '{column}' has a median step of {step:g}, i.e. {rate:g} Hz; {hint}"
+            f"{source}: column {column!r} has a median step of {step:g}, i.e. {rate:g} Hz; {hint}"
         )
 
 
@@ -251,12 +253,12 @@ def order_and_deduplicate(
         if len(late) > limit:
             row = int(late[0])
             raise InputError(
-                f"{source}: column '{column}' goes back in time at line {row + first_line} "
+                f"{source}: column {column!r} goes back in time at line {row + first_line} "
                 f"({t[row]:g} after {t[row - 1]:g}), {len(late)} rows out of order; the times must increase "
                 f"(several rides in one file need an 'experiment' column)"
             )
         order = np.argsort(t, kind="stable")
-        repairs.append(f"{source}: sorted {len(late)} out-of-order row(s) by '{column}'")
+        repairs.append(f"{source}: sorted {len(late)} out-of-order row(s) by {column!r}")
     ts, vs = t[order], values[order]
     repeat = np.r_[False, ts[1:] == ts[:-1]]
     if repeat.any():
@@ -266,12 +268,12 @@ def order_and_deduplicate(
         if differing > limit:
             row = int(order[np.flatnonzero(repeat & ~same)[0]])
             raise InputError(
-                f"{source}: column '{column}' repeats the time {t[row]:g} with different values at line "
+                f"{source}: column {column!r} repeats the time {t[row]:g} with different values at line "
                 f"{row + first_line} and {differing - 1} more; each row needs its own time"
             )
         kinds = [f"{int(same.sum())} duplicated row(s)"] if same.any() else []
         kinds += [f"{differing} row(s) repeating an earlier time with other values"] if differing else []
-        repairs.append(f"{source}: dropped {' and '.join(kinds)} in '{column}' (kept the first)")
+        repairs.append(f"{source}: dropped {' and '.join(kinds)} in {column!r} (kept the first)")
         order = order[~repeat]
     return order
 
@@ -298,7 +300,7 @@ def fill_short_runs(values: np.ndarray, name: str, source: str, repairs: list[st
         fill = np.concatenate([index[a:b] for a, b in short])
         values[fill] = np.interp(fill, index[~missing], values[~missing])
         repairs.append(
-            f"{source}: interpolated {len(fill)} missing sample(s) of '{name}' in {len(short)} run(s) "
+            f"{source}: interpolated {len(fill)} missing sample(s) of {name!r} in {len(short)} run(s) "
             f"of at most {MAX_FILL_RUN}"
         )
     return values

@@ -22,7 +22,8 @@ Reading rules (every repair is logged in ``meta['repairs']``, every doubt in ``m
   must be a plausible sampling period in seconds (2 Hz to 10 kHz with IMU columns, 0.1 Hz to 10 kHz without),
   else the unit is wrong.
 * a **uniform** experiment (every step within +-25 % of the median) keeps the file's own rate
-  ``f = (n - 1) / (t_last - t_first)`` (rounded to 6 significant digits when that moves it by < 1 ppm) and its
+  ``f = (n - 1) / (t_last - t_first)`` (as the shortest decimal within the estimate's uncertainty: the time
+  resolution over the duration, at least 1 ppm) and its
   rows are snapped to ``t_0 + k / f``. A rate more than 10 % away from the requested ``rate`` is kept and
   reported in ``meta['warnings']``. Runs of at most two missing dense samples inside an experiment are
   interpolated; longer runs stay NaN and are reported as gaps.
@@ -100,7 +101,7 @@ def read_csv(path: str | Path, rate: float = 20.0, max_gap: float = 0.5) -> Reco
     values = np.column_stack([_channel(table, c, source, decimal) for c in channel_names])
     empty = [c for c, column in zip(channel_names, values.T) if np.isnan(column).all() and c not in GPS_CHANNELS]
     if empty:
-        raise InputError(f"{source}: column '{empty[0]}' holds no numbers; fill it or drop the column")
+        raise InputError(f"{source}: column {empty[0]!r} holds no numbers; fill it or drop the column")
     truth = {c: table[c].to_numpy(dtype=str) for c in truth_names}
     experiment = _experiments(table, source, decimal) if "experiment" in table.columns else None
 
@@ -172,7 +173,7 @@ def _resolve_columns(table: pd.DataFrame, source: str, decimal: str, repairs: li
     renames = {c: n for c, n in renames.items() if n not in present and list(renames.values()).count(n) == 1}
     if renames:
         table = table.rename(columns=renames)
-        listed = ", ".join(f"'{a}' -> '{b}'" for a, b in renames.items())
+        listed = ", ".join(f"{a!r} -> {b!r}" for a, b in renames.items())
         repairs.append(f"{source}: renamed column(s) {listed} (case or spaces only)")
     present = set(table.columns)
     misspelt = {}
@@ -185,7 +186,7 @@ def _resolve_columns(table: pd.DataFrame, source: str, decimal: str, repairs: li
     if set(FEATURE_ACC) <= set(misspelt) and not _raw_accelerations(table, source, decimal, misspelt):
         misspelt = {c: n for c, n in misspelt.items() if c not in FEATURE_ACC}
     if misspelt:
-        listed = ", ".join(f"'{a}' should be '{b}'" for a, b in misspelt.items())
+        listed = ", ".join(f"{a!r} should be {b!r}" for a, b in misspelt.items())
         raise InputError(f"{source}: misspelt column name(s): {listed}; rename them (standard names: {', '.join(STANDARD)})")
     if "time" not in present:
         raise InputError(
@@ -219,7 +220,7 @@ def _channel(table: pd.DataFrame, column: str, source: str, decimal: str) -> np.
         parsed = pd.to_numeric(cells.str.replace(",", ".", regex=False) if decimal == "," else cells, errors="coerce")
         if parsed.isna().mean() > 0.5:
             raise InputError(
-                f"{source}: column '{column}' holds text; only 'label' and 'event' may hold text, drop or rename it"
+                f"{source}: column {column!r} holds text; only 'label' and 'event' may hold text, drop or rename it"
             ) from None
         raise
 
@@ -231,7 +232,7 @@ def _experiments(table: pd.DataFrame, source: str, decimal: str) -> np.ndarray:
     if bad.any():
         row = int(np.flatnonzero(bad)[0])
         raise InputError(
-            f"{source}: column 'experiment', line {row + 2}: '{table['experiment'].iloc[row]}' is not a whole "
+            f"{source}: column 'experiment', line {row + 2}: {table['experiment'].iloc[row]!r} is not a whole "
             f"number; number every row's experiment 1, 2, ..."
         )
     numbers = numbers.astype(np.int64)
@@ -267,15 +268,23 @@ def _uniform_rate(t: np.ndarray) -> float | None:
     median = float(np.median(steps))
     if median <= 0 or np.any(np.abs(steps - median) > UNIFORM_JITTER * median):
         return None
-    rate = _nice((len(t) - 1) / (t[-1] - t[0]))
+    resolution = 2 * max(1e-9, float(np.spacing(np.abs(t).max())))  # times are written to the nanosecond
+    rate = _nice((len(t) - 1) / (t[-1] - t[0]), max(1e-6, resolution / (t[-1] - t[0])))
     drift = np.abs(t - (t[0] + np.arange(len(t)) / rate))
     return rate if drift.max() <= UNIFORM_JITTER / rate else None
 
 
-def _nice(rate: float) -> float:
-    """``rate`` rounded to 6 significant digits when that moves it by less than 1 ppm."""
-    rounded = float(f"{rate:.6g}")
-    return rounded if abs(rounded - rate) <= 1e-6 * rate else rate
+def _nice(rate: float, tolerance: float = 1e-6) -> float:
+    """The number with the fewest significant digits within ``tolerance`` (relative) of ``rate``.
+
+    The tolerance is the rate estimate's own uncertainty: the time resolution over the duration, at least 1 ppm;
+    so a file written at 20 Hz reads back at exactly 20 Hz.
+    """
+    for digits in range(1, 16):
+        rounded = float(f"{rate:.{digits}g}")
+        if abs(rounded - rate) <= tolerance * rate:
+            return rounded
+    return rate
 
 
 def _snapped(

@@ -128,7 +128,7 @@ def _streams(text: str, label: str, repairs: list[str]) -> list[tuple[str, Strea
             continue
         for column, _, name, factor in recognised:
             if factor != 1.0 and name != "heading":
-                repairs.append(f"{label}: converted '{column}' to SI units (x {factor:.6g})")
+                repairs.append(f"{label}: converted {column!r} to SI units (x {factor:.6g})")
         t = checks.numbers(table, time_column, label, decimal) * _factor(time_column, "s", label)
         padded = np.flatnonzero(np.isfinite(t))
         t = t[: padded[-1] + 1] if len(padded) else t
@@ -167,7 +167,7 @@ def _factor(column: str, default: str, label: str) -> float:
     unit = _unit(column, default)
     factors = {u.lower(): f for u, f in _UNITS.items()}
     if unit not in factors:
-        raise InputError(f"{label}: column '{column}' is in '{unit}', a unit not understood; export SI units")
+        raise InputError(f"{label}: column {column!r} is in {unit!r}, a unit not understood; export SI units")
     return factors[unit]
 
 

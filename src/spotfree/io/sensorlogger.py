@@ -79,7 +79,7 @@ class _Sensor:
     def _require(self, column: str) -> None:
         if column not in self.table.columns:
             raise InputError(
-                f"{self.label}: no column '{column}' (found {', '.join(self.table.columns)}); "
+                f"{self.label}: no column {column!r} (found {', '.join(map(repr, self.table.columns))}); "
                 f"export the recording again from Sensor Logger"
             )
 
