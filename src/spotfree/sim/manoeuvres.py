@@ -357,13 +357,17 @@ def sudden_stop(plan: Plan, rider: Rider, rng: np.random.Generator) -> tuple[flo
 
 
 def speed_change(plan: Plan, rider: Rider, rng: np.random.Generator) -> None:
-    """A gentle speed change and back (0.15-0.35 m/s^2, below braking): the ``speed-change`` confounder."""
+    """A gentle speed change and back: 2-4 s each way at 0.15-0.35 m/s^2 (below braking), at most about 13 s in all.
+
+    The ``speed-change`` confounder.
+    """
     v0 = plan.v
-    step = rng.uniform(0.15, 0.35) * rng.uniform(2.5, 5.0)
+    rate = rng.uniform(0.15, 0.35)
+    step = rate * rng.uniform(2.0, 4.0)
     up = v0 + step < 0.95 * MAX_SPEED and rng.random() < 0.4
-    start, _ = plan.change_speed(v0 + step if up else max(v0 - step, 0.5 * v0), rng.uniform(0.15, 0.35), 1.0)
+    start, _ = plan.change_speed(v0 + step if up else max(v0 - step, 0.5 * v0), rate, 1.0)
     plan.wait(rng.uniform(1.0, 3.0))
-    _, end = plan.change_speed(v0, rng.uniform(0.15, 0.35), 1.0)
+    _, end = plan.change_speed(v0, rate * rng.uniform(0.8, 1.25), 1.0)
     plan.event(start, end, "speed-change")
 
 
@@ -389,7 +393,7 @@ def cruise(plan: Plan, rider: Rider, rng: np.random.Generator, duration: float, 
     if (near_sudden or rng.random() < stop) and duration >= crossing_time(rider, plan.v):
         plan.wait(rng.uniform(1.5, 3.0))
         crossing_stop(plan, rider, rng, near_sudden)
-    if rng.random() < change and end - plan.t >= 12.0:
+    if rng.random() < change and end - plan.t >= 15.0:
         plan.wait(rng.uniform(1.0, 3.0))
         speed_change(plan, rider, rng)
     plan.wait(max(end - plan.t, 1.0))
