@@ -264,6 +264,8 @@ def test_cruising_is_forty_seconds_ending_in_normal_braking(files):
         assert labels[-1] == "cruising"
     ride = simulate_ride("cruising", 2, repeats=7, seed=0)
     assert abs(ride.truth["speed"][-1]) < 0.1 and ride.truth["speed"].max() > 3.0
+    for seed in range(1, 7):  # slow riders and long speed changes included
+        assert all(abs(p.duration - 40.0) < 1.0 for _, p in simulate_scenario("cruising", 7, seed).experiments())
 
 
 def test_road_surfaces_shake_the_tablet_in_order():
