@@ -36,8 +36,8 @@ from spotfree.signal.frame import GRAVITY
 
 _TIME = re.compile(r"^\W*time\b", re.IGNORECASE)
 _COLUMNS = [
-    (re.compile(r"^linear acceleration ([xyz])\b", re.I), "linear", "a{}", "m/s^2"),
-    (re.compile(r"^acceleration ([xyz])\b", re.I), "acceleration", "a{}", "m/s^2"),
+    (re.compile(r"^linear acceleration ([xyz])\b", re.I), "Linear Acceleration", "a{}", "m/s^2"),
+    (re.compile(r"^acceleration ([xyz])\b", re.I), "Accelerometer", "a{}", "m/s^2"),
     (re.compile(r"^gyroscope ([xyz])\b", re.I), "Gyroscope", "g{}", "rad/s"),
     (re.compile(r"^latitude\b", re.I), "Location", "lat", "°"),
     (re.compile(r"^longitude\b", re.I), "Location", "lon", "°"),
@@ -89,20 +89,20 @@ def read_phyphox(path: str | Path, rate: float = 20.0, max_gap: float = 0.5) -> 
                 warnings.append(f"{label}: a second '{key}' stream; kept the first one")
             else:
                 streams[key] = stream
-    if "acceleration" in streams:
-        streams.pop("linear", None)
-    elif "linear" in streams:
+    if "Accelerometer" in streams:
+        streams.pop("Linear Acceleration", None)
+    elif "Linear Acceleration" in streams:
         raise InputError(
             f"{source}: holds only 'Linear Acceleration' (without g); record with phyphox's "
             f"'Acceleration (with g)' sensor"
         )
-    if not any(k in streams for k in ("acceleration", "Gyroscope")):
+    if not any(k in streams for k in ("Accelerometer", "Gyroscope")):
         raise InputError(
             f"{source}: no acceleration or gyroscope columns (expected headers like \"Time (s)\", "
             f"\"Acceleration x (m/s^2)\", \"Gyroscope x (rad/s)\"); export the raw sensor data from phyphox"
         )
     rec = merge_streams(streams, rate=rate, max_gap=max_gap, source=source)
-    if "acceleration" in streams:
+    if "Accelerometer" in streams:
         checks.check_acceleration_units(rec.array(["ax", "ay", "az"]), source, "'Acceleration x/y/z'")
     rec.meta.update(repairs=repairs, warnings=warnings)
     if start_epoch is not None:
@@ -132,7 +132,7 @@ def _streams(text: str, label: str, repairs: list[str]) -> list[tuple[str, Strea
         t = checks.numbers(table, time_column, label, decimal) * _factor(time_column, "s", label)
         padded = np.flatnonzero(np.isfinite(t))
         t = t[: padded[-1] + 1] if len(padded) else t
-        motion = any(r[1] in ("acceleration", "linear", "Gyroscope") for r in recognised)
+        motion = any(r[1] != "Location" for r in recognised)
         checks.check_time(t, label, time_column, min_rate=checks.MIN_MOTION_RATE if motion else checks.MIN_RATE)
         for key in dict.fromkeys(r[1] for r in recognised):
             part = [r for r in recognised if r[1] == key]

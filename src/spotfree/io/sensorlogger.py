@@ -62,12 +62,10 @@ class _Sensor:
         self.table, self.label = table, label
 
     def times(self, min_rate: float = checks.MIN_MOTION_RATE) -> np.ndarray:
-        """Sample times in UNIX seconds (from ``time`` in ns, else ``seconds_elapsed``), checked for their unit."""
-        column = "time" if "time" in self.table.columns else "seconds_elapsed"
-        self._require(column)
-        values = checks.numbers(self.table, column, self.label)
-        seconds = values * 1e-9 if column == "time" else values
-        checks.check_time(seconds, self.label, column, min_rate=min_rate)
+        """Sample times in UNIX seconds (``time`` is in ns), checked for their unit."""
+        self._require("time")
+        seconds = checks.numbers(self.table, "time", self.label) * 1e-9
+        checks.check_time(seconds, self.label, "time", min_rate=min_rate)
         return seconds
 
     def columns(self, names: list[str]) -> np.ndarray:
@@ -128,10 +126,7 @@ def _recording(sensors: dict[str, _Sensor], source: str, rate: float, max_gap: f
     repairs: list[str] = []
     warnings: list[str] = []
     metadata = _metadata(sensors.get("Metadata"))
-    motion = {}
-    acc = _specific_force(sensors, metadata, source, repairs)
-    if acc is not None:
-        motion["acceleration"] = acc
+    motion = dict(_specific_force(sensors, metadata, source, repairs))
     if "Gyroscope" in sensors:
         motion["Gyroscope"] = _xyz(sensors["Gyroscope"], ("gx", "gy", "gz"), repairs)
     if not motion:
@@ -145,7 +140,7 @@ def _recording(sensors: dict[str, _Sensor], source: str, rate: float, max_gap: f
     origin = min(float(s.time[0]) for s in motion.values())
     streams = {k: Stream(s.time - origin, s.values, s.names) for k, s in streams.items()}
     rec = merge_streams(streams, rate=rate, max_gap=max_gap, source=source)
-    if acc is not None:
+    if "ax" in rec.channels:
         checks.check_acceleration_units(rec.array(["ax", "ay", "az"]), source, "'x', 'y', 'z' of the accelerometer")
     warnings += _rate_warnings(rec.meta["native_rates"], metadata, source)
     rec.meta.update(repairs=repairs, warnings=warnings, start_epoch=origin, platform=metadata.get("platform", ""))
@@ -171,11 +166,11 @@ def _xyz(sensor: _Sensor, names: tuple[str, str, str], repairs: list[str]) -> St
 
 def _specific_force(
     sensors: dict[str, _Sensor], metadata: dict[str, str], source: str, repairs: list[str]
-) -> Stream | None:
-    """Accelerations with gravity in Android's convention, m/s^2, device frame; None without any accelerometer."""
+) -> list[tuple[str, Stream]]:
+    """``[(file name, stream)]`` of accelerations with gravity (Android's convention, m/s^2, device frame), or []."""
     names = ("ax", "ay", "az")
     if "TotalAcceleration" in sensors:
-        return _xyz(sensors["TotalAcceleration"], names, repairs)
+        return [("TotalAcceleration", _xyz(sensors["TotalAcceleration"], names, repairs))]
     ios_native = metadata.get("platform") == "ios" and metadata.get("standardisation", "").lower() != "true"
     if "Accelerometer" in sensors and "Gravity" in sensors:
         _require_platform(metadata, source, "Accelerometer.csv + Gravity.csv")
@@ -190,21 +185,21 @@ def _specific_force(
             total = -total
             repairs.append(f"{source}: iOS export without standardised frames: negated Accelerometer + Gravity "
                            f"to Android's sign convention")
-        return Stream(t, total, names)
+        return [("Accelerometer", Stream(t, total, names))]
     if "AccelerometerUncalibrated" in sensors:
         _require_platform(metadata, source, "AccelerometerUncalibrated.csv")
         raw = _xyz(sensors["AccelerometerUncalibrated"], names, repairs)
         if ios_native:
             repairs.append(f"{source}: iOS uncalibrated accelerations in g with CoreMotion's sign: multiplied by "
                            f"-{GRAVITY} to m/s^2 in Android's convention")
-            return Stream(raw.time, -GRAVITY * raw.values, names)
-        return raw
+            raw = Stream(raw.time, -GRAVITY * raw.values, names)
+        return [("AccelerometerUncalibrated", raw)]
     if "Accelerometer" in sensors:
         raise InputError(
             f"{source}: Accelerometer.csv holds acceleration without gravity and there is no Gravity.csv or "
             f"TotalAcceleration.csv; enable Gravity in Sensor Logger and record again"
         )
-    return None
+    return []
 
 
 def _require_platform(metadata: dict[str, str], source: str, files: str) -> None:
@@ -241,7 +236,6 @@ def _rate_warnings(native: dict[str, float], metadata: dict[str, str], source: s
                 declared[name] = 1000.0 / float(period)
         except ValueError:
             continue
-    declared.setdefault("acceleration", declared.get("TotalAcceleration", declared.get("Accelerometer", 0.0)))
     out = []
     for key, measured in native.items():
         expected = declared.get(key, 0.0)
