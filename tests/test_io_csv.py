@@ -205,8 +205,15 @@ def test_a_header_without_rows_is_refused(tmp_path):
 def test_a_non_numeric_cell_is_named_with_its_line(tmp_path):
     columns = {k: v.astype(object) for k, v in imu_table().items()}
     columns["gy"][6] = "1.2.3"
-    with pytest.raises(InputError, match=r"n\.csv: column 'gy', line 8: '1\.2\.3' is not a number"):
+    with pytest.raises(InputError, match=r"n\.csv: column 'gy', line 8: '1\.2\.3' is not a finite number"):
         read_csv(write_table(tmp_path / "n.csv", columns))
+
+
+def test_an_infinite_cell_is_refused(tmp_path):
+    columns = {k: v.astype(object) for k, v in imu_table().items()}
+    columns["ax"][3] = "1e400"
+    with pytest.raises(InputError, match=r"inf\.csv: column 'ax', line 5: '1e400' is not a finite number"):
+        read_csv(write_table(tmp_path / "inf.csv", columns))
 
 
 def test_a_text_column_is_refused_as_a_whole(tmp_path):

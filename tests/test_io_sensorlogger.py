@@ -187,7 +187,7 @@ def test_a_non_numeric_cell_names_the_file_column_and_line(tmp_path):
     gyro = pd.read_csv(folder / "Gyroscope.csv", dtype=str)
     gyro.loc[10, "y"] = "oops"
     gyro.to_csv(folder / "Gyroscope.csv", index=False)
-    with pytest.raises(InputError, match=r"Gyroscope\.csv: column 'y', line 12: 'oops' is not a number"):
+    with pytest.raises(InputError, match=r"Gyroscope\.csv: column 'y', line 12: 'oops' is not a finite number"):
         read_sensorlogger(folder)
 
 

@@ -32,7 +32,7 @@ MIN_MOTION_RATE = 2.0
 """Lowest plausible rate (Hz) of a phone's accelerometer or gyroscope."""
 
 G_RANGE = (0.7, 1.3)
-"""A median specific-force norm in this range (times 1 m/s^2) means the accelerations are in g."""
+"""A median specific-force magnitude in this range means the numbers are in g (about 1), not m/s^2 (about 9.81)."""
 
 
 # ---------------------------------------------------------------- files and archives
@@ -184,17 +184,17 @@ def read_table(text: str, source: str, sep: str = ",", unique: bool = True) -> p
 def numbers(table: pd.DataFrame, column: str, source: str, decimal: str = ".") -> np.ndarray:
     """Column ``column`` of a string table as floats; '' and NaN are missing values, anything else must parse.
 
-    A cell that is not a number raises an InputError naming its line in the file (header on line 1).
+    A cell that is not a finite number raises an InputError naming its line in the file (header on line 1).
     """
     cells = table[column].astype(str).str.strip()
     if decimal == ",":
         cells = cells.str.replace(",", ".", regex=False)
     values = pd.to_numeric(cells.where(cells != "", "nan"), errors="coerce").to_numpy(dtype=float)
-    bad = np.isnan(values) & ~cells.str.lower().isin(["", "nan"]).to_numpy()
+    bad = np.isinf(values) | (np.isnan(values) & ~cells.str.lower().isin(["", "nan"]).to_numpy())
     if bad.any():
         row = int(np.flatnonzero(bad)[0])
         raise InputError(
-            f"{source}: column {column!r}, line {row + 2}: {table[column].iloc[row]!r} is not a number; "
+            f"{source}: column {column!r}, line {row + 2}: {table[column].iloc[row]!r} is not a finite number; "
             f"fix the cell or delete the line"
         )
     return values
