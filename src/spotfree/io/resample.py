@@ -145,18 +145,14 @@ def _grid(streams: list[Stream], rate: float, source: str) -> np.ndarray:
     return start + np.arange(count) / rate
 
 
-def _gaps(time: np.ndarray, max_gap: float) -> list[tuple[float, float]]:
-    """``(t_i, t_i+1)`` of every step longer than ``max_gap``."""
-    jumps = np.flatnonzero(np.diff(time) > max_gap)
-    return [(float(time[i]), float(time[i + 1])) for i in jumps]
-
-
 def _dense_on_grid(
     stream: Stream, grid: np.ndarray, rate: float, max_gap: float
 ) -> tuple[np.ndarray, list[tuple[float, float]]]:
-    """Values ``(n, k)`` of a dense stream on the grid (anti-aliased when faster than it), and its gaps."""
-    gaps = _gaps(stream.time, max_gap)
-    cuts = np.r_[0, np.flatnonzero(np.diff(stream.time) > max_gap) + 1, len(stream.time)]
+    """Values ``(n, k)`` of a dense stream on the grid (anti-aliased when faster than it), and its gaps
+    ``(t_i, t_i+1)``: the steps longer than ``max_gap``."""
+    jumps = np.flatnonzero(np.diff(stream.time) > max_gap)
+    gaps = [(float(stream.time[i]), float(stream.time[i + 1])) for i in jumps]
+    cuts = np.r_[0, jumps + 1, len(stream.time)]
     fs = stream.native_rate
     sos = signal.butter(ANTI_ALIAS_ORDER, ANTI_ALIAS_FRACTION * rate, fs=fs, output="sos") if fs > rate else None
     out = np.full((len(grid), len(stream.names)), np.nan)
