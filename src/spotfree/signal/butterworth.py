@@ -61,18 +61,24 @@ class LowpassStream:
 
     def reset(self) -> None:
         """Forget the past: the next sample starts the filter at rest on its own value."""
-        self._state: list[list[list[float]]] | None = None
+        self._state: list[list[float]] | None = None
 
     def update(self, x) -> list[float]:
-        """Filtered values for one sample ``x`` of ``channels`` values."""
+        """Filtered values for one sample ``x`` of ``channels`` values.
+
+        Per channel the state is flat, ``[z1, z2]`` of each section in turn; each section computes
+        ``y = b0 v + z1``, ``z1 <- b1 v - a1 y + z2``, ``z2 <- b2 v - a2 y`` and passes ``y`` on as ``v``.
+        """
         if self._state is None:
-            self._state = [[[z0 * v, z1 * v] for z0, z1 in self._zi] for v in x]
+            self._state = [[z * v for pair in self._zi for z in pair] for v in x]
         out = []
-        for state, y in zip(self._state, x):
-            for (b0, b1, b2, a1, a2), z in zip(self._sections, state):
+        for z, v in zip(self._state, x):
+            i = 0
+            for b0, b1, b2, a1, a2 in self._sections:
+                y = b0 * v + z[i]
+                z[i] = b1 * v - a1 * y + z[i + 1]
+                z[i + 1] = b2 * v - a2 * y
                 v = y
-                y = b0 * v + z[0]
-                z[0] = b1 * v - a1 * y + z[1]
-                z[1] = b2 * v - a2 * y
-            out.append(y)
+                i += 2
+            out.append(v)
         return out

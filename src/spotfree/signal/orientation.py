@@ -56,6 +56,7 @@ class PaperAttitude:
         self.reset()
 
     def reset(self) -> None:
+        """Forget the past: the next sample starts the filter at rest on its accelerometer angles."""
         self._stream.reset()
         self._roll_prev: float | None = None
         self._turns = 0.0
@@ -74,7 +75,7 @@ class PaperAttitude:
     def run(self, acc: np.ndarray, gyr: np.ndarray) -> np.ndarray:
         """``(n, 2)`` roll and pitch (rad) for ``(n, 3)`` body-frame ``acc`` (m/s^2) and ``gyr`` (rad/s)."""
         roll_acc, pitch_acc = accel_roll_pitch(acc)
-        turns = -np.cumsum(np.r_[0.0, np.round(np.diff(roll_acc) / TWO_PI) * TWO_PI])
+        turns = -np.cumsum(np.round(np.diff(roll_acc, prepend=roll_acc[:1]) / TWO_PI) * TWO_PI)
         angles = pi_complementary(np.column_stack([roll_acc + turns, pitch_acc]), np.asarray(gyr)[:, :2], self.design)
         angles[:, 0] = _wrap(angles[:, 0])
         return angles
@@ -155,6 +156,7 @@ class GravityPI:
         self.reset()
 
     def reset(self) -> None:
+        """Forget the past: vertical from the next accelerometer sample, zero bias, not still."""
         self._u: tuple[float, float, float] | None = None
         self.bias_ = [0.0, 0.0, 0.0]
         self._still = 0.0
@@ -220,6 +222,7 @@ class VQFAttitude:
         self._vqf = vqf.VQF(1.0 / rate)
 
     def reset(self) -> None:
+        """Forget the past (vqf's own initial state)."""
         self._vqf.resetState()
 
     def update(self, acc, gyr) -> tuple[float, float]:
