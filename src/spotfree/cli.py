@@ -51,6 +51,8 @@ def _report_repairs_and_gaps(rec) -> None:
     """Tell the user every repair a reader made and every gap it found (never silently)."""
     for repair in rec.meta.get("repairs", []):
         err.print(f"note: {repair}")
+    for warning in rec.meta.get("warnings", []):
+        err.print(f"warning: {warning}")
     for gap in rec.gaps:
         err.print(f"warning: {rec.source}: {gap}; no output there")
 

@@ -3,7 +3,8 @@
 Every reader returns a :class:`Recording` and every later stage (filter, features, windows, classification)
 consumes one. Conventions:
 
-* ``time`` is in seconds on a uniform grid of ``rate`` Hz (``time[k] = time[0] + k / rate``).
+* ``time`` is in seconds on a uniform grid of ``rate`` Hz within each experiment (``time[k] = time[0] + k / rate``;
+  a file of several experiments may restart the clock in each).
 * ``channels`` holds float arrays in SI units (m/s^2, rad/s, rad, m, m/s, degrees only for ``lat``/``lon``).
   Raw IMU channels are ``ax ay az`` (m/s^2, gravity included) and ``gx gy gz`` (rad/s) in the device frame
   (Android: x right, y up, z out of the screen).
