@@ -3,6 +3,8 @@
 import numpy as np
 import pytest
 import scipy.signal
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from spotfree.errors import InputError
 from spotfree.signal.complementary import (
@@ -33,6 +35,21 @@ def test_closed_form_equals_scipy_bilinear(rate):
         b_ref, a_ref = scipy.signal.bilinear(num, den, fs=rate)
         np.testing.assert_allclose(np.pad(b_ref, (3 - len(b_ref), 0)), b, atol=1e-14)
         np.testing.assert_allclose(a_ref, d.a, atol=1e-14)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    kp=st.floats(0.01, 100.0),
+    ki=st.floats(0.001, 1000.0),
+    rate=st.floats(1.0, 2000.0),
+)
+def test_any_design_is_complementary_stable_and_bilinear(kp, ki, rate):
+    d = pi_complementary_design(kp, ki, rate)
+    np.testing.assert_allclose(d.b_gyro + d.b_acc, d.a, rtol=0, atol=1e-12)
+    assert np.all(np.abs(np.roots(d.a)) < 1.0)  # the bilinear map keeps the stable continuous poles inside
+    b_ref, a_ref = scipy.signal.bilinear([kp, ki], [1.0, kp, ki], fs=rate)
+    np.testing.assert_allclose(d.b_acc, b_ref, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(d.a, a_ref, rtol=1e-9, atol=1e-12)
 
 
 def test_paths_are_complementary_and_rate_path_is_trapezoid_then_angle_path():
