@@ -94,3 +94,26 @@ def test_simulate_is_deterministic_under_the_seed(tmp_path):
     for path in (a, b):
         assert runner.invoke(app, ["simulate", "normal-braking", "-o", str(path), "--repeats", "2", "--seed", "9"]).exit_code == 0
     assert a.read_bytes() == b.read_bytes()
+
+
+BAD_LOGS = {
+    "empty.csv": ("", "empty"),
+    "in_g.csv": ("time,ax,ay,az,gx,gy,gz\n" + "".join(f"{k * 0.05},0,0,1,0,0,0\n" for k in range(40)), "9.80665"),
+    "misspelt.csv": ("tme,ax,ay,az,gx,gy,gz\n0,0,0,9.8,0,0,0\n", "'tme' should be 'time'"),
+    "text_cell.csv": ("time,ax,ay,az,gx,gy,gz\n0,0,0,9.8,0,0,0\n0.05,0,abc,9.8,0,0,0\n", "'ay'"),
+    "backwards.csv": ("time,ax,ay,az,gx,gy,gz\n0,0,0,9.8,0,0,0\n0.1,0,0,9.8,0,0,0\n0.05,0,0,9.8,0,0,0\n"
+                      "0.05,0,0,9.8,0,0,0\n0.15,0,0,9.8,0,0,0\n", "'time'"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(BAD_LOGS))
+def test_features_on_bad_logs_exits_2_with_one_line_naming_file_and_column(name, tmp_path):
+    text, expected = BAD_LOGS[name]
+    (tmp_path / name).write_text(text)
+    existing = tmp_path / "features.csv"
+    existing.write_text("kept\n")
+    result = runner.invoke(app, ["features", str(tmp_path / name), "-o", str(existing)])
+    assert result.exit_code == 2
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert len(lines) == 1 and name in lines[0] and expected in lines[0], result.output
+    assert existing.read_text() == "kept\n"
