@@ -37,10 +37,10 @@ from spotfree.errors import InputError
 from spotfree.io.recording import Recording
 from spotfree.model import DictionaryModel
 from spotfree.naming import ClusterName, background_class, name_clusters, presence_matrix
-from spotfree.windows import ChannelScaling, recording_windows
+from spotfree.windows import ChannelScaling, WindowedRecording, recording_windows, with_affine_row
 
 RECIPES = ("evidence", "paper")
-DEFAULT_CHANNELS = ("pitch", "pitch_rate", "acc_x")
+DEFAULT_CHANNELS = ("lean", "acc_x")
 
 Progress = Callable[[str], None]
 
@@ -65,6 +65,7 @@ class TrainingConfig:
     recipe: str = "evidence"
     extra_clusters: int = 3
     background: str | None = None
+    affine: float = 1.0
     overrides: dict[int, str] = field(default_factory=dict)
     max_columns: int = 100
     margin: int | None = None
@@ -98,6 +99,8 @@ def train(experiments: list[TrainingExperiment], config: TrainingConfig | None =
                           normalisation)
         for e in experiments
     ]
+    depth = windows[0].matrix.shape[0]
+    windows = [WindowedRecording(with_affine_row(w.matrix, config.affine), w.ends, w.experiment) for w in windows]
     declared = [list(e.classes) for e in experiments]
     say(f"{sum(w.matrix.shape[1] for w in windows)} windows from {len(experiments)} recordings")
     if config.recipe == "paper":
@@ -111,7 +114,7 @@ def train(experiments: list[TrainingExperiment], config: TrainingConfig | None =
     columns, column_class, column_source = [], [], []
     for r, (w, per, keep) in enumerate(zip(windows, names_per_window, kept)):
         for k in np.flatnonzero(keep):
-            columns.append(w.matrix[:, k])
+            columns.append(w.matrix[:depth, k])
             column_class.append(classes.index(per[k]))
             column_source.append((r, int(w.ends[k])))
     columns, column_class, column_source = _cap(np.array(columns).T, np.array(column_class), column_source,
@@ -129,6 +132,7 @@ def train(experiments: list[TrainingExperiment], config: TrainingConfig | None =
         features="ride" if experiments[0].recording.meta.get("features") == "ride" else "channels",
         orientation=experiments[0].recording.meta.get("orientation", "default"),
         parameters={"recipe": config.recipe, "extra_clusters": config.extra_clusters, "seed": config.seed,
+                    "affine": config.affine,
                     "train_step": config.train_step, "max_columns": config.max_columns},
         summary={
             "clusters": [vars(n) for n in names],

@@ -11,6 +11,11 @@ Scaling: each channel is divided by a scale learned in training (:class:`Channel
 different units weigh alike while a hard stop keeps its larger amplitude than a soft one. The paper's unit-norm
 columns (every window divided by its own l2 norm, which discards amplitude) are available as an option.
 
+Affine term: :func:`with_affine_row` appends one constant row ``c`` to every column, ``[y_t; c]``. Subspace
+clustering and collaborative representation see a window and its negative as the same 1-D subspace (a braking
+window is about ``-1`` times an accelerating one); with the constant row, ``-[y; c] = [-y; -c]`` is no longer a
+window, so sign and offset count.
+
 Windows never span a gap or two experiments: they are cut from each gap-free segment of a Recording.
 """
 
@@ -95,6 +100,14 @@ def normalise_columns(windows: np.ndarray, normalisation: str) -> np.ndarray:
         norms = np.linalg.norm(windows, axis=0)
         return windows / np.where(norms > 0, norms, 1.0)
     raise InputError(f"unknown window normalisation '{normalisation}'; use one of {', '.join(NORMALISATIONS)}")
+
+
+def with_affine_row(windows: np.ndarray, affine: float) -> np.ndarray:
+    """``windows`` ``(d, m)`` with the constant row ``affine`` appended, ``(d + 1, m)``; unchanged when ``affine``
+    is 0."""
+    if affine == 0:
+        return windows
+    return np.vstack([windows, np.full((1, windows.shape[1]), float(affine))])
 
 
 @dataclass

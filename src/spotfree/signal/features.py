@@ -10,6 +10,19 @@ y left, z up):
   pitch, gravity removed (``R_y(pitch) R_x(roll) a - [0, 0, g]``), then low-passed by the third-order
   Butterworth of :mod:`spotfree.signal.butterworth` (causal, or zero-phase offline).
 
+Derived channels (``derived=True``), :data:`DERIVED_CHANNELS`:
+
+* ``lean`` (rad, about the vehicle y axis, positive nose down): the gyro-only lean, a leaky integral of
+  ``pitch_rate`` ``q``,
+
+      lean[n] = a lean[n-1] + q[n] / f_s,    a = exp(-1 / (tau f_s)),   tau = :data:`LEAN_TIME_CONSTANT` s,
+
+  i.e. ``q`` through ``tau / (tau s + 1)`` (a first-order low-pass with DC gain ``tau``). A self-balancing vehicle
+  leans so that the specific force stays along its body z axis, so during a sustained braking the accelerometer
+  sees almost no longitudinal force and the attitude filter drifts back to "no lean"; the gyro does not. Changes of
+  lean shorter than ``tau`` are kept and a constant mount misalignment is absent (zero at the start of every
+  segment). A gyro bias ``b`` (rad/s) adds a constant ``b tau``.
+
 :func:`ride_features` runs each gap-free stretch of each experiment with fresh filter state (NaN in gaps);
 :class:`FeatureStream` does the same sample by sample and gives the causal batch result to rounding.
 """
@@ -17,6 +30,7 @@ y left, z up):
 from __future__ import annotations
 
 import numpy as np
+from scipy.signal import lfilter
 
 from spotfree.errors import InputError
 from spotfree.io.recording import ACC_CHANNELS, GYRO_CHANNELS, IMU_CHANNELS, Recording
@@ -27,9 +41,28 @@ from spotfree.signal.orientation import attitude_filter
 FEATURE_CHANNELS = ("roll", "pitch", "pitch_rate", "acc_x", "acc_y", "acc_z")
 """Channel names of the ride features, in output order."""
 
+DERIVED_CHANNELS = ("lean",)
+"""Channels added after :data:`FEATURE_CHANNELS` when ``derived=True``."""
 
-def ride_features(rec: Recording, orientation: str = "default", zero_phase: bool = False) -> Recording:
-    """The six :data:`FEATURE_CHANNELS` of ``rec`` on its own grid (same experiment column, truth and gaps)."""
+LEAN_TIME_CONSTANT = 10.0
+"""Time constant ``tau`` (s) of the ``lean`` leaky integrator; chosen by ``benchmarks/training_purity.py``."""
+
+
+def lean_coefficients(rate: float, tau: float = LEAN_TIME_CONSTANT) -> tuple[float, float]:
+    """``(b, a)`` of ``lean[n] = a lean[n-1] + b q[n]``: ``b = 1 / f_s`` (s), ``a = exp(-1 / (tau f_s))``."""
+    return 1.0 / rate, float(np.exp(-1.0 / (tau * rate)))
+
+
+def leaky_lean(pitch_rate: np.ndarray, rate: float, tau: float = LEAN_TIME_CONSTANT) -> np.ndarray:
+    """``lean`` (rad) from ``pitch_rate`` (rad/s, vehicle y axis) of one gap-free segment, zero initial state."""
+    b, a = lean_coefficients(rate, tau)
+    return lfilter([b], [1.0, -a], np.asarray(pitch_rate, dtype=float))
+
+
+def ride_features(rec: Recording, orientation: str = "default", zero_phase: bool = False,
+                  derived: bool = False) -> Recording:
+    """The six :data:`FEATURE_CHANNELS` of ``rec`` on its own grid (same experiment column, truth and gaps),
+    followed by the :data:`DERIVED_CHANNELS` when ``derived``."""
     missing = [c for c in IMU_CHANNELS if c not in rec.channels]
     if missing:
         raise InputError(
@@ -39,21 +72,31 @@ def ride_features(rec: Recording, orientation: str = "default", zero_phase: bool
     sos = butter_lowpass(rec.rate)
     acc_all = device_to_vehicle_axes(rec.array(ACC_CHANNELS))
     gyr_all = device_to_vehicle_axes(rec.array(GYRO_CHANNELS))
-    out = np.full((len(rec), len(FEATURE_CHANNELS)), np.nan)
+    names = FEATURE_CHANNELS + (DERIVED_CHANNELS if derived else ())
+    out = np.full((len(rec), len(names)), np.nan)
     for start, stop in rec.segments():
         acc, gyr = acc_all[start:stop], gyr_all[start:stop]
         roll, pitch = attitude.run(acc, gyr).T
         level = lowpass(gravity_free_level(acc, roll, pitch), sos, zero_phase=zero_phase)
-        out[start:stop] = np.column_stack([roll, pitch, gyr[:, 1], level])
-    return rec.with_channels(dict(zip(FEATURE_CHANNELS, out.T)))
+        columns = [roll, pitch, gyr[:, 1], level]
+        if derived:
+            columns.append(leaky_lean(gyr[:, 1], rec.rate))
+        out[start:stop] = np.column_stack(columns)
+    return rec.with_channels(dict(zip(names, out.T)))
 
 
 class FeatureStream:
-    """The causal :func:`ride_features` one sample at a time (one gap-free segment; :meth:`reset` between)."""
+    """The causal :func:`ride_features` one sample at a time (one gap-free segment; :meth:`reset` between).
 
-    def __init__(self, rate: float, orientation: str = "default"):
+    With ``derived=True``, :meth:`update` returns the :data:`DERIVED_CHANNELS` after the six standard channels.
+    """
+
+    def __init__(self, rate: float, orientation: str = "default", derived: bool = False):
         self.rate = rate
         self.orientation = orientation
+        self.derived = derived
+        self._lean_b, self._lean_a = lean_coefficients(rate)
+        self._lean = 0.0
         self._attitude = attitude_filter(orientation, rate)
         self._lowpass = LowpassStream(butter_lowpass(rate), channels=3)
         self._mount = tuple(tuple(float(v) for v in row) for row in MOUNT)
@@ -62,9 +105,11 @@ class FeatureStream:
         """Start a new segment: fresh attitude and low-pass state."""
         self._attitude.reset()
         self._lowpass.reset()
+        self._lean = 0.0
 
     def update(self, acc, gyr) -> np.ndarray:
-        """Features ``(6,)`` for one sample: ``acc`` (m/s^2) and ``gyr`` (rad/s) 3-vectors in the device frame."""
+        """Features ``(6,)`` (``(7,)`` with ``derived``) for one sample: ``acc`` (m/s^2) and ``gyr`` (rad/s)
+        3-vectors in the device frame."""
         (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = self._mount
         a0, a1, a2 = float(acc[0]), float(acc[1]), float(acc[2])
         w0, w1, w2 = float(gyr[0]), float(gyr[1]), float(gyr[2])
@@ -72,4 +117,7 @@ class FeatureStream:
         gyr_v = (m00 * w0 + m01 * w1 + m02 * w2, m10 * w0 + m11 * w1 + m12 * w2, m20 * w0 + m21 * w1 + m22 * w2)
         roll, pitch = self._attitude.update(acc_v, gyr_v)
         level = self._lowpass.update(gravity_free_level_sample(acc_v, roll, pitch))
-        return np.array([roll, pitch, gyr_v[1], *level])
+        if not self.derived:
+            return np.array([roll, pitch, gyr_v[1], *level])
+        self._lean = self._lean_a * self._lean + self._lean_b * gyr_v[1]
+        return np.array([roll, pitch, gyr_v[1], *level, self._lean])

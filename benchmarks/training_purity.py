@@ -1,0 +1,65 @@
+"""Dictionary purity of spotting-free training on simulated rides, per configuration and seed.
+
+Training data as in ``tests/test_training.py``: experiment 1 of a ``normal-braking`` file (seed ``s``) declared
+``cruising,normal-braking`` and experiment 1 of a ``sudden-braking`` file (seed ``s + 1``) declared
+``cruising,normal-braking,sudden-braking``. Purity of a class: the share of its dictionary columns whose window
+centre has that class in the hidden ``label`` (training never reads it). ``cols`` are the columns per class
+(cruising / normal / sudden), ``s`` the wall time of one training.
+
+    python benchmarks/training_purity.py --seeds 0 1 2 --configs default paper
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+from spotfree.signal.features import ride_features
+from spotfree.sim.scenarios import simulate_scenario
+from spotfree.training import TrainingConfig, TrainingExperiment, dictionary_purity, train
+
+CLASSES = ("cruising", "normal-braking", "sudden-braking")
+
+CONFIGS = {
+    "default": {},
+    "paper": {"recipe": "paper"},
+    "old-channels": {"channels": ("pitch", "pitch_rate", "acc_x"), "affine": 0.0},
+    "no-affine": {"affine": 0.0},
+    "lean-only": {"channels": ("lean",)},
+    "lean-rate-acc": {"channels": ("lean", "pitch_rate", "acc_x")},
+    "window-30": {"window": 30},
+    "window-12": {"window": 12},
+    "extra-1": {"extra_clusters": 1},
+    "extra-5": {"extra_clusters": 5},
+}
+
+
+def experiments(seed: int) -> list[TrainingExperiment]:
+    nb = simulate_scenario("normal-braking", repeats=1, seed=seed).select_experiment(1)
+    sb = simulate_scenario("sudden-braking", repeats=1, seed=seed + 1).select_experiment(1)
+    return [TrainingExperiment(ride_features(nb, derived=True), list(CLASSES[:2])),
+            TrainingExperiment(ride_features(sb, derived=True), list(CLASSES))]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    parser.add_argument("--configs", nargs="+", default=["default", "paper"], choices=sorted(CONFIGS))
+    args = parser.parse_args()
+    print(f"{'config':<14} {'seed':>4} {'cruising':>9} {'normal':>7} {'sudden':>7} {'cols':>12} {'s':>6}")
+    for seed in args.seeds:
+        exps = experiments(seed)
+        for name in args.configs:
+            start = time.perf_counter()
+            result = train(exps, TrainingConfig(seed=0, **CONFIGS[name]))
+            elapsed = time.perf_counter() - start
+            purity = dictionary_purity(result, exps)
+            columns = result.model.summary["columns_per_class"]
+            cells = " ".join(f"{purity[c]:>{w}.3f}" if c in purity else f"{'-':>{w}}"
+                             for c, w in zip(CLASSES, (9, 7, 7)))
+            cols = "/".join(str(columns.get(c, 0)) for c in CLASSES)
+            print(f"{name:<14} {seed:>4} {cells} {cols:>12} {elapsed:>6.1f}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
