@@ -7,7 +7,14 @@ import pytest
 
 from spotfree.errors import InputError
 from spotfree.io.recording import Recording
-from spotfree.signal.features import FEATURE_CHANNELS, FeatureStream, ride_features
+from spotfree.signal.features import (
+    DERIVED_CHANNELS,
+    FEATURE_CHANNELS,
+    LEAN_TIME_CONSTANT,
+    FeatureStream,
+    lean_coefficients,
+    ride_features,
+)
 from spotfree.signal.frame import GRAVITY, gravity_direction, vehicle_to_device_axes
 from spotfree.signal.orientation import ORIENTATIONS
 
@@ -141,3 +148,37 @@ def test_unknown_orientation_and_missing_vqf(monkeypatch):
     monkeypatch.setitem(sys.modules, "vqf", None)
     with pytest.raises(InputError, match="pip install vqf"):
         ride_features(rec, orientation="vqf")
+
+
+def test_derived_lean_is_the_leaky_integral_of_pitch_rate_and_follows_a_held_lean():
+    n = 400
+    t = np.arange(n) / RATE
+    lean_true = np.where((t > 5) & (t < 15), -0.2, 0.0)  # rad, held back lean (braking) for 10 s
+    q = np.gradient(lean_true, 1 / RATE)
+    acc = np.tile([0.0, 0.0, GRAVITY], (n, 1))  # the accelerometer sees no lean (balanced vehicle)
+    feats = ride_features(device_recording(acc, np.column_stack([np.zeros(n), q, np.zeros(n)])), derived=True)
+    assert tuple(feats.names) == FEATURE_CHANNELS + DERIVED_CHANNELS
+    lean = feats.array(["lean"])[:, 0]
+    b, a = lean_coefficients(RATE)
+    expected = np.zeros(n)
+    for k in range(n):
+        expected[k] = (a * expected[k - 1] if k else 0.0) + b * q[k]
+    np.testing.assert_allclose(lean, expected, atol=1e-12)
+    # 2 s into the held lean, the leaky integral keeps it within exp(-2 / tau) of the true value
+    i = int(7.0 * RATE)
+    assert lean[i] == pytest.approx(-0.2 * np.exp(-2.0 / LEAN_TIME_CONSTANT), rel=0.05)
+
+
+def test_stream_with_derived_channels_equals_batch_and_keeps_six_by_default():
+    acc, gyr, *_ = braking_ride(n=300)
+    rec = device_recording(acc, gyr)
+    batch = ride_features(rec, derived=True).array()
+    plain, derived = FeatureStream(RATE), FeatureStream(RATE, derived=True)
+    six = np.array([plain.update(a, w) for a, w in zip(rec.array(["ax", "ay", "az"]), rec.array(["gx", "gy", "gz"]))])
+    seven = np.array([derived.update(a, w) for a, w in zip(rec.array(["ax", "ay", "az"]), rec.array(["gx", "gy", "gz"]))])
+    assert six.shape == (300, 6) and seven.shape == (300, 7)
+    np.testing.assert_allclose(seven, batch, atol=1e-12)
+    np.testing.assert_array_equal(six, seven[:, :6])
+    derived.reset()
+    np.testing.assert_allclose(derived.update(rec.array(["ax", "ay", "az"])[0], rec.array(["gx", "gy", "gz"])[0]),
+                               batch[0], atol=1e-12)

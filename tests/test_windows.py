@@ -3,7 +3,14 @@ import pytest
 
 from spotfree.errors import InputError
 from spotfree.io.recording import Recording
-from spotfree.windows import ChannelScaling, block_hankel, normalise_columns, recording_windows, window_ends
+from spotfree.windows import (
+    ChannelScaling,
+    block_hankel,
+    normalise_columns,
+    recording_windows,
+    window_ends,
+    with_affine_row,
+)
 
 
 def test_block_hankel_columns_are_stacked_channel_windows():
@@ -67,3 +74,15 @@ def test_channel_scaling_learns_std_and_rejects_constant_channels():
     flat = Recording(time=np.arange(100) / 20, channels={"a": rng.normal(size=100), "b": np.ones(100)}, rate=20.0)
     with pytest.raises(InputError, match="constant"):
         ChannelScaling(("a", "b")).fit([flat])
+
+
+def test_affine_row_breaks_the_sign_symmetry():
+    w = np.random.default_rng(1).normal(size=(6, 4))
+    np.testing.assert_array_equal(with_affine_row(w, 0.0), w)
+    a = with_affine_row(w, 2.0)
+    assert a.shape == (7, 4)
+    np.testing.assert_array_equal(a[:6], w)
+    np.testing.assert_array_equal(a[6], 2.0)
+    # -y is a multiple of y, but [-y; c] is not a multiple of [y; c]
+    pair = np.column_stack([with_affine_row(w[:, :1], 2.0), with_affine_row(-w[:, :1], 2.0)])
+    assert np.linalg.matrix_rank(pair) == 2
