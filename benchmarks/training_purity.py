@@ -25,12 +25,13 @@ CONFIGS = {
     "paper": {"recipe": "paper"},
     "old-channels": {"channels": ("pitch", "pitch_rate", "acc_x"), "affine": 0.0},
     "no-affine": {"affine": 0.0},
+    "affine-20": {"affine": 20.0},
     "lean-only": {"channels": ("lean",)},
     "lean-rate-acc": {"channels": ("lean", "pitch_rate", "acc_x")},
     "window-30": {"window": 30},
     "window-12": {"window": 12},
     "extra-1": {"extra_clusters": 1},
-    "extra-5": {"extra_clusters": 5},
+    "extra-8": {"extra_clusters": 8},
 }
 
 

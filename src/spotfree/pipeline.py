@@ -4,21 +4,22 @@ from __future__ import annotations
 
 from spotfree.io import read_recording
 from spotfree.io.recording import Recording
-from spotfree.signal.features import FEATURE_CHANNELS, ride_features
+from spotfree.signal.features import DERIVED_CHANNELS, FEATURE_CHANNELS, ride_features
 
 
 def feature_recording(spec: str, orientation: str = "default", rate: float = 20.0) -> Recording:
-    """Read ``spec`` (``PATH`` or ``PATH@K``); a raw IMU log becomes the ride features, any other log is used as is.
+    """Read ``spec`` (``PATH`` or ``PATH@K``); a raw IMU log becomes the ride features with the derived channels
+    (:data:`~spotfree.signal.features.DERIVED_CHANNELS`), any other log is used as is.
 
     ``meta['features']`` says which: ``"ride"`` (with ``meta['orientation']``) or ``"channels"``.
     """
     rec = read_recording(spec, rate=rate)
     if rec.has_imu:
-        feats = ride_features(rec, orientation=orientation)
+        feats = ride_features(rec, orientation=orientation, derived=True)
         feats.meta.update(features="ride", orientation=orientation, raw_meta=dict(rec.meta))
         return feats
     rec.meta.update(features="channels")
     return rec
 
 
-__all__ = ["FEATURE_CHANNELS", "feature_recording"]
+__all__ = ["DERIVED_CHANNELS", "FEATURE_CHANNELS", "feature_recording"]

@@ -5,7 +5,11 @@ Output: a :class:`~spotfree.model.DictionaryModel` whose columns are windows kep
 
 ``recipe="evidence"`` (default):
 
-1. Feature channels of every recording, per-channel scale learned over all of them (amplitude kept).
+1. Feature channels of every recording (default ``lean`` and ``acc_x``: the gyro-only lean shows a sustained
+   braking that the accelerometer of a self-balancing vehicle does not), per-channel scale learned over all of them
+   (amplitude kept), and a constant row ``affine`` appended to every window for clustering, nesting and
+   purification (:func:`~spotfree.windows.with_affine_row`: a window and its negative are no longer one subspace).
+   The dictionary stores the windows without that row; ``parameters["affine"]`` tells classification to append it.
 2. Windows of all recordings pooled; Ordered Subspace Clustering into ``n_classes + extra_clusters`` groups, more
    groups than declared classes, so that a confounder (a turn, a bump, a change of speed) gets a group of its own
    instead of being merged with a manoeuvre.
@@ -65,7 +69,7 @@ class TrainingConfig:
     recipe: str = "evidence"
     extra_clusters: int = 3
     background: str | None = None
-    affine: float = 1.0
+    affine: float = 6.0
     overrides: dict[int, str] = field(default_factory=dict)
     max_columns: int = 100
     margin: int | None = None
@@ -188,7 +192,7 @@ def _evidence_recipe(windows, declared, config, say):
     manoeuvres = sorted({n.name for n in names} - {background}, key=lambda c: (-specificity.get(c, 0), c))
     next_label = labels.max() + 1
     for cls in manoeuvres:
-        known = [c for c in manoeuvres if specificity[c] > specificity[cls]] + [background]
+        known = [c for c in manoeuvres if specificity.get(c, 0) > specificity.get(cls, 0)] + [background]
         for j in [n.cluster for n in names if n.name == cls and n.rule != "named by the user"]:
             members = np.flatnonzero(labels == j)
             say(f"nesting: checking group {j} ({cls}, {len(members)} windows) against {', '.join(known)}")

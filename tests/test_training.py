@@ -1,0 +1,76 @@
+"""Spotting-free training on simulated rides: purity against the hidden labels, beside the paper's literal recipe."""
+
+import numpy as np
+import pytest
+
+from spotfree.errors import InputError
+from spotfree.signal.features import ride_features
+from spotfree.sim.scenarios import manoeuvre_share, simulate_scenario
+from spotfree.training import TrainingConfig, TrainingExperiment, dictionary_purity, train
+
+NB = ["cruising", "normal-braking"]
+SB = ["cruising", "normal-braking", "sudden-braking"]
+
+
+def _experiments(seed=0, k=1):
+    nb = simulate_scenario("normal-braking", repeats=k, seed=seed).select_experiment(k)
+    sb = simulate_scenario("sudden-braking", repeats=k, seed=seed + 1).select_experiment(k)
+    return [TrainingExperiment(ride_features(nb, derived=True), NB),
+            TrainingExperiment(ride_features(sb, derived=True), SB)]
+
+
+@pytest.fixture(scope="module")
+def experiments():
+    return _experiments()
+
+
+@pytest.fixture(scope="module")
+def evidence(experiments):
+    return train(experiments, TrainingConfig(seed=0))
+
+
+def test_sudden_braking_is_a_small_share_with_confounders(experiments):
+    sb = experiments[1].recording
+    assert manoeuvre_share(sb.truth["label"], "sudden-braking") < 0.10
+    assert any(e for e in sb.truth["event"])
+
+
+@pytest.mark.xfail(strict=True, reason="measured (benchmarks/training_purity.py, seeds 0-2): evidence recipe keeps "
+                   "cruising only (purity 0.80/0.96/0.86; normal 0.13 on seed 1; no sudden column); level-1 OSC "
+                   "groups mix cruising with braking even on lean+acc_x windows with an affine row, and a pure "
+                   "hard-braking group present in both rides is named background by the enrichment rule")
+def test_dictionary_is_pure_and_beats_the_papers_literal_recipe(experiments, evidence):
+    ours = dictionary_purity(evidence, experiments)
+    paper = dictionary_purity(train(experiments, TrainingConfig(recipe="paper", seed=0)), experiments)
+    print(f"purity per class: evidence {ours}, paper recipe {paper}")
+    assert set(ours) == set(SB)
+    assert min(ours.values()) >= 0.98
+    assert min(ours.values()) > min(paper.get(c, 0.0) for c in SB)
+
+
+def test_label_column_is_never_read_and_the_same_seed_gives_the_same_model_file(experiments, evidence, tmp_path):
+    rng = np.random.default_rng(5)
+    copies = [TrainingExperiment(e.recording.take(slice(None)), e.classes) for e in experiments]
+    for e in copies:
+        e.recording.truth["label"] = rng.permutation(e.recording.truth["label"])
+    train(copies, TrainingConfig(seed=0)).model.save(tmp_path / "a.npz")
+    evidence.model.save(tmp_path / "b.npz")
+    a, b = np.load(tmp_path / "a.npz"), np.load(tmp_path / "b.npz")
+    assert a.files == b.files
+    assert all(np.array_equal(a[k], b[k]) for k in a.files)
+
+
+def test_user_can_override_a_name(experiments):
+    short = [TrainingExperiment(e.recording.take(slice(0, 400)), e.classes) for e in experiments]
+    result = train(short, TrainingConfig(seed=0, overrides={0: "parked"}))
+    assert result.names[0].name == "parked" and result.names[0].rule == "named by the user"
+
+
+def test_bad_declarations_are_clear_errors(experiments):
+    with pytest.raises(InputError, match="every --experiment"):
+        train([TrainingExperiment(experiments[0].recording, ["normal-braking"]),
+               TrainingExperiment(experiments[1].recording, ["sudden-braking"])])
+    with pytest.raises(InputError, match="shorter --window"):
+        train(experiments, TrainingConfig(window=100_000))
+    with pytest.raises(InputError, match="no column"):
+        train(experiments, TrainingConfig(channels=("pitch", "speedometer")))
