@@ -45,7 +45,9 @@ DERIVED_CHANNELS = ("lean",)
 """Channels added after :data:`FEATURE_CHANNELS` when ``derived=True``."""
 
 LEAN_TIME_CONSTANT = 10.0
-"""Time constant ``tau`` (s) of the ``lean`` leaky integrator; chosen by ``benchmarks/training_purity.py``."""
+"""Time constant ``tau`` (s) of the ``lean`` leaky integrator. Measured on simulated braking rides (seeds 0 and 3,
+tau 5 / 10 / 20 s, median lean per true class): at 5 s a normal stop's lean is halved, at 20 s the gyro bias moves
+cruising by up to 0.1 rad, as much as a normal braking; 10 s lies between."""
 
 
 def lean_coefficients(rate: float, tau: float = LEAN_TIME_CONSTANT) -> tuple[float, float]:
