@@ -6,8 +6,9 @@ the ``k`` smallest of the normalized Laplacian ``L = I - M``); the generalized e
 samples in ``R^k`` and k-means (``n_init`` restarts from a seeded generator) assigns the labels. This is
 scikit-learn's ``SpectralClustering(affinity='precomputed')`` with its k-means labelling; the eigenvectors are
 computed here without shift-invert, whose dense ``O(n^3)`` factorization dominates for 10,000 windows:
-a dense symmetric eigensolver below ``DENSE_LIMIT`` samples, Lanczos (ARPACK, start vector from the seed) above.
-A sample with no affinity (``d_i = 0``) gets a zero row in ``M``.
+a dense symmetric eigensolver below ``DENSE_LIMIT`` samples, Lanczos (ARPACK to ``EIGEN_TOL``, start vector from
+the seed) above, with single-threaded BLAS (on a loaded 2-core machine a threaded matrix-vector product was 5x
+slower). A sample with no affinity (``d_i = 0``) gets a zero row in ``M``.
 """
 
 from __future__ import annotations
@@ -17,10 +18,12 @@ import scipy.linalg
 import scipy.sparse
 from scipy.sparse.linalg import LinearOperator, eigsh
 from sklearn.cluster import KMeans
+from threadpoolctl import threadpool_limits
 
 from spotfree.errors import InputError
 
-DENSE_LIMIT = 2500
+DENSE_LIMIT = 500
+EIGEN_TOL = 1e-6
 
 
 def normalized_cuts(W, n_clusters: int, random_state=None, n_init: int = 10) -> np.ndarray:
@@ -67,7 +70,8 @@ def _leading_eigenpairs(W, k: int, random_state):
     if n <= DENSE_LIMIT or k >= n - 1:
         dense = W.toarray() if scipy.sparse.issparse(W) else np.asarray(W, dtype=float)
         M = inv_sqrt[:, None] * dense * inv_sqrt[None, :]
-        values, vectors = scipy.linalg.eigh(M, subset_by_index=[n - k, n - 1])
+        with threadpool_limits(1, user_api="blas"):
+            values, vectors = scipy.linalg.eigh(M, subset_by_index=[n - k, n - 1])
         return values, vectors, inv_sqrt
     scale = inv_sqrt.astype(W.dtype)
 
@@ -79,7 +83,8 @@ def _leading_eigenpairs(W, k: int, random_state):
 
     operator = LinearOperator((n, n), matvec=matvec, matmat=matmat, dtype=float)
     v0 = np.random.default_rng(_seed(random_state)).uniform(-1.0, 1.0, n)
-    values, vectors = eigsh(operator, k=k, which="LA", v0=v0)
+    with threadpool_limits(1, user_api="blas"):
+        values, vectors = eigsh(operator, k=k, which="LA", v0=v0, tol=EIGEN_TOL)
     return values, vectors, inv_sqrt
 
 
