@@ -14,8 +14,9 @@ tiny warm-up fit that loads the compiled kernels; memory = the process's peak re
 * ``reference``: a straightforward ADMM written from the published algorithm (Tierney, Gao & Guo 2014, the
   Sylvester-equation variant, as in their code): dense ``X^T X`` and ``R``, a dense Sylvester solve for the
   coefficient step at every iteration (``O(n^3)``), penalty multiplied by 1.1 per iteration; same objective
-  (eq. 10's square ``R``, zero diagonal), same weights, same affinity and normalized cuts as ``osc``. Stops when the
-  constraint residuals and the change of ``S`` are below 1e-2 relative, at most 300 iterations.
+  (eq. 10's square ``R``, zero diagonal), same weights and initial penalty, same affinity and normalized cuts as
+  ``osc``. Stops when the constraint residuals and the change of ``S`` are below 1e-2 relative, at most 300
+  iterations.
 * ``sklearn-rbf`` / ``sklearn-knn``: ``sklearn.cluster.SpectralClustering`` on the raw windows (RBF kernel with
   the median heuristic for gamma; 10-nearest-neighbour graph), k-means labels with a fixed seed.
 
@@ -120,35 +121,48 @@ def reference_osc(X: np.ndarray, lambda1: float, lambda2: float, rho: float, tol
     return Z, iteration
 
 
+def peak_rss_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
 def fit_spotfree(case: str, X: np.ndarray) -> dict:
     from spotfree.cluster import OrderedSubspaceClustering, SparseSubspaceClustering, osc_objective
 
     estimator = (SparseSubspaceClustering if case == "ssc" else OrderedSubspaceClustering)(REGIMES, random_state=0)
     start = time.perf_counter()
     estimator.set_params(max_iter=3).fit(X[:60])  # loads the compiled kernels
-    warm_up = time.perf_counter() - start
+    warm_up, rss_before = time.perf_counter() - start, peak_rss_mb()
     start = time.perf_counter()
     estimator.set_params(max_iter=300).fit(X)
     elapsed = time.perf_counter() - start
     return {
         "labels": estimator.labels_,
         "time_s": elapsed,
+        "peak_rss_mb": peak_rss_mb(),
         "warm_up_s": warm_up,
+        "rss_before_fit_mb": rss_before,
         "iterations": estimator.n_iter_,
         "objective": osc_objective(X, estimator.coef_, estimator.lambda1_, estimator.lambda2_),
     }
 
 
 def fit_reference(X: np.ndarray) -> dict:
-    from spotfree.cluster import affinity, normalized_cuts, osc_objective, penalty_scale
+    from spotfree.cluster import OrderedSubspaceClustering, affinity, normalized_cuts, osc_objective, penalty_scale
     from spotfree.cluster.osc import DEFAULT_RHO_PER_LAMBDA
 
-    lam = 0.01 * penalty_scale(X)  # the defaults of OrderedSubspaceClustering
+    defaults, mu = OrderedSubspaceClustering(), penalty_scale(X)
+    lam1, lam2 = defaults.lambda1 * mu, defaults.lambda2 * mu
     start = time.perf_counter()
-    Z, iterations = reference_osc(X, lam, lam, DEFAULT_RHO_PER_LAMBDA * lam)
+    Z, iterations = reference_osc(X, lam1, lam2, DEFAULT_RHO_PER_LAMBDA * max(lam1, lam2))
     labels = normalized_cuts(affinity(Z), REGIMES, random_state=0)
     elapsed = time.perf_counter() - start
-    return {"labels": labels, "time_s": elapsed, "iterations": iterations, "objective": osc_objective(X, Z, lam, lam)}
+    return {
+        "labels": labels,
+        "time_s": elapsed,
+        "peak_rss_mb": peak_rss_mb(),
+        "iterations": iterations,
+        "objective": osc_objective(X, Z, lam1, lam2),
+    }
 
 
 def fit_sklearn(case: str, X: np.ndarray) -> dict:
@@ -162,7 +176,7 @@ def fit_sklearn(case: str, X: np.ndarray) -> dict:
         params = {"affinity": "nearest_neighbors", "n_neighbors": 10}
     start = time.perf_counter()
     labels = SpectralClustering(REGIMES, random_state=0, assign_labels="kmeans", **params).fit_predict(X)
-    return {"labels": labels, "time_s": time.perf_counter() - start}
+    return {"labels": labels, "time_s": time.perf_counter() - start, "peak_rss_mb": peak_rss_mb()}
 
 
 def run_case(case: str, n: int, seed: int) -> dict:
@@ -170,7 +184,7 @@ def run_case(case: str, n: int, seed: int) -> dict:
     from sklearn.metrics import adjusted_rand_score
 
     X, truth = windows(n, seed)
-    rss_before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    rss_before = peak_rss_mb()
     if case in ("osc", "ssc"):
         result = fit_spotfree(case, X)
     elif case == "reference":
@@ -184,10 +198,9 @@ def run_case(case: str, n: int, seed: int) -> dict:
         "case": case,
         "n": n,
         "seed": seed,
+        "rss_before_fit_mb": rss_before,  # after loading the data (and, for spotfree, the compiled kernels)
         **result,
         "ari": adjusted_rand_score(truth, labels),
-        "rss_before_fit_mb": rss_before,
-        "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
     }
 
 
@@ -218,28 +231,50 @@ def main() -> None:
     for n in REFERENCE_SIZES:
         rows.append(measure("reference", n, seed))
         print(json.dumps(rows[-1]), flush=True)
-    reference = [r for r in rows if r["case"] == "reference"]
-    exponent = np.polyfit(np.log([r["n"] for r in reference]), np.log([r["time_per_iteration_s"] for r in reference]), 1)[0]
-    largest = reference[-1]
-    estimate = largest["time_per_iteration_s"] * (SIZES[-1] / largest["n"]) ** exponent
     print(f"# load average after: {os.getloadavg()}")
     print()
-    print("| n | method | time (s) | iterations | s / iteration | ARI | objective | peak RSS (MB) | RSS before fit (MB) |")
-    print("|---|---|---|---|---|---|---|---|---|")
-    for r in rows:
-        print(
-            f"| {r['n']} | {r['case']} | {r['time_s']:.2f} | {r.get('iterations', '')} | "
-            f"{r.get('time_per_iteration_s', float('nan')):.4f} | {r['ari']:.3f} | {r.get('objective', float('nan')):.6g} | "
-            f"{r['peak_rss_mb']:.0f} | {r['rss_before_fit_mb']:.0f} |"
-        )
-    osc_small = next(r for r in rows if r["case"] == "osc" and r["n"] == largest["n"])
-    osc_large = next(r for r in rows if r["case"] == "osc" and r["n"] == SIZES[-1])
+    print(table(rows))
     print()
-    print(f"reference time per iteration grows as n^{exponent:.2f} (fit over n = {REFERENCE_SIZES});")
-    print(f"reference at n = {largest['n']}: {largest['time_per_iteration_s'] / osc_small['time_per_iteration_s']:.0f}x "
-          f"the time per iteration of osc, {largest['time_s'] / osc_small['time_s']:.0f}x its total time;")
-    print(f"reference at n = {SIZES[-1]} (not run, extrapolated): {estimate:.0f} s per iteration, "
-          f"{estimate / osc_large['time_per_iteration_s']:.0f}x osc's measured {osc_large['time_per_iteration_s']:.2f} s.")
+    print(reference_summary(rows))
+
+
+def table(rows: list[dict]) -> str:
+    lines = [
+        "| n | method | time (s) | iterations | s / iteration | ARI | objective | peak RSS (MB) "
+        "| RSS before fit (MB) |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        per_iteration = f"{r['time_per_iteration_s']:.3f}" if "iterations" in r else ""
+        objective = f"{r['objective']:.6g}" if "objective" in r else ""
+        lines.append(
+            f"| {r['n']} | {r['case']} | {r['time_s']:.2f} | {r.get('iterations', '')} | {per_iteration} | "
+            f"{r['ari']:.3f} | {objective} | {r['peak_rss_mb']:.0f} | {r['rss_before_fit_mb']:.0f} |"
+        )
+    return "\n".join(lines)
+
+
+def reference_summary(rows: list[dict]) -> str:
+    """Ratios to osc at the largest common n, and the reference at the largest n extrapolated."""
+    reference = [r for r in rows if r["case"] == "reference"]
+    osc = {r["n"]: r for r in rows if r["case"] == "osc"}
+    sizes = np.array([r["n"] for r in reference], dtype=float)
+    exponent = np.polyfit(np.log(sizes), np.log([r["time_per_iteration_s"] for r in reference]), 1)[0]
+    last, target = reference[-1], max(osc)
+    fitted = last["time_per_iteration_s"] * (target / last["n"]) ** exponent
+    cubic = last["time_per_iteration_s"] * (target / last["n"]) ** 3
+    arrays = (last["peak_rss_mb"] - last["rss_before_fit_mb"]) * 1e6 / (8 * last["n"] ** 2)
+    ours = osc[target]["time_per_iteration_s"]
+    return "\n".join([
+        f"- reference at n = {last['n']}: {last['time_per_iteration_s'] / osc[last['n']]['time_per_iteration_s']:.0f}x"
+        f" the time per iteration of osc, {last['time_s'] / osc[last['n']]['time_s']:.0f}x its total time.",
+        f"- reference time per iteration grew as n^{exponent:.2f} over n = {tuple(int(v) for v in sizes)}"
+        " (its dense products cost n^3 flops).",
+        f"- reference at n = {target}, not run: {fitted:.0f} s per iteration by that power, {cubic:.0f} s by n^3,"
+        f" i.e. {fitted / ours:.0f}x to {cubic / ours:.0f}x osc's measured {ours:.2f} s; its peak memory at"
+        f" n = {last['n']} was {arrays:.0f} dense n x n float64 arrays, {arrays * 8 * target**2 / 1e9:.0f} GB at"
+        f" n = {target}.",
+    ])
 
 
 if __name__ == "__main__":

@@ -76,6 +76,11 @@ ADAPT_EVERY = 5
 ADAPT_UNTIL = 100
 ADAPT_RATIO = 3.0
 ADAPT_FACTOR = 2.0
+"""Residual balancing: every ADAPT_EVERY iterations before ADAPT_UNTIL, rho is multiplied (divided) by ADAPT_FACTOR
+when the relative primal (dual) residual exceeds the other ADAPT_RATIO-fold."""
+DEFAULT_RHO_PER_LAMBDA = 30.0
+"""Initial rho as a multiple of max(lambda1, lambda2); residual balancing corrects a poor start within ~20
+iterations (measured on the test problems: final rho between 10 and 60 times lambda)."""
 BLOCK_ELEMENTS = 1 << 20
 """Entries of one row block of the update pass (rows = BLOCK_ELEMENTS // n): small enough for the cache."""
 
@@ -312,9 +317,9 @@ class _FusedADMM:
     ``((A - W1') - C)``, ``W1'`` and ``B P`` of each block on BLAS) and :func:`_solve_pass`.
     """
 
-    def __init__(self, X, lambda1: float, lambda2: float, zero_diagonal: bool, dtype: np.dtype, pool: ThreadPoolExecutor):
+    def __init__(self, X, lambda1: float, lambda2: float, zero_diagonal: bool, dtype: np.dtype, workers: int):
         n = X.shape[0]
-        self.pool = pool
+        self.pool, self.workers = ThreadPoolExecutor(workers), workers
         U, s, _ = np.linalg.svd(X, full_matrices=False)
         keep = s > s[0] * max(X.shape) * np.finfo(float).eps
         self.n, self.dtype = n, dtype
@@ -357,11 +362,16 @@ class _FusedADMM:
         for k, a in enumerate(range(0, n, self.rows)):
             b = min(a + self.rows, n)
             low_rank, w1, b_rows = (buffer[: b - a] for buffer in (*self.buffers[:2], self.buffers[2 + k % 2]))
-            products = [self.pool.submit(np.matmul, coef[a:b], PT, out=o) for coef, o in ((low_coef, low_rank), (w1_coef, w1))]
+            products = [
+                self.pool.submit(np.matmul, coef[a:b], PT, out=product)
+                for coef, product in ((low_coef, low_rank), (w1_coef, w1))
+            ]
             data += self._data_term(pending)
             for task in products:
                 task.result()
-            _update_pass(C, W2, W3, low_rank, w1, a, g, h, real(rescale), t1, self.zero_diagonal, self.ordered, b_rows, out)
+            _update_pass(
+                C, W2, W3, low_rank, w1, a, g, h, real(rescale), t1, self.zero_diagonal, self.ordered, b_rows, out
+            )
             pending = (a, b, self.pool.submit(np.matmul, b_rows, P))  # B P, collected during the next block
         data += self._data_term(pending)
         duals, dual = out.sum(axis=0)
@@ -379,7 +389,7 @@ class _FusedADMM:
 
     def _projection(self, C: np.ndarray) -> np.ndarray:
         """``C P`` (``n x r``, float64) with the rows shared among the pool's threads."""
-        parts = np.array_split(np.arange(self.n), self.pool._max_workers)
+        parts = np.array_split(np.arange(self.n), self.workers)
         tasks = [self.pool.submit(np.matmul, C[p[0]:p[-1] + 1], self.P) for p in parts if p.size]
         return np.vstack([task.result() for task in tasks])
 
@@ -421,8 +431,10 @@ def osc_admm(
     if not (lambda1 > 0 and lambda2 >= 0 and rho > 0):
         raise InputError(f"osc: need lambda1 > 0, lambda2 >= 0 and rho > 0, got {lambda1}, {lambda2}, {rho}")
     # single-threaded BLAS calls, spread over our own threads: spinning BLAS workers would stall numba's passes
-    with threadpool_limits(1, user_api="blas"), ThreadPoolExecutor(numba.get_num_threads()) as pool:
-        return _run(_FusedADMM(X, lambda1, lambda2, zero_diagonal, dt, pool), rho, max_iter, tol)
+    with threadpool_limits(1, user_api="blas"):
+        state = _FusedADMM(X, lambda1, lambda2, zero_diagonal, dt, numba.get_num_threads())
+        with state.pool:
+            return _run(state, rho, max_iter, tol)
 
 
 def _run(state: _FusedADMM, rho: float, max_iter: int, tol: float) -> OSCResult:
@@ -443,9 +455,6 @@ def _run(state: _FusedADMM, rho: float, max_iter: int, tol: float) -> OSCResult:
         rescale = _balance(r / max(eps_r, 1e-300), s / max(eps_s, 1e-300)) if _adapts(k) else 1.0
     B = state.coefficients(rho)
     return OSCResult(B.T, k, converged, {key: np.array(v) for key, v in history.items()}, rho)
-
-
-DEFAULT_RHO_PER_LAMBDA = 30.0
 
 
 def _adapts(k: int) -> bool:
