@@ -67,6 +67,12 @@ def test_eigengap_finds_the_number_of_blocks(k, solver):
     assert estimate_n_clusters(W, max_clusters=8, random_state=0) == k
 
 
+def test_integer_affinity(solver):
+    W, truth = block_affinity([30, 40], between=0.0)
+    labels = normalized_cuts((W > 0).astype(int), 2, random_state=0)
+    assert adjusted_rand_score(truth, labels) == 1.0
+
+
 def test_one_cluster_and_degenerate_sizes():
     W, _ = block_affinity([10, 10])
     np.testing.assert_array_equal(normalized_cuts(W, 1), np.zeros(20, dtype=int))

@@ -73,13 +73,14 @@ def _leading_eigenpairs(W, k: int, random_state):
         with threadpool_limits(1, user_api="blas"):
             values, vectors = scipy.linalg.eigh(M, subset_by_index=[n - k, n - 1])
         return values, vectors, inv_sqrt
-    scale = inv_sqrt.astype(W.dtype)
+    real = W.dtype if W.dtype in (np.float32, np.float64) else np.dtype(np.float64)
+    scale = inv_sqrt.astype(real)
 
     def matvec(v):
-        return scale * (W @ (scale * v.ravel().astype(W.dtype)))
+        return scale * (W @ (scale * v.ravel().astype(real)))
 
     def matmat(V):
-        return scale[:, None] * (W @ (scale[:, None] * V.astype(W.dtype)))
+        return scale[:, None] * (W @ (scale[:, None] * V.astype(real)))
 
     operator = LinearOperator((n, n), matvec=matvec, matmat=matmat, dtype=float)
     v0 = np.random.default_rng(_seed(random_state)).uniform(-1.0, 1.0, n)
