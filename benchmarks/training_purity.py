@@ -32,6 +32,8 @@ CONFIGS = {
     "window-12": {"window": 12},
     "extra-1": {"extra_clusters": 1},
     "extra-8": {"extra_clusters": 8},
+    "kmeans": {"clustering": "kmeans"},
+    "kmeans-extra-6": {"clustering": "kmeans", "extra_clusters": 6},
 }
 
 

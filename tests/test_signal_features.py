@@ -10,6 +10,7 @@ from spotfree.io.recording import Recording
 from spotfree.signal.features import (
     DERIVED_CHANNELS,
     FEATURE_CHANNELS,
+    LEAN_BIAS_TIME_CONSTANT,
     LEAN_TIME_CONSTANT,
     FeatureStream,
     lean_coefficients,
@@ -159,14 +160,24 @@ def test_derived_lean_is_the_leaky_integral_of_pitch_rate_and_follows_a_held_lea
     feats = ride_features(device_recording(acc, np.column_stack([np.zeros(n), q, np.zeros(n)])), derived=True)
     assert tuple(feats.names) == FEATURE_CHANNELS + DERIVED_CHANNELS
     lean = feats.array(["lean"])[:, 0]
-    b, a = lean_coefficients(RATE)
-    expected = np.zeros(n)
+    b, a, c = lean_coefficients(RATE)
+    expected, bias = np.zeros(n), np.zeros(n)
     for k in range(n):
-        expected[k] = (a * expected[k - 1] if k else 0.0) + b * q[k]
+        bias[k] = (c * bias[k - 1] if k else 0.0) + (1 - c) * q[k]
+        expected[k] = (a * expected[k - 1] if k else 0.0) + b * (q[k] - bias[k])
     np.testing.assert_allclose(lean, expected, atol=1e-12)
-    # 2 s into the held lean, the leaky integral keeps it within exp(-2 / tau) of the true value
-    i = int(7.0 * RATE)
-    assert lean[i] == pytest.approx(-0.2 * np.exp(-2.0 / LEAN_TIME_CONSTANT), rel=0.05)
+    # 2 s into the held lean: the step response of the two high-passes, (p1 e^-p1 t - p2 e^-p2 t) / (p1 - p2)
+    p1, p2, i = 1 / LEAN_TIME_CONSTANT, 1 / LEAN_BIAS_TIME_CONSTANT, int(7.0 * RATE)
+    kept = (p1 * np.exp(-2.0 * p1) - p2 * np.exp(-2.0 * p2)) / (p1 - p2)
+    assert lean[i] == pytest.approx(-0.2 * kept, rel=0.03)
+
+
+def test_derived_lean_forgets_a_constant_gyro_bias():
+    n, bias = 2400, 0.01  # rad/s, 2 minutes
+    acc = np.tile([0.0, 0.0, GRAVITY], (n, 1))
+    gyr = np.column_stack([np.zeros(n), np.full(n, bias), np.zeros(n)])
+    lean = ride_features(device_recording(acc, gyr), derived=True).array(["lean"])[:, 0]
+    assert abs(lean[-1]) < 0.1 * bias * LEAN_TIME_CONSTANT
 
 
 def test_stream_with_derived_channels_equals_batch_and_keeps_six_by_default():

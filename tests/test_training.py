@@ -35,11 +35,10 @@ def test_sudden_braking_is_a_small_share_with_confounders(experiments):
     assert any(e for e in sb.truth["event"])
 
 
-@pytest.mark.xfail(strict=True, reason="measured (benchmarks/training_purity.py, seeds 0-4): evidence recipe keeps "
-                   "cruising only on seeds 0-2 (purity 0.80/0.96/0.86; normal 0.13 on seed 1) and impure braking "
-                   "on seeds 3-4 (normal 0.08/0.32, sudden 0.16/0.06, no cruising); level-1 OSC "
-                   "groups mix cruising with braking even on lean+acc_x windows with an affine row, and a pure "
-                   "hard-braking group present in both rides is named background by the enrichment rule")
+@pytest.mark.xfail(strict=True, reason="measured (benchmarks/training_purity.py, seeds 0-4, BENCHMARKS.md): "
+                   "lowest class purity 0 on every seed (no sudden-braking column on 4 of 5), best class 0.73-0.95; level-1 groups mix cruising with braking, "
+                   "braking splits by intensity into groups present in both rides that presence and enrichment "
+                   "name background, and ride-specific groups pass enrichment")
 def test_dictionary_is_pure_and_beats_the_papers_literal_recipe(experiments, evidence):
     ours = dictionary_purity(evidence, experiments)
     paper = dictionary_purity(train(experiments, TrainingConfig(recipe="paper", seed=0)), experiments)

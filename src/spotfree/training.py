@@ -12,7 +12,7 @@ Output: a :class:`~spotfree.model.DictionaryModel` whose columns are windows kep
    The dictionary stores the windows without that row; ``parameters["affine"]`` tells classification to append it.
 2. Windows of all recordings pooled; Ordered Subspace Clustering into ``n_classes + extra_clusters`` groups, more
    groups than declared classes, so that a confounder (a turn, a bump, a change of speed) gets a group of its own
-   instead of being merged with a manoeuvre.
+   instead of being merged with a manoeuvre. ``clustering="kmeans"`` replaces OSC by k-means, for comparison.
 3. Groups named by evidence across recordings (:mod:`spotfree.naming`); the user may override any name.
 4. Nesting: every group named a manoeuvre is checked against the known, less specific classes (background first):
    its windows are classified by CRC against those classes' windows and its own windows outside the run being
@@ -21,7 +21,9 @@ Output: a :class:`~spotfree.model.DictionaryModel` whose columns are windows kep
    separates the normal braking hidden around each sudden stop).
 5. Purification: windows within ``margin`` windows of a change of name straddle two states and are dropped, and so
    are windows that the rest of the dictionary classifies otherwise (leave-run-out CRC: a run of windows is
-   classified against all kept windows outside it). At most ``max_columns`` per class are kept, evenly over time.
+   classified against the kept windows outside it). Every CRC check of steps 4 and 5 gives each class the same
+   number of atoms, chosen evenly over time (:func:`_balanced`): with hundreds of background atoms in a window
+   space of a few dozen dimensions, the background would represent anything. At most ``max_columns`` per class are kept, evenly over time.
 
 ``recipe="paper"`` is the paper's procedure taken literally, kept to measure the gain: each recording alone, unit-
 norm windows, split in two, the larger cluster named the background and the smaller the recording's most specific
@@ -34,6 +36,7 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
+from sklearn.cluster import KMeans
 
 from spotfree.classify.crc import CRCClassifier
 from spotfree.cluster.osc import OrderedSubspaceClustering
@@ -70,6 +73,7 @@ class TrainingConfig:
     extra_clusters: int = 3
     background: str | None = None
     affine: float = 6.0
+    clustering: str = "osc"
     overrides: dict[int, str] = field(default_factory=dict)
     max_columns: int = 100
     margin: int | None = None
@@ -165,11 +169,14 @@ def _validate(experiments: list[TrainingExperiment], config: TrainingConfig) -> 
         raise InputError(f"window must be at least 2 samples, got {config.window}")
 
 
-def _cluster(matrix: np.ndarray, n_clusters: int, seed: int) -> np.ndarray:
-    """OSC labels of the columns of a block-Hankel ``matrix`` (windows as columns)."""
+def _cluster(matrix: np.ndarray, n_clusters: int, seed: int, method: str = "osc") -> np.ndarray:
+    """Cluster labels of the columns of a block-Hankel ``matrix`` (windows as columns): Ordered Subspace Clustering
+    (``"osc"``) or k-means (``"kmeans"``, 10 restarts)."""
     n_clusters = max(1, min(n_clusters, matrix.shape[1]))
     if n_clusters == 1:
         return np.zeros(matrix.shape[1], dtype=int)
+    if method == "kmeans":
+        return KMeans(n_clusters, n_init=10, random_state=seed).fit_predict(matrix.T)
     return OrderedSubspaceClustering(n_clusters=n_clusters, random_state=seed).fit(matrix.T).labels_
 
 
@@ -179,7 +186,7 @@ def _evidence_recipe(windows, declared, config, say):
     pooled = np.hstack([w.matrix for w in windows])
     recording = np.concatenate([np.full(w.matrix.shape[1], r) for r, w in enumerate(windows)])
     say(f"clustering {pooled.shape[1]} windows into {n_classes + config.extra_clusters} groups")
-    labels = _cluster(pooled, n_clusters=n_classes + config.extra_clusters, seed=config.seed)
+    labels = _cluster(pooled, n_classes + config.extra_clusters, config.seed, config.clustering)
     counts = presence_matrix(labels, recording, labels.max() + 1, len(windows))
     names = name_clusters(counts, declared, background)
     for cluster, name in config.overrides.items():
@@ -196,7 +203,8 @@ def _evidence_recipe(windows, declared, config, say):
         for j in [n.cluster for n in names if n.name == cls and n.rule != "named by the user"]:
             members = np.flatnonzero(labels == j)
             say(f"nesting: checking group {j} ({cls}, {len(members)} windows) against {', '.join(known)}")
-            halves = _cluster(pooled[:, members], 2, config.seed) if len(members) >= 4 * config.window else None
+            halves = (_cluster(pooled[:, members], 2, config.seed, config.clustering)
+                      if len(members) >= 4 * config.window else None)
             parts = [members] if halves is None else [members[halves == 0], members[halves == 1]]
             if halves is not None:
                 level2[members[halves == 1]] = next_label
@@ -227,9 +235,9 @@ def _explained_by(pooled, recording, per_window, part, cls, known, config):
         own = np.setdiff1d(part, np.arange(run[0] - config.window, run[-1] + config.window + 1))
         if len(own) == 0:
             continue
-        atoms = np.hstack([pooled[:, own], pooled[:, dictionary_mask]])
-        atom_class = np.r_[np.full(len(own), cls, dtype=object), per_window[dictionary_mask]].astype(str)
-        votes.append(CRCClassifier().fit(atoms.T, atom_class).predict(pooled[:, run].T))
+        atoms = np.r_[own, _balanced(np.flatnonzero(dictionary_mask), per_window, len(own))]
+        atom_class = np.r_[np.full(len(own), cls, dtype=object), per_window[atoms[len(own):]]].astype(str)
+        votes.append(CRCClassifier().fit(pooled[:, atoms].T, atom_class).predict(pooled[:, run].T))
     if not votes:
         return None
     values, counts = np.unique(np.concatenate(votes), return_counts=True)
@@ -238,6 +246,21 @@ def _explained_by(pooled, recording, per_window, part, cls, known, config):
     if values[best] != cls and fraction > 0.5:
         return str(values[best]), float(fraction)
     return None
+
+
+def _balanced(index: np.ndarray, names: np.ndarray, cap: int) -> np.ndarray:
+    """At most ``cap`` of the windows ``index`` per name, evenly over time.
+
+    Collaborative representation lets the class with the most atoms represent almost anything (a few hundred
+    atoms span the whole window space), so a consistency check compares classes with equal numbers of atoms.
+    """
+    chosen = []
+    for name in np.unique(names[index]):
+        own = index[names[index] == name]
+        if len(own) > cap:
+            own = own[np.linspace(0, len(own) - 1, cap).round().astype(int)]
+        chosen.append(own)
+    return np.sort(np.concatenate(chosen))
 
 
 def _paper_recipe(windows, declared, config, say):
@@ -285,6 +308,7 @@ def _purify(windows, names_per_window, config, say) -> list[np.ndarray]:
             others = np.setdiff1d(index, np.arange(run[0] - config.window, run[-1] + config.window + 1))
             if len(np.unique(names[others])) < 2:
                 continue
+            others = _balanced(others, names, np.unique(names[others], return_counts=True)[1].min())
             clf = CRCClassifier().fit(pooled[:, others].T, names[others])
             keep[run] &= clf.predict(pooled[:, run].T) == names[run]
     split = np.cumsum([0] + [w.matrix.shape[1] for w in windows])
