@@ -36,7 +36,8 @@ def test_sudden_braking_is_a_small_share_with_confounders(experiments):
 
 
 @pytest.mark.xfail(strict=True, reason="measured (benchmarks/training_purity.py, seeds 0-4, BENCHMARKS.md): "
-                   "lowest class purity 0 on every seed (no sudden-braking column on 4 of 5), best class 0.73-0.95; level-1 groups mix cruising with braking, "
+                   "lowest class purity 0 on every seed (no sudden-braking column on 4 of 5), best class "
+                   "0.73-0.95; level-1 groups mix cruising with braking, "
                    "braking splits by intensity into groups present in both rides that presence and enrichment "
                    "name background, and ride-specific groups pass enrichment")
 def test_dictionary_is_pure_and_beats_the_papers_literal_recipe(experiments, evidence):

@@ -23,7 +23,8 @@ Output: a :class:`~spotfree.model.DictionaryModel` whose columns are windows kep
    are windows that the rest of the dictionary classifies otherwise (leave-run-out CRC: a run of windows is
    classified against the kept windows outside it). Every CRC check of steps 4 and 5 gives each class the same
    number of atoms, chosen evenly over time (:func:`_balanced`): with hundreds of background atoms in a window
-   space of a few dozen dimensions, the background would represent anything. At most ``max_columns`` per class are kept, evenly over time.
+   space of a few dozen dimensions, the background would represent anything. At most ``max_columns`` per class
+   are kept, evenly over time.
 
 ``recipe="paper"`` is the paper's procedure taken literally, kept to measure the gain: each recording alone, unit-
 norm windows, split in two, the larger cluster named the background and the smaller the recording's most specific
