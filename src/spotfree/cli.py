@@ -114,6 +114,8 @@ def train(
                                              "first class declared in every recording)"),
     name: list[str] = typer.Option([], "--name", help="CLUSTER=CLASS: override the name of a level-1 cluster"),
     extra_clusters: int = typer.Option(3, "--extra-clusters", help="clusters beyond the declared classes"),
+    affine: float = typer.Option(6.0, "--affine", help="constant row appended to windows for clustering (0: none)"),
+    clustering: str = typer.Option("osc", "--clustering", help="osc | kmeans (for comparison)"),
     seed: int = typer.Option(0, "--seed"),
     figure: Optional[Path] = typer.Option(None, "--figure", help="diagnostic figure (default: MODEL.png)"),
 ) -> None:
@@ -129,7 +131,7 @@ def train(
     config = TrainingConfig(
         channels=tuple(c.strip() for c in channels.split(",")) if channels else DEFAULT_CHANNELS,
         window=window, step=step, recipe=recipe, background=background, overrides=_parse_names(name),
-        extra_clusters=extra_clusters, seed=seed,
+        extra_clusters=extra_clusters, affine=affine, clustering=clustering, seed=seed,
     )
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=err,
                   transient=True) as bar:
