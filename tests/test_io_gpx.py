@@ -111,3 +111,15 @@ def test_writing_without_fixes_is_refused(tmp_path):
     with pytest.raises(InputError, match="hold no fix"):
         write_gpx(empty, tmp_path / "x.gpx")
     assert not (tmp_path / "x.gpx").exists()
+
+
+def test_a_route_without_speed_gets_speed_from_distance_over_time(tmp_path):
+    path = tmp_path / "route.gpx"
+    path.write_text(
+        '<?xml version="1.0"?><gpx version="1.1" creator="t"><rte>'
+        '<rtept lat="1" lon="2"><time>2020-01-01T00:00:00Z</time></rtept>'
+        '<rtept lat="1.0001" lon="2"><time>2020-01-01T00:00:01Z</time></rtept></rte></gpx>'
+    )
+    rec = read_gpx(path)
+    speed = rec.channels["speed"][np.isfinite(rec.channels["speed"])]
+    np.testing.assert_allclose(speed, 11.12, rtol=2e-3)  # 1e-4 degree of latitude in one second

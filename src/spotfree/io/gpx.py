@@ -4,7 +4,7 @@ Reading: every track point (all tracks and segments; route points when the file 
 ``lat``, ``lon`` (degrees), ``alt`` (m, from ``<ele>``), ``speed`` (m/s) and ``heading`` (rad, from ``<course>``
 in degrees). Speed is ``<speed>`` (GPX 1.0) or a ``speed`` extension element (e.g. Garmin's
 TrackPointExtension); when the file has neither it is derived from consecutive fixes of a segment, great-circle
-distance over elapsed time (gpxpy's ``speed_between``), and that is logged in ``meta['repairs']``. The
+distance over elapsed time (gpxpy's great-circle ``geo.distance``), and that is logged in ``meta['repairs']``. The
 Recording spans the first to the last fix on a ``rate`` Hz grid, each fix on its nearest sample and NaN
 elsewhere; times are seconds since the first fix, ``meta['start_epoch']`` is that fix in UNIX seconds.
 
@@ -19,6 +19,7 @@ import datetime as dt
 from pathlib import Path
 
 import gpxpy
+import gpxpy.geo
 import gpxpy.gpx
 import numpy as np
 
@@ -55,8 +56,9 @@ def read_gpx(path: str | Path, rate: float = 20.0) -> Recording:
             if speed is None:
                 derived = True
                 pair = (points[i - 1], point) if i > 0 else (point, points[i + 1]) if len(points) > 1 else None
-                speed = pair[1].speed_between(pair[0]) if pair else None
-            heading = np.deg2rad(point.course) if point.course is not None else np.nan
+                speed = _speed_between(*pair) if pair else None
+            course = getattr(point, "course", None)
+            heading = np.deg2rad(course) if course is not None else np.nan
             rows.append([point.latitude, point.longitude, _float(point.elevation), _float(speed), heading])
             times.append(_epoch(point.time))
     if derived:
@@ -100,9 +102,22 @@ def write_gpx(rec: Recording, path: str | Path) -> None:
     checks.write_text(Path(path), document.to_xml(version="1.0"))
 
 
+def _speed_between(earlier, later) -> float | None:
+    """Ground speed (m/s) from two timed points: great-circle distance over elapsed time (None if no time passed)."""
+    if earlier.time is None or later.time is None:
+        return None
+    seconds = (later.time - earlier.time).total_seconds()
+    if seconds <= 0:
+        return None
+    return gpxpy.geo.distance(earlier.latitude, earlier.longitude, None, later.latitude, later.longitude, None) / seconds
+
+
 def _speed(point: gpxpy.gpx.GPXTrackPoint) -> float | None:
-    """``<speed>`` of the point, or the first extension element named ``speed`` (any namespace), in m/s."""
-    if point.speed is not None:
+    """``<speed>`` of the point, or the first extension element named ``speed`` (any namespace), in m/s.
+
+    Route and way points (``<rtept>``, ``<wpt>``) have no ``<speed>`` in gpxpy; only their extensions are read.
+    """
+    if getattr(point, "speed", None) is not None:
         return point.speed
     for extension in point.extensions:
         for element in extension.iter():
