@@ -178,27 +178,19 @@ def test_acc_x_with_gravity_is_a_misspelt_raw_column(tmp_path):
         read_csv(write_table(tmp_path / "raw.csv", columns))
 
 
-def test_a_repeated_column_name_is_refused(tmp_path):
-    path = tmp_path / "dup.csv"
-    path.write_text("time,ax,ax\n0,1,2\n0.05,1,2\n")
-    with pytest.raises(InputError, match=r"dup\.csv: column 'ax' appears twice"):
-        read_csv(path)
-
-
 # ---------------------------------------------------------------- cells
 
 
-def test_an_empty_file_is_refused(tmp_path):
-    path = tmp_path / "empty.csv"
-    path.write_text("")
-    with pytest.raises(InputError, match=r"empty\.csv: the file is empty"):
-        read_csv(path)
-
-
-def test_a_header_without_rows_is_refused(tmp_path):
-    path = tmp_path / "header.csv"
-    path.write_text("time,ax,ay,az\n")
-    with pytest.raises(InputError, match=r"header\.csv: 0 data row"):
+@pytest.mark.parametrize(
+    "name, text, message",
+    [("empty.csv", "", r"empty\.csv: the file is empty"),
+     ("header.csv", "time,ax,ay,az\n", r"header\.csv: 0 data row"),
+     ("dup.csv", "time,ax,ax\n0,1,2\n0.05,1,2\n", r"dup\.csv: column 'ax' appears twice")],
+)
+def test_files_without_usable_rows_or_columns_are_refused(name, text, message, tmp_path):
+    path = tmp_path / name
+    path.write_text(text)
+    with pytest.raises(InputError, match=message):
         read_csv(path)
 
 

@@ -82,25 +82,22 @@ def test_speed_is_derived_from_positions_when_missing(tmp_path):
     assert any("speed derived from consecutive fixes" in r for r in rec.meta["repairs"])
 
 
-def test_points_without_time_are_refused(tmp_path):
-    path = tmp_path / "untimed.gpx"
-    path.write_text('<gpx version="1.1" creator="t"><trk><trkseg><trkpt lat="1" lon="2"/></trkseg></trk></gpx>')
-    with pytest.raises(InputError, match=r"untimed\.gpx: track point 1 has no <time>"):
-        read_gpx(path)
+BAD_GPX = {
+    "untimed.gpx": ('<gpx version="1.1" creator="t"><trk><trkseg><trkpt lat="1" lon="2"/></trkseg></trk></gpx>',
+                    r"untimed\.gpx: track point 1 has no <time>"),
+    "empty.gpx": ('<gpx version="1.1" creator="t"></gpx>', r"empty\.gpx: no track or route points"),
+    "broken.gpx": ("<gpx><trk>", r"broken\.gpx: not a readable GPX file"),
+}
 
 
-def test_a_file_without_points_is_refused(tmp_path):
-    path = tmp_path / "empty.gpx"
-    path.write_text('<gpx version="1.1" creator="t"></gpx>')
-    with pytest.raises(InputError, match=r"empty\.gpx: no track or route points"):
-        read_gpx(path)
-
-
-def test_broken_xml_is_refused(tmp_path):
-    path = tmp_path / "broken.gpx"
-    path.write_text("<gpx><trk>")
-    with pytest.raises(InputError, match=r"broken\.gpx: not a readable GPX file"):
-        read_recording(path)
+@pytest.mark.parametrize("name", sorted(BAD_GPX))
+@pytest.mark.parametrize("reader", [read_gpx, read_recording], ids=["read_gpx", "read_recording"])
+def test_unusable_gpx_files_are_refused(name, reader, tmp_path):
+    text, message = BAD_GPX[name]
+    path = tmp_path / name
+    path.write_text(text)
+    with pytest.raises(InputError, match=message):
+        reader(path)
 
 
 def test_writing_without_fixes_is_refused(tmp_path):
