@@ -1,0 +1,45 @@
+"""Shared by the classification tests: simulated rides and dictionaries cut from them with the hidden truth.
+
+A dictionary whose columns are named by the simulator's ``label`` column tests the classification mechanics
+(windows, alignment, gaps, streaming); it is not a trained model (training never reads ``label``).
+"""
+
+import numpy as np
+
+from spotfree.io.recording import Recording
+from spotfree.model import DictionaryModel
+from spotfree.signal.features import ride_features
+from spotfree.sim.scenarios import simulate_scenario
+from spotfree.windows import ChannelScaling, recording_windows
+
+CHANNELS = ("lean", "acc_x")
+
+
+def rides(seed: int = 1, repeats: int = 2) -> Recording:
+    """``repeats`` simulated sudden-braking rides (raw IMU, 20 Hz, truth labels) in one Recording."""
+    return simulate_scenario("sudden-braking", repeats=repeats, seed=seed)
+
+
+def truth_model(raw: Recording, channels=CHANNELS, window: int = 20, step: int = 1, normalisation: str = "scale",
+                affine: float = 6.0, features: str = "ride", stride: int = 3) -> DictionaryModel:
+    """A dictionary of every ``stride``-th window of ``raw``'s ride features, each named by the true label at its
+    centre."""
+    feats = ride_features(raw, derived=True)
+    scaling = ChannelScaling(tuple(channels)).fit([feats])
+    windows = recording_windows(feats, tuple(channels), window, stride, scaling, normalisation)
+    names = feats.truth["label"][windows.ends - window // 2]
+    classes = sorted(set(names))
+    return DictionaryModel(
+        classes=classes, channels=list(channels), rate=feats.rate, window=window, step=step,
+        normalisation=normalisation, scale=scaling.scale, dictionary=windows.matrix,
+        column_class=np.array([classes.index(n) for n in names]), features=features,
+        parameters={"affine": affine},
+    )
+
+
+def with_gap(rec: Recording, start: int, stop: int) -> Recording:
+    """A copy of ``rec`` whose samples ``start:stop`` are NaN in every channel (a reported gap)."""
+    channels = {name: values.copy() for name, values in rec.channels.items()}
+    for values in channels.values():
+        values[start:stop] = np.nan
+    return rec.with_channels(channels)
