@@ -1,10 +1,13 @@
 """Shared by the classification tests: simulated rides and dictionaries cut from them with the hidden truth.
 
+Test modules import the fixtures ``raw`` and ``model`` from here.
+
 A dictionary whose columns are named by the simulator's ``label`` column tests the classification mechanics
 (windows, alignment, gaps, streaming); it is not a trained model (training never reads ``label``).
 """
 
 import numpy as np
+import pytest
 
 from spotfree.io.recording import Recording
 from spotfree.model import DictionaryModel
@@ -18,6 +21,18 @@ CHANNELS = ("lean", "acc_x")
 def rides(seed: int = 1, repeats: int = 2) -> Recording:
     """``repeats`` simulated sudden-braking rides (raw IMU, 20 Hz, truth labels) in one Recording."""
     return simulate_scenario("sudden-braking", repeats=repeats, seed=seed)
+
+
+@pytest.fixture(scope="module")
+def raw() -> Recording:
+    """Two sudden-braking rides, seed 1."""
+    return rides()
+
+
+@pytest.fixture(scope="module")
+def model(raw) -> DictionaryModel:
+    """A truth-named dictionary from the first ride of :func:`raw`."""
+    return truth_model(raw.select_experiment(1))
 
 
 def truth_model(raw: Recording, channels=CHANNELS, window: int = 20, step: int = 1, normalisation: str = "scale",

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from classify_fixtures import rides, truth_model, with_gap
+from classify_fixtures import model, raw, truth_model, with_gap  # noqa: F401 (fixtures)
 
 from spotfree.classify.batch import classify_recording, dictionary_classifier, model_features
 from spotfree.classify.smoothing import MajorityVote, majority_vote
@@ -12,16 +12,6 @@ from spotfree.sim.scenarios import simulate_scenario
 from spotfree.windows import block_hankel, with_affine_row
 
 L = 20
-
-
-@pytest.fixture(scope="module")
-def raw():
-    return rides()
-
-
-@pytest.fixture(scope="module")
-def model(raw):
-    return truth_model(raw.select_experiment(1))
 
 
 @pytest.fixture(scope="module")

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from classify_fixtures import rides, truth_model, with_gap
+from classify_fixtures import model, raw, truth_model, with_gap  # noqa: F401 (fixtures)
 
 from spotfree.classify.batch import classify_recording
 from spotfree.classify.stream import RideClassifier
@@ -10,16 +10,6 @@ from spotfree.errors import InputError
 from spotfree.signal.features import ride_features
 
 L = 20
-
-
-@pytest.fixture(scope="module")
-def raw():
-    return rides()
-
-
-@pytest.fixture(scope="module")
-def model(raw):
-    return truth_model(raw.select_experiment(1))
 
 
 def stream_labels(classifier, rec, times=True):
