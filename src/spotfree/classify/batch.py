@@ -158,5 +158,5 @@ def classify_recording(model: DictionaryModel, rec: Recording, method: str = "cr
         time=feats.time, label=label, rate=feats.rate, experiment=feats.experiment, source=rec.source,
         meta={"method": method, "alignment": "centred" if centred else "causal", "offset": offset,
               "window": model.window, "step": model.step, "smoothing": smoothing or 0,
-              "classes": list(model.classes)},
+              "classes": [str(c) for c in model.classes]},
     )
