@@ -14,7 +14,6 @@ runner = CliRunner()
 
 CONTRACT = ["simulate", "features", "train", "classify", "evaluate", "serve", "hand", "fleet"]
 UNBUILT = [
-    ["classify", "m.npz", "in.csv", "-o", "out.csv"],
     ["evaluate", "-o", "report"],
     ["serve"],
     ["hand", "simulate", "-o", "h.jsonl"],

@@ -179,13 +179,31 @@ def _parse_names(specs: list[str]) -> dict[int, str]:
 @app.command()
 @user_errors
 def classify(
-    model: Path = typer.Argument(...),
-    source: str = typer.Argument(..., metavar="IN"),
-    output: Path = typer.Option(..., "-o", "--output"),
+    model: Path = typer.Argument(..., metavar="MODEL.npz", help="model file written by 'spotfree train'"),
+    source: str = typer.Argument(..., metavar="IN", help="any supported log; PATH@K selects experiment K"),
+    output: Path = typer.Option(..., "-o", "--output", help="CSV file to write: time, label (and experiment)"),
     method: str = typer.Option("crc", "--method", help="crc | src | bsrc"),
+    centred: bool = typer.Option(False, "--centred", help="label each sample by the window centred on it "
+                                 "(offline); default: the window ending at it, as a live stream does"),
+    smooth: int = typer.Option(0, "--smooth", help="majority vote over N samples (0: none)"),
 ) -> None:
-    """Label every sample of a log with a trained model (not built yet)."""
-    _not_built("spotfree classify", 4)
+    """Label every sample of a log with a trained model."""
+    from spotfree.classify.batch import classify_recording
+    from spotfree.io import read_recording
+    from spotfree.model import DictionaryModel
+
+    dictionary = DictionaryModel.load(model)
+    rec = read_recording(source, rate=dictionary.rate)
+    labels = classify_recording(dictionary, rec, method=method, centred=centred, smoothing=smooth)
+    labels.write_csv(output)
+    _report_repairs_and_gaps(rec)
+    window = f"{dictionary.window} samples = {dictionary.window / dictionary.rate:.2f} s"
+    where = f"centred on it (offset {labels.meta['offset']} samples)" if centred else "ending at it"
+    out.print(f"wrote {output}: {int(labels.labelled().sum())} of {len(labels)} samples labelled by {method}; "
+              f"windows: {labels.meta['alignment']}, each label from the window of {window} {where}"
+              + (f"; majority vote over {smooth} samples" if smooth else ""))
+    for gap in labels.breaks():
+        out.print(f"{gap} (gap in {rec.source}; no label across it)")
 
 
 @app.command()

@@ -18,12 +18,15 @@ with no label: the first ``window - 1 - o`` of every segment, its last ``o``, an
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from spotfree.classify import make_classifier
 from spotfree.classify.smoothing import check_smoothing, majority_vote
 from spotfree.errors import InputError
+from spotfree.io.checks import write_text
 from spotfree.io.recording import Recording
 from spotfree.model import DictionaryModel
 from spotfree.signal.features import ride_features
@@ -78,6 +81,15 @@ class Labels:
             cut[1:] |= change
             end[:-1] |= change
         return list(zip(np.flatnonzero(ok & cut).tolist(), (np.flatnonzero(ok & end) + 1).tolist()))
+
+    def write_csv(self, path: str | Path) -> None:
+        """Write ``experiment`` (when set), ``time`` (s) and ``label`` (empty where none) as CSV, atomically."""
+        columns: dict[str, object] = {}
+        if self.experiment is not None:
+            columns["experiment"] = self.experiment
+        columns["time"] = [repr(float(t)) for t in np.round(self.time, 9)]
+        columns["label"] = self.label
+        write_text(Path(path), pd.DataFrame(columns).to_csv(index=False, lineterminator="\n"))
 
     def breaks(self) -> list[LabelBreak]:
         """Where labels stop and resume inside one experiment (at gaps in the input)."""

@@ -25,7 +25,7 @@ def check_smoothing(n: int | None) -> int | None:
     if n is None or n == 0:
         return None
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
-        raise InputError(f"smoothing must be a whole number of samples >= 1 (or 0 for none), got {n!r}")
+        raise InputError(f"smoothing (--smooth) must be a whole number of samples >= 1 (or 0 for none), got {n!r}")
     return int(n)
 
 

@@ -1,0 +1,101 @@
+"""`spotfree classify MODEL.npz IN -o OUT.csv`: a trained model file on simulated logs, gaps stated, bad input."""
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from spotfree.cli import app
+from spotfree.io.csvlog import write_csv
+from spotfree.pipeline import feature_recording
+from spotfree.sim.scenarios import simulate_scenario
+from spotfree.training import TrainingConfig, TrainingExperiment, train
+
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory):
+    """A model trained (no labels read) on the first 25 s of two simulated rides, and a two-ride log."""
+    root = tmp_path_factory.mktemp("classify")
+    experiments = []
+    for scenario, seed, classes in (("normal-braking", 0, ["cruising", "normal-braking"]),
+                                    ("sudden-braking", 1, ["cruising", "normal-braking", "sudden-braking"])):
+        write_csv(simulate_scenario(scenario, repeats=1, seed=seed).take(slice(0, 500)), root / f"{scenario}.csv")
+        experiments.append(TrainingExperiment(feature_recording(str(root / f"{scenario}.csv")), classes))
+    train(experiments, TrainingConfig(seed=0)).model.save(root / "model.npz")
+    result = runner.invoke(app, ["simulate", "sudden-braking", "-o", str(root / "ride.csv"), "--repeats", "2",
+                                 "--seed", "7"])
+    assert result.exit_code == 0, result.output
+    return root
+
+
+def invoke(*argv):
+    return runner.invoke(app, [str(a) for a in argv], catch_exceptions=False)
+
+
+def test_every_sample_gets_a_label_after_the_first_window_of_each_ride(folder):
+    result = invoke("classify", folder / "model.npz", folder / "ride.csv", "-o", folder / "labels.csv")
+    assert result.exit_code == 0, result.output
+    assert "windows: causal" in result.output and "ending at it" in result.output
+    ride = pd.read_csv(folder / "ride.csv")
+    labels = pd.read_csv(folder / "labels.csv", keep_default_na=False)
+    assert list(labels.columns) == ["experiment", "time", "label"]
+    np.testing.assert_array_equal(labels["experiment"], ride["experiment"])
+    np.testing.assert_allclose(labels["time"], ride["time"])
+    for _, part in labels.groupby("experiment"):
+        assert (part["label"].iloc[:19] == "").all() and (part["label"].iloc[19:] != "").all()
+    assert set(labels["label"]) - {""} <= {"cruising", "normal-braking", "sudden-braking"}
+    assert labels["label"].nunique() >= 3
+
+
+def test_centred_windows_and_smoothing_are_said_and_used(folder):
+    assert invoke("classify", folder / "model.npz", f"{folder / 'ride.csv'}@2", "-o", folder / "causal2.csv").exit_code == 0
+    result = invoke("classify", folder / "model.npz", f"{folder / 'ride.csv'}@2", "-o", folder / "centred.csv",
+                    "--centred", "--smooth", "5")
+    assert result.exit_code == 0, result.output
+    assert "windows: centred" in result.output and "offset 10 samples" in result.output
+    assert "majority vote over 5 samples" in result.output
+    labels = pd.read_csv(folder / "centred.csv", keep_default_na=False)
+    assert list(labels.columns) == ["experiment", "time", "label"] and set(labels["experiment"]) == {2}
+    assert (labels["label"].iloc[:9] == "").all() and (labels["label"].iloc[-10:] == "").all()
+    causal = pd.read_csv(folder / "causal2.csv", keep_default_na=False)
+    assert (causal["label"].iloc[:19] == "").all() and (causal["label"].iloc[-10:] != "").all()
+
+
+def test_labels_stop_at_a_gap_and_resume_after_it_and_say_so(folder):
+    ride = pd.read_csv(folder / "ride.csv", keep_default_na=False)
+    one = ride[ride["experiment"] == 1].drop(columns="experiment")
+    holed = one[(one["time"] < 20.0) | (one["time"] >= 23.0)]
+    holed.to_csv(folder / "holed.csv", index=False)
+    result = invoke("classify", folder / "model.npz", folder / "holed.csv", "-o", folder / "holed_labels.csv")
+    assert result.exit_code == 0, result.output
+    assert "experiment 1: labels stop after 19.95 s and resume at 23.95 s" in result.output
+    assert "no label across it" in result.output
+    labels = pd.read_csv(folder / "holed_labels.csv", keep_default_na=False)
+    assert list(labels.columns) == ["time", "label"]
+    inside = (labels["time"] >= 20.0) & (labels["time"] < 23.95)
+    assert (labels.loc[inside, "label"] == "").all() and (labels.loc[~inside, "label"].iloc[19:] != "").all()
+
+
+@pytest.mark.parametrize("case", ["rate", "model", "method", "smooth"])
+def test_bad_input_is_one_line_and_exit_2_and_writes_nothing(folder, case):
+    source, model, extra = folder / "ride.csv", folder / "model.npz", []
+    if case == "rate":
+        source = folder / "fast.csv"
+        assert invoke("simulate", "cruising", "-o", source, "--repeats", "1", "--rate", "50").exit_code == 0
+    elif case == "model":
+        model = folder / "missing.npz"
+    elif case == "method":
+        extra = ["--method", "lasso"]
+    else:
+        extra = ["--smooth", "-3"]
+    result = invoke("classify", model, source, "-o", folder / f"bad_{case}.csv", *extra)
+    assert result.exit_code == 2
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert len(lines) == 1, result.output
+    expected = {"rate": "model expects channels lean,acc_x at 20 Hz; .*fast.csv has .* at 50 Hz",
+                "model": "missing.npz: no such model file", "method": "'lasso' is unknown",
+                "smooth": r"\(--smooth\).* got -3"}[case]
+    assert pd.Series(lines).str.contains(expected).any(), result.output
+    assert not (folder / f"bad_{case}.csv").exists()
