@@ -13,10 +13,11 @@ L = 20
 
 
 def stream_labels(classifier, rec, times=True):
-    """Feed ``rec``'s raw IMU sample by sample; labels with None as ``""``."""
+    """Feed ``rec``'s raw IMU and GPS speed sample by sample; labels with None as ``""``."""
     acc, gyr = rec.array(["ax", "ay", "az"]), rec.array(["gx", "gy", "gz"])
     ts = rec.time if times else [None] * len(rec)
-    return np.array([classifier.update(a, g, t) or "" for a, g, t in zip(acc, gyr, ts)], dtype=object)
+    return np.array([classifier.update(a, g, t, v) or "" for a, g, t, v in zip(acc, gyr, ts, rec.channels["speed"])],
+                    dtype=object)
 
 
 def test_stream_equals_batch_on_two_simulated_rides(model, raw):
@@ -35,12 +36,15 @@ def test_stream_equals_batch_across_a_gap(model, raw):
     assert np.all(labels[300:330 + L - 1] == "") and labels[330 + L - 1] != ""
 
 
-def test_stream_equals_batch_with_smoothing_step_and_unit_windows(raw):
-    ride = with_gap(raw.select_experiment(2).take(slice(0, 700)), 250, 270)
-    model = truth_model(raw.select_experiment(1), step=4, normalisation="unit", affine=0.0)
+@pytest.mark.parametrize("channels, normalisation, step", [(("lean", "acc_long"), "scale", 4),
+                                                          (("lean", "acc_x"), "unit", 1)])
+def test_stream_equals_batch_with_smoothing_step_unit_windows_and_gps_speed(raw, channels, normalisation, step):
+    ride = with_gap(raw.select_experiment(2), 250, 270)
+    model = truth_model(raw.select_experiment(1), channels=channels, step=step, normalisation=normalisation)
     for smoothing in (None, 5):
         labels = stream_labels(RideClassifier(model, smoothing=smoothing), ride)
         np.testing.assert_array_equal(labels, classify_recording(model, ride, smoothing=smoothing).label)
+        assert len(set(labels) - {""}) >= 2
 
 
 def test_a_long_time_step_starts_a_new_segment(model, raw):

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 from spotfree.classify.batch import dictionary_classifier, model_affine
@@ -62,13 +63,13 @@ class RideClassifier:
                 raise InputError(f"model channel(s) {', '.join(unknown)} are not ride features "
                                  f"({', '.join(produced)}); this model cannot run on raw IMU samples")
             self._features = FeatureStream(model.rate, model.orientation, derived=True)
-            self._pick = [produced.index(c) for c in model.channels]
+            self._pick = np.array([produced.index(c) for c in model.channels])
         channels, length = len(model.channels), model.window
+        self._own = np.arange(channels)
         self._scale = np.asarray(model.scale, dtype=float)
         self._buffer = np.zeros((channels, 2 * length))
         affine = model_affine(model)
         self._y = np.full(channels * length + (affine != 0), affine)
-        self._window = self._y[:channels * length].reshape(channels, length)
         self._unit = model.normalisation == "unit"
         self._vote = MajorityVote(self.smoothing) if self.smoothing else None
         self._time: float | None = None
@@ -84,11 +85,12 @@ class RideClassifier:
         self._count = 0
         self._label: str | None = None
 
-    def update(self, acc, gyr, t: float | None = None) -> str | None:
+    def update(self, acc, gyr, t: float | None = None, speed: float = math.nan) -> str | None:
         """The label at this sample (None before the first full window of a segment).
 
         ``acc`` (m/s^2, gravity included) and ``gyr`` (rad/s): 3-vectors in the device frame (Android: x right,
-        y up, z out of the screen); ``t``: sample time in seconds, optional.
+        y up, z out of the screen); ``t``: sample time in seconds, optional; ``speed``: the GPS speed (m/s) on a
+        sample where a fix arrived, NaN otherwise (it feeds the ``acc_long`` channel).
         """
         if self._features is None:
             raise InputError(f"this model was trained on channels {','.join(self.model.channels)}, not on ride "
@@ -97,7 +99,7 @@ class RideClassifier:
         w0, w1, w2 = float(gyr[0]), float(gyr[1]), float(gyr[2])
         if self._starts_segment(t, math.isfinite(a0 + a1 + a2 + w0 + w1 + w2)):
             return None
-        return self._push(self._features.update((a0, a1, a2), (w0, w1, w2))[self._pick])
+        return self._push(self._features.update((a0, a1, a2), (w0, w1, w2), speed), self._pick)
 
     def update_features(self, x, t: float | None = None) -> str | None:
         """The label at this sample from the model's channels ``x`` (in ``model.channels`` order and units)."""
@@ -107,7 +109,7 @@ class RideClassifier:
                              f"({','.join(self.model.channels)}), got shape {x.shape}")
         if self._starts_segment(t, bool(np.isfinite(x).all())):
             return None
-        return self._push(x)
+        return self._push(x, self._own)
 
     def _starts_segment(self, t: float | None, finite: bool) -> bool:
         """Reset when this sample starts a new segment (time step, see the module docstring) or is not finite;
@@ -120,25 +122,44 @@ class RideClassifier:
             self.reset()
         return not finite
 
-    def _push(self, x: np.ndarray) -> str | None:
-        """Scale one sample into the ring buffer, classify when a window is due, return the (held) label."""
-        length, p = self.model.window, self._position
-        scaled = x / self._scale
-        self._buffer[:, p] = scaled
-        self._buffer[:, p + length] = scaled
-        self._position = (p + 1) % length
+    def _push(self, values: np.ndarray, pick: np.ndarray) -> str | None:
+        """Scale the model's channels ``values[pick]`` into the ring buffer, classify when a window is due, return
+        the (held) label."""
+        p = self._position
         self._count += 1
-        due = self._count - length
-        if due >= 0 and due % self.model.step == 0:
-            self._window[...] = self._buffer[:, p + 1:p + 1 + length]
-            if self._unit:
-                norm = np.linalg.norm(self._window)
-                if norm > 0:
-                    self._window /= norm
+        due = self._count - self.model.window
+        due = due >= 0 and due % self.model.step == 0
+        _push_sample(values, pick, self._scale, self._buffer, p, due, self._unit, self._y)
+        self._position = (p + 1) % self.model.window
+        if due:
             self._label = self._predict(self._y)
         if self._vote is not None:
             return self._vote.update(self._label)
         return self._label
+
+
+@numba.njit(cache=True, nogil=True)
+def _push_sample(values, pick, scale, buffer, position, due, unit, y):  # pragma: no cover - compiled
+    """Write ``values[pick] / scale`` into columns ``position`` and ``position + L`` of the ring ``buffer``
+    ``(c, 2 L)``, so that columns ``position + 1 .. position + L`` always hold the last ``L`` samples in time order.
+    When ``due``, copy that window channel by channel into ``y[:c L]`` (divided by its l2 norm when ``unit``)."""
+    channels, length = buffer.shape[0], buffer.shape[1] // 2
+    for i in range(channels):
+        v = values[pick[i]] / scale[i]
+        buffer[i, position] = v
+        buffer[i, position + length] = v
+    if not due:
+        return
+    k, norm2 = 0, 0.0
+    for i in range(channels):
+        for j in range(position + 1, position + 1 + length):
+            y[k] = buffer[i, j]
+            norm2 += y[k] * y[k]
+            k += 1
+    if unit and norm2 > 0:
+        norm = np.sqrt(norm2)
+        for k in range(channels * length):
+            y[k] /= norm
 
 
 def _window_predictor(classifier):
