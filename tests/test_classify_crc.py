@@ -1,19 +1,9 @@
 import numpy as np
 import pytest
-from sklearn.utils.estimator_checks import check_estimator
 
 from spotfree.classify import CRCClassifier
-
-# decision_function returns residuals (smaller is better), as the paper ranks classes; scikit-learn's checks of
-# larger-is-better scores therefore do not apply.
-RESIDUAL_CONVENTION = {
-    "check_classifiers_classes": "decision_function returns class residuals, smaller is better",
-    "check_classifiers_train": "decision_function returns class residuals, smaller is better",
-}
-
-
-def test_scikit_learn_estimator_checks():
-    check_estimator(CRCClassifier(), expected_failed_checks=RESIDUAL_CONVENTION)
+from spotfree.classify.crc import CHUNK_BYTES
+from spotfree.errors import InputError
 
 
 def test_residuals_equal_the_explicit_ridge_solution():
@@ -28,19 +18,48 @@ def test_residuals_equal_the_explicit_ridge_solution():
     np.testing.assert_allclose(clf.decision_function(Y.T), expected, rtol=1e-10)
 
 
-def test_windows_from_one_class_subspace_get_that_class():
-    rng = np.random.default_rng(1)
-    bases = [np.linalg.qr(rng.normal(size=(30, 3)))[0] for _ in range(3)]
-    atoms = np.vstack([(b @ rng.normal(size=(3, 25))).T for b in bases])
-    labels = np.repeat(["cruising", "normal-braking", "sudden-braking"], 25)
-    clf = CRCClassifier().fit(atoms, labels)
-    test = np.vstack([(b @ rng.normal(size=(3, 10))).T for b in bases]) + 0.01 * rng.normal(size=(30, 30))
-    assert (clf.predict(test) == np.repeat(clf.classes_, 10)).all()
+def ride_sized_problem(seed: int, n_windows: int):
+    """A 60-dimensional window, 3 classes of 100 atoms near 5-dimensional subspaces, and windows near them."""
+    rng = np.random.default_rng(seed)
+    bases = [np.linalg.qr(rng.normal(size=(60, 5)))[0] for _ in range(3)]
+    atoms = np.vstack([(b @ rng.normal(size=(5, 100))).T for b in bases]) + 0.05 * rng.normal(size=(300, 60))
+    windows = np.vstack([(b @ rng.normal(size=(5, n_windows))).T for b in bases]) + 0.02 * rng.normal(
+        size=(3 * n_windows, 60))
+    return atoms, np.repeat(["c", "n", "s"], 100), windows
+
+
+@pytest.mark.parametrize(("dtype", "rtol"), [("float64", 1e-12), ("float32", 1e-5)])
+def test_chunked_batch_path_equals_the_plain_formula(dtype, rtol):
+    atoms, labels, windows = ride_sized_problem(1, 1000)  # 3000 windows: several chunks
+    assert len(windows) * 180 * 8 > 2 * CHUNK_BYTES
+    clf = CRCClassifier(dtype=dtype).fit(atoms, labels)
+    plain = np.linalg.norm(np.einsum("cij,nj->nci", clf.residual_operators_, windows), axis=2)
+    fast = clf.decision_function(windows)
+    assert fast.dtype == np.float64
+    np.testing.assert_allclose(fast, plain, rtol=rtol)
+    # float32 rounding over d terms: within 1e-6 of the window norm
+    assert np.max(np.abs(fast - plain) / np.linalg.norm(windows, axis=1)[:, None]) < 1e-6
+
+
+def test_predict_one_equals_the_batch_labels():
+    atoms, labels, windows = ride_sized_problem(2, 200)
+    clf = CRCClassifier(reject=0.2).fit(atoms, labels)
+    windows = np.vstack([windows, np.random.default_rng(3).normal(size=(50, 60))])  # noise: rejected
+    batch = clf.predict(windows)
+    assert (batch == "unknown").sum() >= 50
+    assert [clf.predict_one(w) for w in windows] == list(batch)
+    assert clf.predict_one(list(windows[0])) == batch[0]
 
 
 def test_unfitted_and_wrong_width_are_errors():
     with pytest.raises(Exception, match="not fitted"):
         CRCClassifier().predict(np.zeros((1, 3)))
+    with pytest.raises(Exception, match="not fitted"):
+        CRCClassifier().predict_one(np.zeros(3))
     clf = CRCClassifier().fit(np.eye(4), ["a", "a", "b", "b"])
     with pytest.raises(ValueError, match="features"):
         clf.predict(np.zeros((1, 5)))
+    with pytest.raises(InputError, match=r"shape \(4,\).*got shape \(2, 4\)"):
+        clf.predict_one(np.zeros((2, 4)))
+    with pytest.raises(InputError, match="float64, float32"):
+        CRCClassifier(dtype="float16").fit(np.eye(4), ["a", "a", "b", "b"])

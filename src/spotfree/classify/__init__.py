@@ -1,13 +1,18 @@
 """Classifiers over a dictionary of class representatives: CRC_RLS (and, for comparison, SRC and B_SRC).
 
-``METHODS`` maps the names the command line accepts (``--method``) to the estimator classes;
-``make_classifier(method, **params)`` builds one by name.
+All share :class:`~spotfree.classify.base.ResidualClassifier`: ``fit(atoms, labels)``, ``decision_function``
+(class residuals, smaller is better), ``predict``, ``predict_one`` (one window, for streaming) and the rejection
+option (label :data:`UNKNOWN`). ``METHODS`` maps the names the command line accepts (``--method``) to the estimator
+classes; ``make_classifier(method, **params)`` builds one by name.
 """
 
+from spotfree.classify.base import UNKNOWN, ResidualClassifier
+from spotfree.classify.bsrc import BlockSparseClassifier
 from spotfree.classify.crc import CRCClassifier
+from spotfree.classify.src import SRCClassifier
 from spotfree.errors import InputError
 
-METHODS = {"crc": CRCClassifier}
+METHODS = {"crc": CRCClassifier, "src": SRCClassifier, "bsrc": BlockSparseClassifier}
 
 
 def make_classifier(method: str, **params):
@@ -21,4 +26,5 @@ def make_classifier(method: str, **params):
     return cls(**params)
 
 
-__all__ = ["METHODS", "CRCClassifier", "make_classifier"]
+__all__ = ["METHODS", "UNKNOWN", "BlockSparseClassifier", "CRCClassifier", "ResidualClassifier", "SRCClassifier",
+           "make_classifier"]
