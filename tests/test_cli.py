@@ -16,7 +16,6 @@ CONTRACT = ["simulate", "features", "train", "classify", "evaluate", "serve", "h
 UNBUILT = [
     ["evaluate", "-o", "report"],
     ["serve"],
-    ["hand", "simulate", "-o", "h.jsonl"],
     ["hand", "train", "-o", "h.npz"],
     ["hand", "run", "h.npz", "h.jsonl", "-o", "o.csv"],
     ["fleet", "ingest"],

@@ -227,12 +227,20 @@ def serve(
 @hand_app.command("simulate")
 @user_errors
 def hand_simulate(
-    output: Path = typer.Option(..., "-o", "--output"),
-    people: int = typer.Option(6, "--people"),
-    seed: int = typer.Option(0, "--seed"),
+    output: Path = typer.Option(..., "-o", "--output", help="JSON lines file to write (one tracking frame a line)"),
+    people: int = typer.Option(6, "--people", min=1, help="simulated people, one session each"),
+    seed: int = typer.Option(0, "--seed", help="random seed; the same seed gives the same file"),
+    rounds: int = typer.Option(3, "--rounds", min=1, help="how often each of the eight gestures occurs per person"),
 ) -> None:
-    """Simulate hand-tracking frames (not built yet)."""
-    _not_built("spotfree hand simulate", 6)
+    """Simulate hand-tracking frames: people holding the five postures and moving between them."""
+    from spotfree.hand.log import write_hand_log
+    from spotfree.sim.hand import simulate_hands
+
+    frames = simulate_hands(people=people, seed=seed, rounds=rounds)
+    write_hand_log(frames, output)
+    with_hand = sum(1 for f in frames if f.hands)
+    out.print(f"wrote {output}: {people} session(s), {len(frames)} frames ({len(frames) - with_hand} without a hand), "
+              f"{frames[-1].time - frames[0].time:.1f} s of service clock")
 
 
 @hand_app.command("train")

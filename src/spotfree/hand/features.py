@@ -10,7 +10,7 @@ per sample:
   to unit length after resampling;
 * ``grab``, ``pinch`` (0..1): the service's grab and pinch strength;
 * ``ext_thumb`` .. ``ext_pinky`` (0..1): extended flags (after resampling, the share of the time the finger was
-  extended);
+  extended); these three kinds are clipped to 0..1, as the anti-aliasing filter overshoots a little at a step;
 * ``spread`` (1): ``mean_f |tip_f - c| / w``, the mean distance of the five fingertips from their centroid
   ``c``, over the palm width ``w``, so that it does not depend on the size of the hand.
 
@@ -77,8 +77,7 @@ def _features(rec: Recording, neutral: np.ndarray) -> dict[str, np.ndarray]:
         "pos_x": position[:, 0], "pos_y": position[:, 1], "pos_z": position[:, 2],
         **{name: rec.channels[name] for name in VELOCITY},
         **dict(zip(NORMAL, normal.T)), **dict(zip(DIRECTION, direction.T)),
-        "grab": rec.channels["grab"], "pinch": rec.channels["pinch"],
-        **{name: rec.channels[name] for name in EXTENDED},
+        **{name: np.clip(rec.channels[name], 0.0, 1.0) for name in ("grab", "pinch", *EXTENDED)},
         "spread": spread,
     }
 

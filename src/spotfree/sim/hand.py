@@ -42,7 +42,7 @@ POSTURES = ("straight", "left", "right", "stop", "backward")
 GESTURES = tuple(g for p in POSTURES[1:] for g in (f"straight-to-{p}", f"{p}-to-straight"))
 """The eight gestures: the movement from one posture to another."""
 
-STREAMS = ("person", "plan", "motion", "tracker")
+STREAMS = ("person", "plan", "motion", "tracker", "clock")
 
 PALM_WIDTH = 0.085
 """m, palm width of a hand of scale 1."""
@@ -169,13 +169,13 @@ def simulate_hands(
     if people < 1 or rounds < 1 or first < 1:
         raise InputError(f"people ({people}), rounds ({rounds}) and first ({first}) must be at least 1")
     frames: list[HandFrame] = []
-    clock = _rng(seed, 0, "tracker").uniform(20.0, 600.0)
+    clock = _rng(seed, 0, "clock").uniform(20.0, 600.0)
     for session, number in enumerate(range(first, first + people), start=1):
         person = draw_person(seed, number)
         first_id = frames[-1].id + 1 if frames else 0
         session_frames = _session(person, seed, rounds, clock, session, first_id, tracker)
         frames.extend(session_frames)
-        clock = session_frames[-1].time + _rng(seed, number, "plan").uniform(3.0, 8.0)
+        clock = session_frames[-1].time + _rng(seed, number, "clock").uniform(3.0, 8.0)
     return frames
 
 
