@@ -49,15 +49,7 @@ def live_messages(url: str = DEFAULT_URL, background: bool = True, timeout: floa
             f"{url}: cannot connect ({exc}); start the hand-tracking service or check the address"
         ) from None
     with socket:
-        header = _receive(socket, url, timeout, "the version header")
-        version = header.get("version") if isinstance(header, dict) else None
-        if version != PROTOCOL_VERSION:
-            raise TrackingServiceError(
-                f"{url}: the service answered {header!r} instead of a protocol {PROTOCOL_VERSION} header; "
-                f"connect to a /v{PROTOCOL_VERSION}.json address of a Leap Motion or Ultraleap service"
-            )
-        socket.send(json.dumps({"background": background}))
-        socket.send(json.dumps({"optimizeHMD": False}))
+        _handshake(socket, url, background, timeout)
         while True:
             try:
                 text = socket.recv(timeout=timeout)
@@ -103,15 +95,25 @@ def record_live(
     return count
 
 
-def _receive(socket, url: str, timeout: float, what: str) -> object:
+def _handshake(socket, url: str, background: bool, timeout: float) -> None:
+    """Check the service's version header, then ask for background frames in desktop mode."""
     try:
-        return _decode(socket.recv(timeout=timeout), url)
+        header = _decode(socket.recv(timeout=timeout), url)
     except TimeoutError:
-        raise TrackingServiceError(f"{url}: no {what} within {timeout:g} s; is this the hand-tracking service?") from None
+        raise TrackingServiceError(
+            f"{url}: no version header within {timeout:g} s; is this the hand-tracking service?"
+        ) from None
     except ConnectionClosed as exc:
-        hint = (f"; the service does not speak protocol {PROTOCOL_VERSION}" if exc.rcvd is not None
-                and exc.rcvd.code == 1001 else "")
-        raise TrackingServiceError(f"{url}: closed before {what} ({exc}){hint}") from None
+        refused = exc.rcvd is not None and exc.rcvd.code == 1001
+        hint = f"; the service does not speak protocol {PROTOCOL_VERSION}" if refused else ""
+        raise TrackingServiceError(f"{url}: closed before the version header ({exc}){hint}") from None
+    if not isinstance(header, dict) or header.get("version") != PROTOCOL_VERSION:
+        raise TrackingServiceError(
+            f"{url}: the service answered {header!r} instead of a protocol {PROTOCOL_VERSION} header; "
+            f"connect to a /v{PROTOCOL_VERSION}.json address of a Leap Motion or Ultraleap service"
+        )
+    socket.send(json.dumps({"background": background}))
+    socket.send(json.dumps({"optimizeHMD": False}))
 
 
 def _decode(text: str | bytes, url: str) -> object:
