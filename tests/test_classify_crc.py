@@ -28,11 +28,12 @@ def ride_sized_problem(seed: int, n_windows: int):
     return atoms, np.repeat(["c", "n", "s"], 100), windows
 
 
-@pytest.mark.parametrize(("dtype", "rtol"), [("float64", 1e-12), ("float32", 1e-5)])
-def test_chunked_batch_path_equals_the_plain_formula(dtype, rtol):
+@pytest.mark.parametrize(("dtype", "rtol", "n_jobs"), [("float64", 1e-12, -1), ("float64", 1e-12, 1),
+                                                       ("float32", 1e-5, 2)])
+def test_chunked_batch_path_equals_the_plain_formula(dtype, rtol, n_jobs):
     atoms, labels, windows = ride_sized_problem(1, 1000)  # 3000 windows: several chunks
     assert len(windows) * 180 * 8 > 2 * CHUNK_BYTES
-    clf = CRCClassifier(dtype=dtype).fit(atoms, labels)
+    clf = CRCClassifier(dtype=dtype, n_jobs=n_jobs).fit(atoms, labels)
     plain = np.linalg.norm(np.einsum("cij,nj->nci", clf.residual_operators_, windows), axis=2)
     fast = clf.decision_function(windows)
     assert fast.dtype == np.float64
@@ -63,3 +64,5 @@ def test_unfitted_and_wrong_width_are_errors():
         clf.predict_one(np.zeros((2, 4)))
     with pytest.raises(InputError, match="float64, float32"):
         CRCClassifier(dtype="float16").fit(np.eye(4), ["a", "a", "b", "b"])
+    with pytest.raises(InputError, match="n_jobs=0"):
+        CRCClassifier(n_jobs=0).fit(np.eye(4), ["a", "a", "b", "b"])

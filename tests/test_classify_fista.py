@@ -1,4 +1,4 @@
-"""The batched (group) lasso solver of SRC and B_SRC against cvxpy and scikit-learn's LARS."""
+"""The coding steps: B_SRC's batched group lasso against cvxpy, SRC's lasso by its optimality conditions."""
 
 import cvxpy as cp
 import numpy as np
@@ -35,24 +35,30 @@ def test_group_lasso_equals_cvxpy():
     np.testing.assert_allclose(solver.codes(Y, 0.2), cvxpy_codes(atoms, groups, weights, Y, 0.2), atol=1e-4)
 
 
-def test_lasso_equals_lars():
+def test_src_code_is_the_lasso_with_weight_relative_to_lambda_max():
     atoms, groups, Y = problem(1)
-    fista = SRCClassifier(alpha=0.1, tol=1e-12, max_iter=20000).fit(atoms, groups)
-    lars = SRCClassifier(alpha=0.1, algorithm="lasso_lars").fit(atoms, groups)
-    np.testing.assert_allclose(fista.code(Y), lars.code(Y), atol=1e-5)
+    clf = SRCClassifier(alpha=0.1).fit(atoms, groups)
+    code = clf.code(Y)
+    for y, x in zip(Y, code):  # optimality: a_j^T r = lambda sign(x_j) on the support, |a_j^T r| <= lambda off it
+        lam = 0.1 * np.abs(atoms @ y).max()
+        corr = atoms @ (y - atoms.T @ x)
+        support = x != 0
+        assert support.any()
+        np.testing.assert_allclose(corr[support], lam * np.sign(x[support]), rtol=1e-6)
+        assert np.all(np.abs(corr[~support]) <= lam * (1 + 1e-6))
 
 
 def test_weight_is_relative_to_lambda_max():
     atoms, groups, Y = problem(2)
-    solver = GroupLasso(atoms, groups=groups)
-    assert not solver.codes(Y, 1.0).any()  # lambda = lambda_max: x = 0
+    solver = GroupLasso(atoms, groups=groups, weights=np.ones(3))
+    assert np.abs(solver.codes(Y, 1.0)).max() < 1e-12  # lambda = lambda_max: x = 0 (up to rounding)
     assert (np.abs(solver.codes(Y, 0.9)).reshape(len(Y), 3, -1).max(axis=2) > 0).any(axis=1).all()
     np.testing.assert_allclose(solver.codes(10 * Y, 0.3), 10 * solver.codes(Y, 0.3), rtol=1e-6, atol=1e-9)
 
 
 def test_gap_is_positive_and_closes():
     atoms, groups, Y = problem(3)
-    solver = GroupLasso(atoms, groups=groups, tol=1e-9, max_iter=20000)
+    solver = GroupLasso(atoms, groups=groups, weights=np.ones(3), tol=1e-9, max_iter=20000)
     lam = 0.3 * solver._dual_norm(Y @ atoms.T)
     rng = np.random.default_rng(4)
     assert (solver._gap(Y, rng.normal(size=(len(Y), len(atoms))), lam) > 0).all()
@@ -71,4 +77,4 @@ def test_block_code_uses_whole_classes():
 def test_unconverged_windows_warn():
     atoms, groups, Y = problem(6)
     with pytest.warns(Warning, match="not converged in max_iter=3"):
-        GroupLasso(atoms, groups=None, tol=1e-12, max_iter=3).codes(Y, 0.05)
+        GroupLasso(atoms, groups=groups, weights=np.ones(3), tol=1e-12, max_iter=3).codes(Y, 0.05)

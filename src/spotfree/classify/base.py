@@ -64,24 +64,22 @@ class ResidualClassifier(ClassifierMixin, BaseEstimator):
     def predict(self, X) -> np.ndarray:
         """Class of each window (row of ``X``), :data:`UNKNOWN` where rejected."""
         X = self._check_windows(X)
-        return self._labels(self._residuals(X), np.linalg.norm(X, axis=1))
+        residuals = self._residuals(X)
+        labels = self.classes_[np.argmin(residuals, axis=1)]
+        if self.reject is None:
+            return labels
+        if labels.dtype.kind not in "US":
+            labels = labels.astype(object)
+        return np.where(_ratio(residuals.min(axis=1), np.linalg.norm(X, axis=1)) > self.reject, UNKNOWN, labels)
 
     def predict_one(self, y):
-        """Class of one window ``y`` ``(d,)``, for streaming use."""
+        """Class of one window ``y`` ``(d,)``, for streaming."""
         return self.predict(np.asarray(y)[np.newaxis, :])[0]
 
     def rejection_score(self, X) -> np.ndarray:
         """``min_i r_i(y) / ||y||`` per window (``inf`` for an all-zero window)."""
         X = self._check_windows(X)
         return _ratio(self._residuals(X).min(axis=1), np.linalg.norm(X, axis=1))
-
-    def _labels(self, residuals: np.ndarray, norms: np.ndarray) -> np.ndarray:
-        labels = self.classes_[np.argmin(residuals, axis=1)]
-        if self.reject is None:
-            return labels
-        if labels.dtype.kind not in "US":
-            labels = labels.astype(object)
-        return np.where(_ratio(residuals.min(axis=1), norms) > self.reject, UNKNOWN, labels)
 
     def _check_windows(self, X) -> np.ndarray:
         check_is_fitted(self, "classes_")

@@ -11,15 +11,21 @@ ICCV 2011; the paper's eqs. (6)-(7). With the dictionary ``A = [A_1, ..., A_C]``
 
 Batch: the ``C`` operators stacked, ``E = [E_1; ...; E_C]`` ``(C d, d)``, turn a chunk of windows into one matrix
 product ``Z = Y E^T`` (``2 C d^2`` flops per window, BLAS), then the norm of each ``d``-block of each row of ``Z``
-is taken. Chunks keep ``Z`` in cache. Streaming (:meth:`CRCClassifier.predict_one`): one compiled
+is taken. Chunks keep ``Z`` in cache; threads take whole chunks, each with a single-threaded BLAS (on a shared
+machine this was 4x faster than one multithreaded BLAS call per chunk, BENCHMARKS.md). Streaming (:meth:`CRCClassifier.predict_one`): one compiled
 kernel computes the ``C`` norms of ``E y`` and the argmin for a single window, without numpy's per-call overhead.
 """
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
+from functools import lru_cache
+
 import numba
 import numpy as np
 from sklearn.utils.validation import check_is_fitted
+from threadpoolctl import ThreadpoolController
 
 from spotfree.classify.base import UNKNOWN, ResidualClassifier
 from spotfree.errors import InputError
@@ -46,16 +52,21 @@ class CRCClassifier(ResidualClassifier):
         Arithmetic of the batch path (:meth:`decision_function`, :meth:`predict`). ``"float32"`` roughly doubles
         the matrix-product rate; its residuals differ from double precision by about ``1e-6`` of the window norm
         (float32 rounding over ``d`` terms). :meth:`predict_one` always computes in double precision.
+    n_jobs : int
+        Threads of the batch path (``-1``: one per core).
     """
 
-    def __init__(self, alpha: float = 1e-3, reject: float | None = None, dtype: str = "float64"):
+    def __init__(self, alpha: float = 1e-3, reject: float | None = None, dtype: str = "float64", n_jobs: int = -1):
         super().__init__(reject=reject)
         self.alpha = alpha
         self.dtype = dtype
+        self.n_jobs = n_jobs
 
     def _fit_dictionary(self, A: np.ndarray, atom_class: np.ndarray) -> None:
         if self.dtype not in DTYPES:
             raise InputError(f"dtype={self.dtype!r}: use one of {', '.join(DTYPES)}")
+        if not (self.n_jobs == -1 or (isinstance(self.n_jobs, (int, np.integer)) and self.n_jobs >= 1)):
+            raise InputError(f"n_jobs={self.n_jobs!r}: give a number of threads >= 1, or -1 for one per core")
         gram = A.T @ A
         self.lambda_ = float(self.alpha * max(np.trace(gram) / max(A.shape[1], 1), np.finfo(float).tiny))
         self.projection_ = np.linalg.solve(gram + self.lambda_ * np.eye(gram.shape[0]), A.T)  # P, (n_atoms, d)
@@ -69,17 +80,23 @@ class CRCClassifier(ResidualClassifier):
 
     def _residuals(self, X: np.ndarray) -> np.ndarray:
         n_classes, d = self.residual_operators_.shape[:2]
-        dtype = self._operator_t.dtype
-        chunk = max(16, CHUNK_BYTES // (n_classes * d * dtype.itemsize))
-        out = np.empty((len(X), n_classes), dtype=dtype)
-        z = np.empty((min(chunk, len(X)), n_classes * d), dtype=dtype)
-        for start in range(0, len(X), chunk):
+        operator = self._operator_t
+        chunk = max(16, CHUNK_BYTES // (n_classes * d * operator.dtype.itemsize))
+        out = np.empty((len(X), n_classes), dtype=operator.dtype)
+
+        def residuals(start: int) -> None:
             block = X[start:start + chunk]
-            zb = z[:len(block)]
-            np.matmul(block.astype(dtype, copy=False), self._operator_t, out=zb)
+            rows = np.matmul(block.astype(operator.dtype, copy=False), operator).reshape(-1, d)  # E_i y, stacked
             squares = out[start:start + chunk].reshape(-1)
-            rows = zb.reshape(len(block) * n_classes, d)
             np.sqrt(np.einsum("ij,ij->i", rows, rows, out=squares), out=squares)
+
+        starts = range(0, len(X), chunk)
+        threads = min(len(starts), (os.cpu_count() or 1) if self.n_jobs == -1 else self.n_jobs)
+        if len(starts) == 1:
+            residuals(0)
+            return out.astype(float, copy=False)
+        with _blas().limit(limits=1, user_api="blas"), ThreadPoolExecutor(threads) as pool:
+            list(pool.map(residuals, starts))
         return out.astype(float, copy=False)
 
     def predict_one(self, y):
@@ -100,6 +117,12 @@ class CRCClassifier(ResidualClassifier):
         if self.reject is not None and ratio > self.reject:
             return UNKNOWN
         return self.classes_[best]
+
+
+@lru_cache(maxsize=1)
+def _blas() -> ThreadpoolController:
+    """The process's thread pools (found once: the search takes milliseconds)."""
+    return ThreadpoolController()
 
 
 @numba.njit(cache=True, nogil=True, fastmath=_FAST)

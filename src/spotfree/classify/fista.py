@@ -1,4 +1,4 @@
-"""Batched FISTA for the (group) lasso over a dictionary: the coding step of SRC and B_SRC.
+"""Batched FISTA for the group lasso over a dictionary: the coding step of B_SRC.
 
 Over unit-norm atoms ``Â`` (columns ``a_j / ||a_j||``) partitioned into groups ``g`` with weights ``w_g``:
 
@@ -6,11 +6,10 @@ Over unit-norm atoms ``Â`` (columns ``a_j / ||a_j||``) partitioned into groups 
     lambda(y) = alpha * max_g ||Â_g^T y||_2 / w_g,
 
 ``lambda(y)`` being the smallest weight at which ``x = 0``, so ``alpha`` in ``(0, 1)`` is free of units and of the
-window's amplitude. Groups of one atom with ``w = 1`` give the lasso (``||x||_1``); one group per class gives the
-block-sparse code of B_SRC.
+window's amplitude. One group per class gives the block-sparse code of B_SRC.
 
-FISTA (Beck & Teboulle 2009) with step ``1/L``, ``L = ||Â||_2^2`` (largest eigenvalue of the Gram matrix
-``Â^T Â``), the block soft-threshold as proximal map,
+FISTA (Beck & Teboulle 2009) with step ``1/L``, ``L = ||Â||_2^2`` (squared largest singular value of the
+dictionary), the block soft-threshold as proximal map,
 
     x_g <- max(0, 1 - lambda w_g / (L ||v_g||)) v_g,      v = u - (Â^T Â u - Â^T y) / L,
 
@@ -40,29 +39,22 @@ GAP_EVERY = 10
 
 @dataclass
 class GroupLasso:
-    """The (group) lasso over unit atoms ``(n_atoms, d)`` (rows); ``groups`` ``(n_atoms,)`` numbers each atom's
-    group ``0..G-1`` (``None``: every atom alone, the lasso), ``weights`` ``(G,)`` the ``w_g``."""
+    """The group lasso over unit atoms ``(n_atoms, d)`` (rows); ``groups`` ``(n_atoms,)`` numbers each atom's group
+    ``0..G-1``, ``weights`` ``(G,)`` are the ``w_g``."""
 
     atoms: np.ndarray
-    groups: np.ndarray | None = None
-    weights: np.ndarray | None = None
+    groups: np.ndarray
+    weights: np.ndarray
     tol: float = 1e-4
     max_iter: int = 1000
-    gram: np.ndarray = field(init=False, repr=False)
     lipschitz: float = field(init=False)
 
     def __post_init__(self):
         if not (self.tol > 0 and self.max_iter >= 1):
             raise InputError(f"tol={self.tol!r}, max_iter={self.max_iter!r}: give tol > 0 and max_iter >= 1")
-        self.gram = self.atoms @ self.atoms.T
-        self.lipschitz = float(np.linalg.eigvalsh(self.gram)[-1])
-        if self.groups is None:
-            self._membership = None
-            self.weights = np.ones(len(self.atoms))
-        else:
-            n_groups = int(self.groups.max()) + 1
-            self._membership = (self.groups[np.newaxis, :] == np.arange(n_groups)[:, np.newaxis]).astype(float)
-            self.weights = np.ones(n_groups) if self.weights is None else np.asarray(self.weights, dtype=float)
+        self.lipschitz = float(np.linalg.norm(self.atoms, 2) ** 2)
+        self.weights = np.asarray(self.weights, dtype=float)
+        self._membership = (self.groups[np.newaxis, :] == np.arange(len(self.weights))[:, np.newaxis]).astype(float)
 
     def codes(self, X: np.ndarray, alpha: float) -> np.ndarray:
         """Codes ``x(y)`` ``(n, n_atoms)`` of the windows ``X`` ``(n, d)`` (rows)."""
@@ -96,8 +88,6 @@ class GroupLasso:
 
     def _group_norms(self, z: np.ndarray) -> np.ndarray:
         """``||z_g||_2`` per group for rows ``z`` ``(n, n_atoms)``; ``(n, G)``."""
-        if self._membership is None:
-            return np.abs(z)
         return np.sqrt((z * z) @ self._membership.T)
 
     def _dual_norm(self, corr: np.ndarray) -> np.ndarray:
@@ -109,7 +99,7 @@ class GroupLasso:
         norms = self._group_norms(z)
         with np.errstate(divide="ignore", invalid="ignore"):
             keep = np.nan_to_num(np.clip(1 - threshold[:, np.newaxis] * self.weights / norms, 0.0, None))
-        return z * (keep if self._membership is None else keep[:, self.groups])
+        return z * keep[:, self.groups]
 
     def _gap(self, Y: np.ndarray, w: np.ndarray, lam: np.ndarray) -> np.ndarray:
         """Duality gap of codes ``w`` for windows ``Y`` (module docstring)."""
