@@ -12,13 +12,16 @@ from spotfree.io.recording import Gap, Recording
 __version__ = "0.1.0"
 
 _LAZY = {
+    "BlockSparseClassifier": "spotfree.classify.bsrc",
     "CRCClassifier": "spotfree.classify.crc",
     "FeatureStream": "spotfree.signal.features",
     "OrderedSubspaceClustering": "spotfree.cluster.osc",
     "RideClassifier": "spotfree.classify.stream",
+    "SRCClassifier": "spotfree.classify.src",
     "SparseSubspaceClustering": "spotfree.cluster.osc",
     "classify_recording": "spotfree.classify.batch",
     "decision_latency": "spotfree.classify.latency",
+    "make_classifier": "spotfree.classify",
     "read_recording": "spotfree.io",
     "ride_features": "spotfree.signal.features",
     "simulate_scenario": "spotfree.sim.scenarios",
