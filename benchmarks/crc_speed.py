@@ -16,7 +16,7 @@ three random 5-dimensional subspaces), windows near the same subspaces. Rows:
   with the ride dictionary of ``classifier_timing.py`` (d = 41, 300 columns) on a simulated sudden-braking ride.
 
 Batch figures are the best of ``--repeats`` runs over ``--windows`` windows; ``OPENBLAS_CORETYPE`` and the load
-average are printed, since both move the figures.
+average are printed, since both move the figures (other jobs share the 2 cores).
 
     python benchmarks/crc_speed.py [--windows 200000] [--repeats 5]
 """
@@ -24,14 +24,13 @@ average are printed, since both move the figures.
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import time
 from datetime import date
 
 import numpy as np
-from threadpoolctl import threadpool_info, threadpool_limits
+from threadpoolctl import threadpool_limits
 
+from classifier_timing import best_seconds, machine
 from spotfree.classify import CRCClassifier
 
 D, CLASSES, PER_CLASS, RANK = 60, 3, 100, 5
@@ -46,16 +45,6 @@ def problem(seed: int, n_windows: int):
     windows = np.vstack([(b @ rng.normal(size=(RANK, n_windows // CLASSES + 1))).T for b in bases])[:n_windows]
     windows += 0.05 * rng.normal(size=windows.shape)
     return atoms, np.repeat(np.arange(CLASSES), PER_CLASS), rng.permutation(windows)
-
-
-def best_seconds(call, repeats: int) -> float:
-    call()
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        call()
-        times.append(time.perf_counter() - start)
-    return min(times)
 
 
 def latencies_us(call, windows) -> np.ndarray:
@@ -75,7 +64,7 @@ def gemm_rates(repeats: int) -> dict:
         a = np.random.default_rng(0).random((2000, 2000)).astype(dtype)
         for threads in (1, 2):
             with threadpool_limits(threads, user_api="blas"):
-                rates[dtype, threads] = 2 * 2000 ** 3 / best_seconds(lambda: a @ a, repeats) / 1e9
+                rates[dtype, threads] = 2 * 2000 ** 3 / best_seconds(lambda: a @ a, repeats)[0] / 1e9
     return rates
 
 
@@ -111,10 +100,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
-    blas = [i for i in threadpool_info() if i["user_api"] == "blas"][0]
-    print(f"# crc_speed  {date.today()}  {platform.machine()}, {os.cpu_count()} cores (shared), load average "
-          f"{os.getloadavg()[0]:.1f}; BLAS {blas['internal_api']} {blas['version']} ({blas.get('architecture')}), "
-          f"OPENBLAS_CORETYPE {os.environ.get('OPENBLAS_CORETYPE', 'not set')}; numpy {np.__version__}")
+    print(f"# crc_speed  {date.today()}  {machine()}")
     atoms, labels, windows = problem(args.seed, args.windows)
     print(f"d={D}, dictionary {len(atoms)} columns in {CLASSES} classes, {len(windows)} windows; "
           f"GEMM flops per window {FLOPS_PER_WINDOW}")
@@ -125,7 +111,8 @@ def main() -> None:
     print(f"{'batch path':<44} {'threads':>7} {'windows/s':>12} {'GFLOP/s':>8} {'% GEMM':>7}")
 
     def print_rate(name, call, dtype, threads):
-        rate = len(windows) / best_seconds(call, args.repeats)
+        call()  # warm-up
+        rate = len(windows) / best_seconds(call, args.repeats)[0]
         flops = rate * FLOPS_PER_WINDOW / 1e9
         print(f"{name:<44} {threads:>7} {rate:>12,.0f} {flops:>8.1f} {100 * flops / gemm[dtype, threads]:>6.0f}%")
 
