@@ -16,7 +16,7 @@ def feature_recording(spec: str, orientation: str = "default", rate: float = 20.
     rec = read_recording(spec, rate=rate)
     if rec.has_imu:
         feats = ride_features(rec, orientation=orientation, derived=True)
-        feats.meta.update(features="ride", orientation=orientation, raw_meta=dict(rec.meta))
+        feats.meta.update(raw_meta=dict(rec.meta))
         return feats
     rec.meta.update(features="channels")
     return rec

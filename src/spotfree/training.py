@@ -116,18 +116,19 @@ def train(experiments: list[TrainingExperiment], config: TrainingConfig | None =
         names_per_window, levels, names, warnings = _paper_recipe(windows, declared, config, say)
     else:
         names_per_window, levels, names, warnings = _evidence_recipe(windows, declared, config, say)
-    kept = _purify(windows, names_per_window, config, say)
+    kept, margins = _purify(windows, names_per_window, config, say)
     classes = sorted({n for per in names_per_window for n in per[per != ""]})
     missing = sorted({c for d in declared for c in d} - set(classes))
     warnings += [f"declared class '{c}' was given no cluster; the model cannot recognise it" for c in missing]
-    columns, column_class, column_source = [], [], []
-    for r, (w, per, keep) in enumerate(zip(windows, names_per_window, kept)):
+    columns, column_class, column_source, column_margin = [], [], [], []
+    for r, (w, per, keep, margin) in enumerate(zip(windows, names_per_window, kept, margins)):
         for k in np.flatnonzero(keep):
             columns.append(w.matrix[:depth, k])
             column_class.append(classes.index(per[k]))
             column_source.append((r, int(w.ends[k])))
+            column_margin.append(margin[k])
     columns, column_class, column_source = _cap(np.array(columns).T, np.array(column_class), column_source,
-                                                len(classes), config.max_columns)
+                                                np.array(column_margin), len(classes), config.max_columns)
     model = DictionaryModel(
         classes=classes,
         channels=list(config.channels),
@@ -285,8 +286,9 @@ def _paper_recipe(windows, declared, config, say):
     return per_recording, [level1, level2], names, []
 
 
-def _purify(windows, names_per_window, config, say) -> list[np.ndarray]:
-    """Keep windows away from a change of name and consistent with the rest of the dictionary."""
+def _purify(windows, names_per_window, config, say) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Keep windows away from a change of name and consistent with the rest of the dictionary; return the kept
+    masks and every window's margin (:func:`_run_margins`; 0 where no other name exists to test against)."""
     margin = config.margin if config.margin is not None else max(1, config.window // (2 * config.train_step))
     kept = []
     for per in names_per_window:
@@ -300,6 +302,8 @@ def _purify(windows, names_per_window, config, say) -> list[np.ndarray]:
     pooled = np.hstack([w.matrix for w in windows])
     names = np.concatenate(names_per_window)
     keep = np.concatenate(kept)
+    margins = np.zeros(len(names))
+    tested = np.zeros(len(names), dtype=bool)
     recording = np.concatenate([np.full(w.matrix.shape[1], r) for r, w in enumerate(windows)])
     index = np.flatnonzero(keep)
     if len(np.unique(names[index])) > 1:
@@ -310,19 +314,39 @@ def _purify(windows, names_per_window, config, say) -> list[np.ndarray]:
             if len(np.unique(names[others])) < 2:
                 continue
             others = _balanced(others, names, np.unique(names[others], return_counts=True)[1].min())
-            clf = CRCClassifier().fit(pooled[:, others].T, names[others])
-            keep[run] &= clf.predict(pooled[:, run].T) == names[run]
+            margins[run] = _run_margins(pooled, others, names, run)
+            tested[run] = True
+    keep &= ~tested | (margins > 0)
     split = np.cumsum([0] + [w.matrix.shape[1] for w in windows])
-    return [keep[split[r]:split[r + 1]] for r in range(len(windows))]
+    return ([keep[split[r]:split[r + 1]] for r in range(len(windows))],
+            [margins[split[r]:split[r + 1]] for r in range(len(windows))])
 
 
-def _cap(columns, column_class, column_source, n_classes, max_columns):
-    """At most ``max_columns`` columns per class, chosen evenly over time."""
+def _run_margins(pooled, atoms, names, run, k: int = 5) -> np.ndarray:
+    """Margin of each window ``y`` of ``run`` against the ``atoms``: with ``d_c`` the mean distance from ``y`` to its
+    ``k`` nearest atoms of class ``c``, ``(min_{other} d_c - d_own) / (min_{other} d_c + d_own)`` in [-1, 1],
+    positive when the window's own name lies nearest; ``-1`` when its name is not among the atoms' names."""
+    own_name = names[run[0]]
+    if own_name not in set(names[atoms]):
+        return np.full(len(run), -1.0)
+    y = pooled[:, run].T
+    distance = {}
+    for c in np.unique(names[atoms]):
+        A = pooled[:, atoms[names[atoms] == c]].T
+        d = np.sqrt(np.maximum(((y[:, None, :] - A[None, :, :]) ** 2).sum(axis=2), 0.0))
+        distance[c] = np.sort(d, axis=1)[:, :min(k, d.shape[1])].mean(axis=1)
+    other = np.min([d for c, d in distance.items() if c != own_name], axis=0)
+    own = distance[own_name]
+    return (other - own) / np.maximum(other + own, 1e-12)
+
+
+def _cap(columns, column_class, column_source, column_margin, n_classes, max_columns):
+    """At most ``max_columns`` columns per class: those with the largest margins (the most confident)."""
     chosen = []
     for i in range(n_classes):
         index = np.flatnonzero(column_class == i)
         if len(index) > max_columns:
-            index = index[np.linspace(0, len(index) - 1, max_columns).round().astype(int)]
+            index = np.sort(index[np.argsort(-column_margin[index], kind="stable")[:max_columns]])
         chosen.append(index)
     chosen = np.sort(np.concatenate(chosen)) if chosen else np.empty(0, dtype=int)
     if columns.size == 0:

@@ -83,7 +83,8 @@ def leaky_lean(pitch_rate: np.ndarray, rate: float, tau: float = LEAN_TIME_CONST
 def ride_features(rec: Recording, orientation: str = "default", zero_phase: bool = False,
                   derived: bool = False) -> Recording:
     """The six :data:`FEATURE_CHANNELS` of ``rec`` on its own grid (same experiment column, truth and gaps),
-    followed by the :data:`DERIVED_CHANNELS` when ``derived``."""
+    followed by the :data:`DERIVED_CHANNELS` when ``derived``; ``meta`` says ``features="ride"`` and the
+    ``orientation``, so that a model trained on them knows how to make them from a raw log."""
     missing = [c for c in IMU_CHANNELS if c not in rec.channels]
     if missing:
         raise InputError(
@@ -107,7 +108,9 @@ def ride_features(rec: Recording, orientation: str = "default", zero_phase: bool
             a_t = speed_aided_acceleration(acc, gyr, roll, pitch, speed, rec.rate)[:, :1]
             columns += [leaky_lean(gyr[:, 1], rec.rate), lowpass(a_t, long_sos)[:, 0]]
         out[start:stop] = np.column_stack(columns)
-    return rec.with_channels(dict(zip(names, out.T)))
+    feats = rec.with_channels(dict(zip(names, out.T)))
+    feats.meta.update(features="ride", orientation=orientation)
+    return feats
 
 
 class FeatureStream:
