@@ -20,11 +20,12 @@ Output: a :class:`~spotfree.model.DictionaryModel` whose columns are windows kep
    each half is checked the same way (the paper's second clustering of the sudden-stop experiment, which
    separates the normal braking hidden around each sudden stop).
 5. Purification: windows within ``margin`` windows of a change of name straddle two states and are dropped, and so
-   are windows that the rest of the dictionary classifies otherwise (leave-run-out CRC: a run of windows is
-   classified against the kept windows outside it). Every CRC check of steps 4 and 5 gives each class the same
-   number of atoms, chosen evenly over time (:func:`_balanced`): with hundreds of background atoms in a window
-   space of a few dozen dimensions, the background would represent anything. At most ``max_columns`` per class
-   are kept, evenly over time.
+   are windows that lie nearer to another name than to their own (leave-run-out: a run of windows is compared with
+   the kept windows outside it; :func:`_run_margins`, mean distance to the 5 nearest windows of each name, which
+   keeps amplitude where a linear representation would scale it away). The checks of steps 4 and 5 give each class
+   the same number of windows, chosen evenly over time (:func:`_balanced`): with hundreds of background atoms in a
+   window space of a few dozen dimensions, the background would represent anything. At most ``max_columns`` per
+   class are kept: those with the largest margins.
 
 ``recipe="paper"`` is the paper's procedure taken literally, kept to measure the gain: each recording alone, unit-
 norm windows, split in two, the larger cluster named the background and the smaller the recording's most specific
