@@ -23,17 +23,19 @@ CLASSES = ("cruising", "normal-braking", "sudden-braking")
 CONFIGS = {
     "default": {},
     "paper": {"recipe": "paper"},
+    "osc": {"clustering": "osc"},
+    "lean-acc_x-osc": {"channels": ("lean", "acc_x"), "clustering": "osc", "extra_clusters": 3},
+    "acc_long-40": {"channels": ("acc_long",), "window": 40},
     "old-channels": {"channels": ("pitch", "pitch_rate", "acc_x"), "affine": 0.0},
     "no-affine": {"affine": 0.0},
     "affine-20": {"affine": 20.0},
     "lean-only": {"channels": ("lean",)},
     "lean-rate-acc": {"channels": ("lean", "pitch_rate", "acc_x")},
+    "extra-10": {"extra_clusters": 10},
     "window-30": {"window": 30},
     "window-12": {"window": 12},
     "extra-1": {"extra_clusters": 1},
     "extra-8": {"extra_clusters": 8},
-    "kmeans": {"clustering": "kmeans"},
-    "kmeans-extra-6": {"clustering": "kmeans", "extra_clusters": 6},
 }
 
 

@@ -113,9 +113,10 @@ def train(
     background: Optional[str] = typer.Option(None, "--background", help="the background class (default: the "
                                              "first class declared in every recording)"),
     name: list[str] = typer.Option([], "--name", help="CLUSTER=CLASS: override the name of a level-1 cluster"),
-    extra_clusters: int = typer.Option(3, "--extra-clusters", help="clusters beyond the declared classes"),
+    extra_clusters: int = typer.Option(7, "--extra-clusters", help="clusters beyond the declared classes"),
     affine: float = typer.Option(6.0, "--affine", help="constant row appended to windows for clustering (0: none)"),
-    clustering: str = typer.Option("osc", "--clustering", help="osc | kmeans (for comparison)"),
+    clustering: str = typer.Option("kmeans", "--clustering",
+                                   help="kmeans | osc (the paper's Ordered Subspace Clustering)"),
     seed: int = typer.Option(0, "--seed"),
     figure: Optional[Path] = typer.Option(None, "--figure", help="diagnostic figure (default: MODEL.png)"),
 ) -> None:
