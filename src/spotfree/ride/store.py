@@ -1,0 +1,370 @@
+"""The ride store: every ride's metadata, raw samples, features, labels and events, in SQLite or PostgreSQL.
+
+``RideStore("rides.db")`` opens (or creates) a single SQLite file; ``RideStore("postgresql://user@host/db")``
+uses a PostgreSQL server through psycopg 3 (:mod:`spotfree.ride.postgres`). Both hold the same tables:
+
+* ``devices``: ``device_id``, ``name``, ``token_hash`` (SHA-256 of the device's token, :mod:`.tokens`), ``created``;
+* ``rides``: :class:`~spotfree.ride.records.Ride` (ids, vehicle, rider, optional rider descriptors, start and end
+  in UNIX seconds, model);
+* ``samples``: one row per raw sample, :data:`~spotfree.ride.records.SAMPLE_COLUMNS` (``time`` is ``t``);
+* ``features``: :data:`~spotfree.ride.records.FEATURE_COLUMNS` at sample times;
+* ``labels``: ``(ride_id, model, t, label)``, read back as one column per model name;
+* ``events``: :class:`~spotfree.ride.records.Event` rows, one per ``(ride, kind, start)``.
+
+Writing needs the device's token: a device writes only to the rides it started, and only while they are open.
+Every write is one transaction: a batch is validated as a whole first (:mod:`.validation`), and a batch that
+fails any check changes nothing.
+
+Durability: a write method returns only after its transaction has committed. SQLite runs in WAL mode with
+``synchronous=FULL``, so a commit is on disk (fsync of the WAL) before the method returns: an acknowledged
+sample survives the process being killed and the machine losing power; ``synchronous="normal"`` survives the
+process being killed only (the WAL is written but fsync'd at checkpoints), for several times the commit rate.
+PostgreSQL commits are durable under its default ``synchronous_commit=on``.
+
+One store object may be shared between threads: its calls are serialised on one connection.
+"""
+
+from __future__ import annotations
+
+import sqlite3
+import threading
+import time as clock
+import uuid
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+
+from spotfree.errors import InputError, SpotfreeError
+from spotfree.ride import validation
+from spotfree.ride.records import FEATURE_COLUMNS, RIDER_FIELDS, SAMPLE_COLUMNS, Event, Ride
+from spotfree.ride.tokens import new_token, token_hash
+
+SCHEMA_VERSION = 1
+
+_SAMPLE_SQL = ("t", *SAMPLE_COLUMNS[1:])
+_RIDE_FIELDS = ("ride_id", "device_id", "vehicle", "rider_id", "started", "ended", "model", *RIDER_FIELDS)
+_REAL = "DOUBLE PRECISION"
+
+SCHEMA = (
+    "CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)",
+    "CREATE TABLE IF NOT EXISTS devices (device_id TEXT PRIMARY KEY, name TEXT NOT NULL, "
+    f"token_hash TEXT NOT NULL UNIQUE, created {_REAL} NOT NULL)",
+    "CREATE TABLE IF NOT EXISTS rides (ride_id TEXT PRIMARY KEY, "
+    "device_id TEXT NOT NULL REFERENCES devices (device_id), vehicle TEXT NOT NULL, rider_id TEXT NOT NULL, "
+    f"started {_REAL} NOT NULL, ended {_REAL}, model TEXT, age_band TEXT, gender TEXT, skill TEXT)",
+    "CREATE INDEX IF NOT EXISTS rides_by_device ON rides (device_id)",
+    "CREATE TABLE IF NOT EXISTS samples (ride_id TEXT NOT NULL REFERENCES rides (ride_id), "
+    + ", ".join(f"{c} {_REAL}" + (" NOT NULL" if c in SAMPLE_COLUMNS[:7] or c == "t" else "") for c in _SAMPLE_SQL)
+    + ", PRIMARY KEY (ride_id, t))",
+    "CREATE TABLE IF NOT EXISTS features (ride_id TEXT NOT NULL REFERENCES rides (ride_id), "
+    f"t {_REAL} NOT NULL, " + ", ".join(f"{c} {_REAL}" for c in FEATURE_COLUMNS) + ", PRIMARY KEY (ride_id, t))",
+    "CREATE TABLE IF NOT EXISTS labels (ride_id TEXT NOT NULL REFERENCES rides (ride_id), model TEXT NOT NULL, "
+    f"t {_REAL} NOT NULL, label TEXT, PRIMARY KEY (ride_id, model, t))",
+    "CREATE TABLE IF NOT EXISTS events (ride_id TEXT NOT NULL REFERENCES rides (ride_id), kind TEXT NOT NULL, "
+    f"start_time {_REAL} NOT NULL, end_time {_REAL} NOT NULL, detail TEXT NOT NULL, "
+    "PRIMARY KEY (ride_id, kind, start_time))",
+)
+
+
+class AccessError(SpotfreeError, PermissionError):
+    """A token that belongs to no device, or a device writing to a ride that is not its own."""
+
+
+class NotFoundError(InputError, LookupError):
+    """A ride id that the store does not hold."""
+
+
+class RideStore:
+    """Record rides and read them back (see the module docstring).
+
+    Parameters
+    ----------
+    location : str or Path
+        A SQLite file path (created when missing) or a ``postgresql://`` URL.
+    synchronous : str
+        SQLite only: ``"full"`` (default: a commit survives a power loss) or ``"normal"`` (a commit survives the
+        process being killed, not the machine going down).
+    """
+
+    def __init__(self, location: str | Path, synchronous: str = "full"):
+        self.location = str(location)
+        if synchronous not in ("full", "normal"):
+            raise InputError(f"synchronous={synchronous!r}: use 'full' or 'normal'")
+        self.synchronous = synchronous
+        if self.location.startswith(("postgresql://", "postgres://")):
+            from spotfree.ride.postgres import PostgresConnection
+
+            self._db = PostgresConnection(self.location)
+        else:
+            self._db = SQLiteConnection(self.location, synchronous)
+        self._lock = threading.RLock()
+        with self._transaction() as db:
+            for statement in SCHEMA:
+                db.execute(statement)
+            db.execute("INSERT INTO meta (key, value) VALUES (?, ?) ON CONFLICT (key) DO NOTHING",
+                       ("schema_version", str(SCHEMA_VERSION)))
+        version = self._query("SELECT value FROM meta WHERE key = ?", ("schema_version",))[0][0]
+        if int(version) != SCHEMA_VERSION:
+            raise InputError(f"{self.location}: ride store schema version {version}, this spotfree reads "
+                             f"{SCHEMA_VERSION}; open it with a matching spotfree version")
+
+    def close(self) -> None:
+        """Close the connection (SQLite: after a checkpoint that folds the WAL into the database file)."""
+        with self._lock:
+            self._db.close()
+
+    def __enter__(self) -> "RideStore":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    # ------------------------------------------------------------ devices
+
+    def register_device(self, name: str = "") -> tuple[str, str]:
+        """A new device: ``(device_id, token)``. The token is shown only now; the store keeps its hash."""
+        name = validation.text(name, "device", "name", required=False) or ""
+        device_id, token = uuid.uuid4().hex, new_token()
+        with self._transaction() as db:
+            db.execute("INSERT INTO devices (device_id, name, token_hash, created) VALUES (?, ?, ?, ?)",
+                       (device_id, name, token_hash(token), clock.time()))
+        return device_id, token
+
+    def authenticate(self, token: str) -> str:
+        """The id of the device that holds ``token``; :class:`AccessError` when none does."""
+        if not isinstance(token, str) or not token:
+            raise AccessError("no device token; send the token given when the device was registered")
+        rows = self._query("SELECT device_id FROM devices WHERE token_hash = ?", (token_hash(token),))
+        if not rows:
+            raise AccessError("unknown device token; register the device to get a valid token")
+        return rows[0][0]
+
+    # ------------------------------------------------------------ writing
+
+    def start_ride(self, token: str, vehicle: str, rider_id: str, *, model: str | None = None,
+                   age_band: str | None = None, gender: str | None = None, skill: str | None = None,
+                   started: float | None = None) -> str:
+        """Open a ride for the token's device; returns its id. ``started`` is UNIX seconds (now by default)."""
+        device_id = self.authenticate(token)
+        where = "new ride"
+        fields = {
+            "vehicle": validation.text(vehicle, where, "vehicle"),
+            "rider_id": validation.text(rider_id, where, "rider_id"),
+            "model": validation.text(model, where, "model", required=False),
+            **{k: validation.text(v, where, k, required=False)
+               for k, v in zip(RIDER_FIELDS, (age_band, gender, skill))},
+        }
+        started = clock.time() if started is None else _epoch(started, where, "started")
+        ride_id = uuid.uuid4().hex
+        names = ("ride_id", "device_id", "started", *fields)
+        with self._transaction() as db:
+            db.execute(f"INSERT INTO rides ({', '.join(names)}) VALUES ({', '.join('?' * len(names))})",
+                       (ride_id, device_id, started, *fields.values()))
+        return ride_id
+
+    def end_ride(self, token: str, ride_id: str, ended: float | None = None) -> None:
+        """Close the ride (``ended`` UNIX seconds, now by default); later writes to it are refused."""
+        with self._transaction() as db:
+            ride = self._own_open_ride(db, token, ride_id)
+            ended = clock.time() if ended is None else _epoch(ended, f"ride {ride_id}", "ended")
+            if ended < ride.started:
+                raise InputError(f"ride {ride_id}: field 'ended' is before the ride started; send a later time")
+            db.execute("UPDATE rides SET ended = ? WHERE ride_id = ?", (ended, ride_id))
+
+    def append_samples(self, token: str, ride_id: str, samples: Mapping[str, Sequence[float]],
+                       features: Mapping[str, Sequence[float]] | None = None,
+                       labels: Mapping[str, Sequence[str | None]] | None = None) -> int:
+        """Record a batch of raw samples (and, optionally, their features and labels) in one transaction.
+
+        ``samples`` maps :data:`SAMPLE_COLUMNS` to equal-length lists (``lat lon speed`` optional, None or NaN
+        where there is no fix); ``features`` maps :data:`FEATURE_COLUMNS` to lists of the same length;
+        ``labels`` maps model names to one label per sample (None where there is none yet). Returns the number
+        of samples recorded, once committed (see Durability in the module docstring); a batch that fails any
+        check (:mod:`.validation`) raises InputError and records nothing.
+        """
+        where = f"ride {ride_id}"
+        with self._transaction() as db:
+            self._own_open_ride(db, token, ride_id)
+            last = db.execute("SELECT max(t) FROM samples WHERE ride_id = ?", (ride_id,)).fetchone()[0]
+            table = validation.sample_batch(samples, last, where)
+            t = table[:, 0]
+            feature_rows = None if features is None else validation.feature_batch(features, len(t), where)
+            label_rows = {validation.text(m, where, "model"): validation.label_batch(v, len(t), where, m)
+                          for m, v in (labels or {}).items()}
+            db.executemany(_insert("samples", ("ride_id", *_SAMPLE_SQL)), _rows(ride_id, table))
+            if feature_rows is not None:
+                db.executemany(_insert("features", ("ride_id", "t", *FEATURE_COLUMNS)),
+                               _rows(ride_id, np.column_stack([t, feature_rows])))
+            for model, values in label_rows.items():
+                db.executemany(_insert("labels", ("ride_id", "model", "t", "label")),
+                               [(ride_id, model, float(s), v) for s, v in zip(t, values)])
+        return len(t)
+
+    def append_labels(self, token: str, ride_id: str, model: str, time: Sequence[float],
+                      labels: Sequence[str | None]) -> int:
+        """Record the labels of ``model`` at sample times ``time`` (s since the ride started), e.g. from a
+        second classifier; times must increase and come after the model's last stored label."""
+        where = f"ride {ride_id}"
+        with self._transaction() as db:
+            self._own_open_ride(db, token, ride_id)
+            model = validation.text(model, where, "model")
+            t = np.asarray(time, dtype=float)
+            if t.ndim != 1 or not 1 <= len(t) <= validation.MAX_BATCH:
+                raise InputError(f"{where}: labels need 1 to {validation.MAX_BATCH} times in a flat list")
+            last = db.execute("SELECT max(t) FROM labels WHERE ride_id = ? AND model = ?",
+                              (ride_id, model)).fetchone()[0]
+            validation.check_times(t, last, where)
+            values = validation.label_batch(labels, len(t), where, model)
+            db.executemany(_insert("labels", ("ride_id", "model", "t", "label")),
+                           [(ride_id, model, float(s), v) for s, v in zip(t, values)])
+        return len(t)
+
+    def add_event(self, token: str, ride_id: str, event: Event) -> None:
+        """Record ``event``; an event of the same kind and start replaces the earlier one (its end may grow)."""
+        where = f"ride {ride_id}"
+        kind = validation.text(event.kind, where, "kind")
+        detail = "" if not event.detail else validation.text(event.detail, where, "detail")
+        start, end = float(event.start), float(event.end)
+        if not (np.isfinite(start) and np.isfinite(end) and 0 <= start <= end):
+            raise InputError(f"{where}: event {kind!r} from {start!r} to {end!r} s; send 0 <= start <= end")
+        with self._transaction() as db:
+            self._own_open_ride(db, token, ride_id)
+            db.execute("INSERT INTO events (ride_id, kind, start_time, end_time, detail) VALUES (?, ?, ?, ?, ?) "
+                       "ON CONFLICT (ride_id, kind, start_time) DO UPDATE "
+                       "SET end_time = excluded.end_time, detail = excluded.detail",
+                       (ride_id, kind, start, end, detail))
+
+    # ------------------------------------------------------------ reading
+
+    def rides(self, device_id: str | None = None) -> list[Ride]:
+        """All rides (or the device's), oldest first."""
+        sql = f"SELECT {', '.join(_RIDE_FIELDS)} FROM rides"
+        rows = self._query(sql + " WHERE device_id = ? ORDER BY started, ride_id", (device_id,)) if device_id \
+            else self._query(sql + " ORDER BY started, ride_id")
+        return [Ride(*row) for row in rows]
+
+    def ride(self, ride_id: str) -> Ride:
+        """The ride's metadata; :class:`NotFoundError` for an unknown id."""
+        rows = self._query(f"SELECT {', '.join(_RIDE_FIELDS)} FROM rides WHERE ride_id = ?", (ride_id,))
+        if not rows:
+            raise NotFoundError(f"ride {ride_id!r} is not in {self.location}; list the rides to find its id")
+        return Ride(*rows[0])
+
+    def samples(self, ride_id: str, since: float | None = None) -> dict[str, np.ndarray]:
+        """The ride's raw samples, column by column (:data:`SAMPLE_COLUMNS`; NaN where no GPS fix); only those
+        after ``since`` (s) when given, e.g. for a view that polls a live ride."""
+        self.ride(ride_id)
+        table = self._table("samples", _SAMPLE_SQL, ride_id, since)
+        return dict(zip(SAMPLE_COLUMNS, table.T))
+
+    def features(self, ride_id: str) -> dict[str, np.ndarray]:
+        """The ride's features: ``time`` and :data:`FEATURE_COLUMNS` (NaN where none was recorded)."""
+        self.ride(ride_id)
+        table = self._table("features", ("t", *FEATURE_COLUMNS), ride_id)
+        return dict(zip(("time", *FEATURE_COLUMNS), table.T))
+
+    def labels(self, ride_id: str) -> dict[str, np.ndarray]:
+        """The ride's labels, one column per model name beside ``time`` (the union of all models' times; an
+        object array per model holding None where that model has no label)."""
+        self.ride(ride_id)
+        rows = self._query("SELECT model, t, label FROM labels WHERE ride_id = ? ORDER BY t, model", (ride_id,))
+        times = np.unique(np.array([r[1] for r in rows], dtype=float))
+        columns: dict[str, np.ndarray] = {"time": times}
+        for model, t, label in rows:
+            if model not in columns:
+                columns[model] = np.full(len(times), None, dtype=object)
+            columns[model][np.searchsorted(times, t)] = label
+        return columns
+
+    def events(self, ride_id: str) -> list[Event]:
+        """The ride's events in order of start."""
+        self.ride(ride_id)
+        rows = self._query("SELECT kind, start_time, end_time, detail FROM events WHERE ride_id = ? "
+                           "ORDER BY start_time, kind", (ride_id,))
+        return [Event(*row) for row in rows]
+
+    # ------------------------------------------------------------ internals
+
+    @contextmanager
+    def _transaction(self) -> Iterator:
+        with self._lock, self._db.transaction() as cursor:
+            yield cursor
+
+    def _query(self, sql: str, params: tuple = ()) -> list[tuple]:
+        with self._lock:
+            return self._db.query(sql, params)
+
+    def _table(self, table: str, columns: Sequence[str], ride_id: str, since: float | None = None) -> np.ndarray:
+        sql = f"SELECT {', '.join(columns)} FROM {table} WHERE ride_id = ?"
+        rows = self._query(sql + " AND t > ? ORDER BY t", (ride_id, since)) if since is not None \
+            else self._query(sql + " ORDER BY t", (ride_id,))
+        return np.array(rows, dtype=float).reshape(len(rows), len(columns))
+
+    def _own_open_ride(self, db, token: str, ride_id: str) -> Ride:
+        """The ride, after checking that the token's device started it and that it is still open."""
+        device_id = self.authenticate(token)
+        row = db.execute(f"SELECT {', '.join(_RIDE_FIELDS)} FROM rides WHERE ride_id = ?", (ride_id,)).fetchone()
+        if row is None:
+            raise NotFoundError(f"ride {ride_id!r} does not exist; start a ride first")
+        ride = Ride(*row)
+        if ride.device_id != device_id:
+            raise AccessError(f"ride {ride_id!r} belongs to another device; write only to rides this device started")
+        if ride.ended is not None:
+            raise InputError(f"ride {ride_id!r} has ended; start a new ride")
+        return ride
+
+
+class SQLiteConnection:
+    """One SQLite connection in WAL mode; :meth:`transaction` is ``BEGIN IMMEDIATE`` ... ``COMMIT``."""
+
+    def __init__(self, path: str, synchronous: str):
+        self.path = path
+        try:
+            self._connection = sqlite3.connect(path, isolation_level=None, check_same_thread=False, timeout=30.0)
+            self._connection.execute("PRAGMA journal_mode = WAL")
+            self._connection.execute(f"PRAGMA synchronous = {synchronous.upper()}")
+            self._connection.execute("PRAGMA foreign_keys = ON")
+        except sqlite3.DatabaseError as exc:
+            raise InputError(f"{path}: not a usable SQLite ride store ({exc}); give a new file name") from None
+
+    @contextmanager
+    def transaction(self) -> Iterator[sqlite3.Cursor]:
+        cursor = self._connection.cursor()
+        cursor.execute("BEGIN IMMEDIATE")
+        try:
+            yield cursor
+        except BaseException:
+            cursor.execute("ROLLBACK")
+            raise
+        cursor.execute("COMMIT")
+
+    def query(self, sql: str, params: tuple) -> list[tuple]:
+        return self._connection.execute(sql, params).fetchall()
+
+    def close(self) -> None:
+        self._connection.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+        self._connection.close()
+
+
+def _insert(table: str, columns: Sequence[str]) -> str:
+    return f"INSERT INTO {table} ({', '.join(columns)}) VALUES ({', '.join('?' * len(columns))})"
+
+
+def _rows(ride_id: str, table: np.ndarray) -> list[tuple]:
+    """Rows for an insert: the ride id, then floats with NaN as NULL (SQL has no portable NaN)."""
+    values = table.astype(object)
+    values[np.isnan(table)] = None
+    return [(ride_id, *row) for row in values.tolist()]
+
+
+def _epoch(value: float, where: str, field: str) -> float:
+    """UNIX seconds between 2000 and 2200, or InputError (catches milliseconds and relative times)."""
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{where}: field {field!r} must be UNIX seconds") from None
+    if not 946684800.0 <= value <= 7258118400.0:
+        raise InputError(f"{where}: field {field!r} = {value!r} is not UNIX seconds between 2000 and 2200")
+    return value

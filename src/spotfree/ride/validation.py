@@ -1,0 +1,159 @@
+"""Checks on what a device sends before anything is written: a batch that fails any check raises
+:class:`~spotfree.errors.InputError` naming the field, the row and the fix, and the store writes nothing of it.
+
+Limits (SI units):
+
+* a batch holds 1 to :data:`MAX_BATCH` rows;
+* ``time`` (s since the ride started) is finite, at least 0, strictly increasing within the batch and after the
+  last time already stored for the ride; the batch's mean rate ``(n - 1) / (t_last - t_first)`` is at most
+  :data:`MAX_RATE` Hz;
+* ``ax ay az`` are finite with ``|a| <= MAX_ACCELERATION`` (16 g, the widest range of phone IMUs) and
+  ``gx gy gz`` finite with ``|w| <= MAX_ROTATION`` (2000 deg/s);
+* ``lat``, ``lon`` are both present or both NaN, within [-90, 90] and [-180, 180]; ``speed`` is NaN or within
+  [0, :data:`MAX_SPEED`];
+* features, when given, are finite or NaN (NaN before the filters have settled), one row per sample;
+* labels are short text or None (None before the first full window), one per sample;
+* text fields are at most :data:`MAX_TEXT` printable characters.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+from spotfree.errors import InputError
+from spotfree.io.recording import ACC_CHANNELS, GYRO_CHANNELS
+from spotfree.ride.records import FEATURE_COLUMNS, SAMPLE_COLUMNS
+from spotfree.signal.frame import GRAVITY
+
+MAX_BATCH = 5000
+"""Rows per batch: 250 s at 20 Hz, 25 s at 200 Hz."""
+MAX_RATE = 1000.0
+"""Hz, highest mean sampling rate of a batch."""
+MAX_ACCELERATION = 16 * GRAVITY
+"""m/s^2 per axis."""
+MAX_ROTATION = np.deg2rad(2000.0)
+"""rad/s per axis."""
+MAX_SPEED = 100.0
+"""m/s; a GPS speed above it is a receiver fault."""
+MAX_TEXT = 100
+"""Characters in a text field (ids, names, labels, event kinds)."""
+
+
+def sample_batch(samples: Mapping[str, Sequence[float]], last_time: float | None, where: str) -> np.ndarray:
+    """The batch as an ``(n, len(SAMPLE_COLUMNS))`` float array in :data:`SAMPLE_COLUMNS` order.
+
+    ``samples`` maps column names to equal-length sequences (``None`` reads as NaN); ``lat lon speed`` may be
+    left out (no fix). ``last_time`` is the last time stored for the ride (None when it has none yet).
+    """
+    if not isinstance(samples, Mapping) and not hasattr(samples, "columns"):
+        raise InputError(f"{where}: samples must map column names ({', '.join(SAMPLE_COLUMNS)}) to lists")
+    unknown = [c for c in samples if c not in SAMPLE_COLUMNS]
+    if unknown:
+        raise InputError(f"{where}: unknown sample field {unknown[0]!r}; the fields are {', '.join(SAMPLE_COLUMNS)}")
+    missing = [c for c in SAMPLE_COLUMNS[:7] if c not in samples]
+    if missing:
+        raise InputError(f"{where}: sample field {missing[0]!r} is missing; send time, ax, ay, az, gx, gy, gz")
+    n = _length(samples, where, "samples")
+    table = np.full((n, len(SAMPLE_COLUMNS)), np.nan)
+    for j, name in enumerate(SAMPLE_COLUMNS):
+        if name in samples:
+            table[:, j] = _floats(samples[name], n, where, name)
+    check_times(table[:, 0], last_time, where)
+    for names, bound, unit in ((ACC_CHANNELS, MAX_ACCELERATION, "m/s^2"), (GYRO_CHANNELS, MAX_ROTATION, "rad/s")):
+        for name in names:
+            column = table[:, SAMPLE_COLUMNS.index(name)]
+            bad = ~np.isfinite(column) | (np.abs(column) > bound)
+            _refuse(bad, column, where, name, f"send finite values within +-{bound:.4g} {unit}")
+    _check_gps(table, where)
+    return table
+
+
+def check_times(t: np.ndarray, last_time: float | None, where: str) -> None:
+    """Finite, non-negative, strictly increasing times after ``last_time``, at a mean rate of at most MAX_RATE."""
+    _refuse(~np.isfinite(t) | (t < 0), t, where, "time", "send finite seconds since the ride started")
+    steps = np.diff(t)
+    _refuse(np.r_[False, steps <= 0], t, where, "time", "times must increase strictly within a batch")
+    if last_time is not None and t[0] <= last_time:
+        raise InputError(f"{where}: field 'time', row 1: {float(t[0])!r} s is not after the last stored time "
+                         f"{float(last_time)!r} s; send only new samples, in order")
+    if len(t) > 1 and (len(t) - 1) / (t[-1] - t[0]) > MAX_RATE:
+        raise InputError(f"{where}: field 'time': {len(t)} samples in {t[-1] - t[0]:.6g} s is faster than "
+                         f"{MAX_RATE:g} Hz; send times in seconds")
+
+
+def feature_batch(features: Mapping[str, Sequence[float]], n: int, where: str) -> np.ndarray:
+    """Features as an ``(n, len(FEATURE_COLUMNS))`` array (columns left out are NaN); infinities refused."""
+    unknown = [c for c in features if c not in FEATURE_COLUMNS]
+    if unknown:
+        raise InputError(f"{where}: unknown feature {unknown[0]!r}; the features are {', '.join(FEATURE_COLUMNS)}")
+    table = np.full((n, len(FEATURE_COLUMNS)), np.nan)
+    for j, name in enumerate(FEATURE_COLUMNS):
+        if name in features:
+            column = _floats(features[name], n, where, name)
+            _refuse(np.isinf(column), column, where, name, "send finite features or NaN")
+            table[:, j] = column
+    return table
+
+
+def label_batch(labels: Sequence[str | None], n: int, where: str, field: str) -> list[str | None]:
+    """One label (short text, or None where the classifier has no window yet) per sample."""
+    if isinstance(labels, str) or len(labels) != n:
+        raise InputError(f"{where}: labels {field!r} must be a list of {n} labels, one per sample")
+    return [None if label is None else text(label, where, f"{field} row {k + 1}") for k, label in enumerate(labels)]
+
+
+def text(value: object, where: str, field: str, required: bool = True) -> str | None:
+    """A text field: non-empty printable text of at most MAX_TEXT characters (None allowed when not required)."""
+    if value is None or value == "":
+        if required:
+            raise InputError(f"{where}: field {field!r} is empty; give it a value")
+        return None
+    if not isinstance(value, str) or len(value) > MAX_TEXT or not value.isprintable():
+        raise InputError(f"{where}: field {field!r} must be printable text of at most {MAX_TEXT} characters")
+    return value
+
+
+def _check_gps(table: np.ndarray, where: str) -> None:
+    lat, lon, speed = (table[:, SAMPLE_COLUMNS.index(c)] for c in ("lat", "lon", "speed"))
+    half = np.isnan(lat) != np.isnan(lon)
+    _refuse(half, lat, where, "lat", "send lat and lon together, or neither")
+    _refuse(np.isinf(lat) | (np.abs(lat) > 90), lat, where, "lat", "send degrees within [-90, 90] or no value")
+    _refuse(np.isinf(lon) | (np.abs(lon) > 180), lon, where, "lon", "send degrees within [-180, 180] or no value")
+    _refuse(np.isinf(speed) | (speed < 0) | (speed > MAX_SPEED), speed, where, "speed",
+            f"send m/s within [0, {MAX_SPEED:g}] or no value")
+
+
+def _length(columns: Mapping[str, Sequence], where: str, what: str) -> int:
+    lengths = {name: _len(values, where, name) for name, values in columns.items()}
+    sizes = set(lengths.values())
+    if len(sizes) > 1:
+        listed = ", ".join(f"{k}: {v}" for k, v in lengths.items())
+        raise InputError(f"{where}: {what} fields differ in length ({listed}); send one value per row in each")
+    n = sizes.pop()
+    if not 1 <= n <= MAX_BATCH:
+        raise InputError(f"{where}: {n} {what} in one batch; send 1 to {MAX_BATCH}")
+    return n
+
+
+def _len(values: Sequence, where: str, name: str) -> int:
+    if isinstance(values, (str, bytes)) or not hasattr(values, "__len__"):
+        raise InputError(f"{where}: field {name!r} must be a list of numbers")
+    return len(values)
+
+
+def _floats(values: Sequence, n: int, where: str, name: str) -> np.ndarray:
+    try:
+        column = np.asarray(values, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{where}: field {name!r} holds a value that is not a number; send numbers") from None
+    if column.shape != (n,):
+        raise InputError(f"{where}: field {name!r} has shape {column.shape}, expected {n} numbers")
+    return column
+
+
+def _refuse(bad: np.ndarray, column: np.ndarray, where: str, name: str, fix: str) -> None:
+    if bad.any():
+        row = int(np.flatnonzero(bad)[0])
+        raise InputError(f"{where}: field {name!r}, row {row + 1}: {float(column[row])!r} refused; {fix}")
