@@ -1,0 +1,129 @@
+"""One live ride on the server: raw samples in, features and labels out, sample by sample.
+
+:class:`LiveRide` runs the causal ride features (:class:`~spotfree.signal.features.FeatureStream`, derived
+channels included, for the operator's plot) and feeds the model's channels of them to
+:class:`~spotfree.classify.stream.RideClassifier` (``update_features``), so each sample is filtered once; the
+labels equal ``RideClassifier.update`` on the raw samples. A segment (filters, window buffer) starts afresh at a
+non-finite sample or a time step longer than ``max_gap`` s, as in :mod:`spotfree.classify.stream`.
+
+:func:`pipeline_spec` is the same pipeline as numbers for the page's JavaScript copy (``static/pipeline.js``):
+filter coefficients, the channel scales and the CRC_RLS residual operators ``E_i = I - A_i P_i`` stacked row by
+row ``(C d, d)``, so the page keeps classifying when its connection drops.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import scipy.signal
+
+from spotfree.classify.batch import dictionary_classifier, model_affine
+from spotfree.classify.stream import MAX_GAP, RideClassifier
+from spotfree.errors import InputError
+from spotfree.model import DictionaryModel
+from spotfree.ride.records import FEATURE_COLUMNS
+from spotfree.signal.butterworth import butter_lowpass
+from spotfree.signal.complementary import pi_complementary_design
+from spotfree.signal.features import LONG_CUTOFF, FeatureStream, lean_coefficients
+from spotfree.signal.frame import GRAVITY, MOUNT
+from spotfree.signal.orientation import GravityPI
+from spotfree.signal.speed_aided import SpeedAidedParameters
+
+PAGE_ORIENTATIONS = ("default", "paper")
+"""Attitude filters the page's JavaScript pipeline implements."""
+
+
+class LiveRide:
+    """Features and labels of one ride, one raw sample at a time (see the module docstring).
+
+    Parameters
+    ----------
+    model : DictionaryModel
+        A model of ride features (``model.features == "ride"``).
+    classifier : estimator, optional
+        Fitted by :func:`~spotfree.classify.batch.dictionary_classifier` once and shared between rides.
+    """
+
+    def __init__(self, model: DictionaryModel, classifier=None, max_gap: float = MAX_GAP):
+        if model.features != "ride":
+            raise InputError("the live service needs a model of ride features (trained on raw IMU logs)")
+        self.model = model
+        self.max_gap = max_gap
+        self._classifier = RideClassifier(model, classifier=classifier, max_gap=max_gap)
+        self._features = FeatureStream(model.rate, model.orientation, derived=True)
+        self._pick = np.array([FEATURE_COLUMNS.index(c) for c in model.channels])
+        self._time: float | None = None
+
+    def update(self, t: float, acc, gyr, speed: float = math.nan) -> tuple[np.ndarray, str | None]:
+        """``(features, label)`` of one sample at ``t`` (s): ``acc`` (m/s^2, gravity included) and ``gyr``
+        (rad/s) device-frame 3-vectors (Android axes), ``speed`` (m/s) on a GPS fix, NaN otherwise.
+        ``features`` follow :data:`~spotfree.ride.records.FEATURE_COLUMNS` (NaN on a non-finite sample)."""
+        values = (*acc, *gyr)
+        finite = all(math.isfinite(v) for v in values)
+        previous, self._time = self._time, float(t)
+        if not finite or (previous is not None and not 0 < self._time - previous <= self.max_gap):
+            self._features.reset()
+        if not finite:
+            nan = np.full(len(FEATURE_COLUMNS), np.nan)
+            return nan, self._classifier.update_features(nan[self._pick], t)
+        feats = self._features.update(acc, gyr, speed)
+        return feats, self._classifier.update_features(feats[self._pick], t)
+
+
+def _sections(sos: np.ndarray) -> dict:
+    """Second-order sections as ``[b0, b1, b2, a1, a2]`` rows and their at-rest state per unit input."""
+    return {"sections": [[s[0], s[1], s[2], s[4], s[5]] for s in sos.tolist()],
+            "zi": scipy.signal.sosfilt_zi(sos).tolist()}
+
+
+def pipeline_spec(model: DictionaryModel, classifier=None) -> dict:
+    """The model's streaming pipeline as JSON-ready numbers for ``static/pipeline.js`` (CRC_RLS only).
+
+    Keys: ``classes``, ``channels``, ``pick`` (indices into :data:`FEATURE_COLUMNS`), ``rate`` (Hz), ``window``,
+    ``step``, ``scale``, ``normalisation``, ``affine``, ``max_gap`` (s), ``mount`` (device to vehicle axes),
+    ``gravity`` (m/s^2), ``attitude`` (``kind`` and its parameters), ``lowpass`` and ``long_lowpass``
+    (Butterworth sections), ``lean`` (``b``, ``a``, ``c``), ``speed_aided`` (noise densities), ``operator``
+    (the ``(C d, d)`` residual operators, flat, row-major), ``reject`` (None when off).
+    """
+    if model.features != "ride":
+        raise InputError("the page pipeline needs a model of ride features")
+    if model.orientation not in PAGE_ORIENTATIONS:
+        raise InputError(f"the page pipeline implements the orientation filters {', '.join(PAGE_ORIENTATIONS)}, "
+                         f"not {model.orientation!r}; serve a model trained with one of them")
+    clf = classifier if classifier is not None else dictionary_classifier(model, "crc")
+    operators = getattr(clf, "residual_operators_", None)
+    if operators is None:
+        raise InputError("the page pipeline needs a CRC classifier (residual operators)")
+    if model.orientation == "default":
+        pi = GravityPI(model.rate)
+        attitude = {"kind": "default", **{k: getattr(pi, k) for k in (
+            "kp", "ki", "acc_scale", "rate_scale", "max_error", "rest_gyr", "rest_acc", "rest_time", "rest_gain",
+            "rest_tau", "g")}}
+    else:
+        design = pi_complementary_design(rate=model.rate)
+        attitude = {"kind": "paper", "a": design.a.tolist(), "b_rate": design.b_rate.tolist(),
+                    "b_acc": design.b_acc.tolist(),
+                    "zi": scipy.signal.lfilter_zi(design.b_acc, design.a).tolist()}
+    b, a, c = lean_coefficients(model.rate)
+    return {
+        "classes": [str(name) for name in clf.classes_],
+        "channels": list(model.channels),
+        "pick": [FEATURE_COLUMNS.index(name) for name in model.channels],
+        "rate": float(model.rate),
+        "window": int(model.window),
+        "step": int(model.step),
+        "scale": np.asarray(model.scale, dtype=float).tolist(),
+        "normalisation": model.normalisation,
+        "affine": model_affine(model),
+        "max_gap": MAX_GAP,
+        "mount": MOUNT.tolist(),
+        "gravity": GRAVITY,
+        "attitude": attitude,
+        "lowpass": _sections(butter_lowpass(model.rate)),
+        "long_lowpass": _sections(butter_lowpass(model.rate, LONG_CUTOFF)),
+        "lean": {"b": b, "a": a, "c": c},
+        "speed_aided": vars(SpeedAidedParameters()),
+        "operator": operators.reshape(-1).tolist(),
+        "reject": clf.reject,
+    }

@@ -1,0 +1,308 @@
+// The server's streaming pipeline in the browser (spotfree.ride.live.pipeline_spec gives the numbers):
+// device-to-vehicle axes, attitude filter (GravityPI or the paper's PI filter), gravity-free level
+// accelerations through a 3rd-order Butterworth, lean, speed-aided longitudinal acceleration, the model's
+// channels scaled into a ring buffer, and CRC_RLS on each due window: r_i = ||E_i y||, label = argmin_i r_i.
+// Same operations in the same order as spotfree.signal.* and spotfree.classify.stream, so labels are equal.
+// Units: m/s^2, rad/s, s; device frame of Android (x right, y up, z out of the screen).
+"use strict";
+
+(function (root) {
+  const TWO_PI = 2 * Math.PI;
+
+  function rotate(ux, uy, uz, wx, wy, wz, dt) {
+    // body coordinates of a world-fixed vector after turning at w (rad/s) for dt (s): Rodrigues' formula
+    const norm = Math.sqrt(wx * wx + wy * wy + wz * wz);
+    const angle = norm * dt;
+    if (angle < 1e-12) return [ux, uy, uz];
+    const kx = -wx / norm, ky = -wy / norm, kz = -wz / norm;
+    const c = Math.cos(angle), s = Math.sin(angle);
+    const d = (kx * ux + ky * uy + kz * uz) * (1.0 - c);
+    return [
+      ux * c + (ky * uz - kz * uy) * s + kx * d,
+      uy * c + (kz * ux - kx * uz) * s + ky * d,
+      uz * c + (kx * uy - ky * ux) * s + kz * d,
+    ];
+  }
+
+  class GravityPI {
+    constructor(p, rate) { this.p = p; this.rate = rate; this.reset(); }
+    reset() { this.u = null; this.bias = [0, 0, 0]; this.still = 0; }
+    update(acc, gyr) {
+      const p = this.p;
+      const ax = acc[0], ay = acc[1], az = acc[2];
+      const normA = Math.sqrt(ax * ax + ay * ay + az * az);
+      if (this.u === null) this.u = normA > 0 ? [ax / normA, ay / normA, az / normA] : [0, 0, 1];
+      const b = this.bias;
+      const wx = gyr[0] - b[0], wy = gyr[1] - b[1], wz = gyr[2] - b[2];
+      const half = 0.5 / this.rate;
+      let [ux, uy, uz] = rotate(this.u[0], this.u[1], this.u[2], wx, wy, wz, half);
+      const w2 = wx * wx + wy * wy + wz * wz;
+      const departure = normA - p.g;
+      if (w2 < p.rest_gyr * p.rest_gyr && Math.abs(departure) < p.rest_acc) this.still += 2.0 * half;
+      else this.still = 0.0;
+      if (normA > 0) {
+        const nx = ax / normA, ny = ay / normA, nz = az / normA;
+        const ex = ny * uz - nz * uy, ey = nz * ux - nx * uz, ez = nx * uy - ny * ux;
+        let k;
+        if (this.still >= p.rest_time) {
+          k = p.rest_gain;
+          const step = 2.0 * half / p.rest_tau;
+          b[0] += step * wx; b[1] += step * wy; b[2] += step * wz;
+        } else {
+          const trust = Math.sqrt((1.0 + w2 / p.rate_scale ** 2) / (1.0 + (departure / p.acc_scale) ** 2));
+          k = p.kp * trust;
+          const sine = Math.sqrt(ex * ex + ey * ey + ez * ez);
+          const limit = Math.sin(p.max_error);
+          if (sine > limit) k *= limit / sine;
+          const integral = p.ki * (k / p.kp) * 2.0 * half;
+          b[0] -= integral * ex; b[1] -= integral * ey; b[2] -= integral * ez;
+        }
+        [ux, uy, uz] = rotate(ux, uy, uz, k * ex, k * ey, k * ez, 2.0 * half);
+      }
+      [ux, uy, uz] = rotate(ux, uy, uz, wx, wy, wz, half);
+      const normU = Math.sqrt(ux * ux + uy * uy + uz * uz);
+      this.u = [ux / normU, uy / normU, uz / normU];
+      return [Math.atan2(this.u[1], this.u[2]), Math.atan2(-this.u[0], Math.hypot(this.u[1], this.u[2]))];
+    }
+  }
+
+  function pyRound(x) {
+    // Python's round(): half to even
+    const r = Math.round(x);
+    return (Math.abs(x % 1) === 0.5 && r % 2 !== 0) ? r - 1 : r;
+  }
+
+  function wrap(angle) {
+    const m = (angle + Math.PI) % TWO_PI;
+    return (m < 0 ? m + TWO_PI : m) - Math.PI;
+  }
+
+  class PaperAttitude {
+    constructor(p) { this.p = p; this.reset(); }
+    reset() { this.state = null; this.rollPrev = null; this.turns = 0.0; }
+    update(acc, gyr) {
+      const p = this.p;
+      const rollAcc = Math.atan2(acc[1], acc[2]);
+      const pitchAcc = Math.atan2(-acc[0], Math.hypot(acc[1], acc[2]));
+      if (this.rollPrev !== null) this.turns -= pyRound((rollAcc - this.rollPrev) / TWO_PI) * TWO_PI;
+      this.rollPrev = rollAcc;
+      const xs = [rollAcc + this.turns, pitchAcc];
+      if (this.state === null) this.state = xs.map((x) => [p.zi[0] * x, p.zi[1] * x]);
+      const out = [];
+      for (let j = 0; j < 2; j++) {
+        const s = this.state[j], x = xs[j], w = gyr[j];
+        const y = p.b_rate[0] * w + p.b_acc[0] * x + s[0];
+        s[0] = p.b_rate[1] * w + p.b_acc[1] * x - p.a[1] * y + s[1];
+        s[1] = p.b_rate[2] * w + p.b_acc[2] * x - p.a[2] * y;
+        out.push(y);
+      }
+      return [wrap(out[0]), out[1]];
+    }
+  }
+
+  class Lowpass {
+    constructor(spec, channels) { this.spec = spec; this.channels = channels; this.reset(); }
+    reset() { this.state = null; }
+    update(x) {
+      const { sections, zi } = this.spec;
+      if (this.state === null) this.state = x.map((v) => zi.flatMap((pair) => pair.map((z) => z * v)));
+      const out = [];
+      for (let c = 0; c < x.length; c++) {
+        const z = this.state[c];
+        let v = x[c], i = 0;
+        for (const [b0, b1, b2, a1, a2] of sections) {
+          const y = b0 * v + z[i];
+          z[i] = b1 * v - a1 * y + z[i + 1];
+          z[i + 1] = b2 * v - a2 * y;
+          v = y;
+          i += 2;
+        }
+        out.push(v);
+      }
+      return out;
+    }
+  }
+
+  class SpeedAidedPitch {
+    constructor(p, rate) { this.p = p; this.rate = rate; this.reset(); }
+    reset() { this.x = null; this.P = [0, 0, 0, 0, 0, 0]; this.hasSpeed = false; }
+    update(acc, gyr, roll, pitchRef, speed) {
+      const par = this.p, dt = 1.0 / this.rate;
+      const ax = acc[0], ay = acc[1], az = acc[2], q = gyr[1], r = gyr[2];
+      const sr = Math.sin(roll), cr = Math.cos(roll);
+      const across = sr * ay + cr * az;
+      if (this.x === null) {
+        this.x = [pitchRef, 0.0, 0.0];
+        this.P = [par.initial_pitch ** 2, 0.0, 0.0, par.initial_bias ** 2, 0.0, par.initial_speed ** 2];
+      }
+      const [theta, bias, v] = this.x;
+      const st = Math.sin(theta), ct = Math.cos(theta);
+      const aT = ct * ax + st * across;
+      const s = (-st * ax + ct * across) * dt;
+      const [p00, p01, p02, p11, p12, p22] = this.P;
+      this.P = [
+        p00 - 2 * dt * p01 + dt * dt * p11 + par.pitch_noise ** 2 * dt,
+        p01 - dt * p11,
+        s * (p00 - dt * p01) + p02 - dt * p12,
+        p11 + par.bias_noise ** 2 * dt,
+        s * p01 + p12,
+        s * s * p00 + 2 * s * p02 + p22 + (par.accel_noise * dt) ** 2,
+      ];
+      this.x = [theta + (q * cr - r * sr - bias) * dt, bias, v + aT * dt];
+      this.measure(0, pitchRef - this.x[0], par.reference_noise ** 2 / dt);
+      if (speed === speed) {
+        if (!this.hasSpeed) {
+          const P = this.P;
+          this.x = [this.x[0], this.x[1], speed];
+          this.P = [P[0], P[1], 0.0, P[3], 0.0, 0.0];
+          this.hasSpeed = true;
+        }
+        this.measure(2, speed - this.x[2], par.speed_noise ** 2);
+      }
+      const th = this.x[0];
+      return Math.cos(th) * ax + Math.sin(th) * across;
+    }
+    measure(k, innovation, variance) {
+      const [p00, p01, p02, p11, p12, p22] = this.P;
+      const [c0, c1, c2] = k === 0 ? [p00, p01, p02] : [p02, p12, p22];
+      const inv = 1.0 / ((k === 0 ? c0 : c2) + variance);
+      const [x0, x1, x2] = this.x;
+      this.x = [x0 + c0 * inv * innovation, x1 + c1 * inv * innovation, x2 + c2 * inv * innovation];
+      this.P = [p00 - c0 * c0 * inv, p01 - c0 * c1 * inv, p02 - c0 * c2 * inv,
+        p11 - c1 * c1 * inv, p12 - c1 * c2 * inv, p22 - c2 * c2 * inv];
+    }
+  }
+
+  class FeatureStream {
+    // roll, pitch, pitch_rate, acc_x, acc_y, acc_z, lean, acc_long (spotfree.signal.features, derived=True)
+    constructor(spec) {
+      this.spec = spec;
+      const att = spec.attitude;
+      this.attitude = att.kind === "paper" ? new PaperAttitude(att) : new GravityPI(att, spec.rate);
+      this.lowpass = new Lowpass(spec.lowpass, 3);
+      this.longLowpass = new Lowpass(spec.long_lowpass, 1);
+      this.speedAided = new SpeedAidedPitch(spec.speed_aided, spec.rate);
+      this.reset();
+    }
+    reset() {
+      this.attitude.reset(); this.lowpass.reset(); this.speedAided.reset(); this.longLowpass.reset();
+      this.lean = 0.0; this.bias = 0.0;
+    }
+    update(acc, gyr, speed) {
+      const m = this.spec.mount, g = this.spec.gravity, L = this.spec.lean;
+      const a0 = acc[0], a1 = acc[1], a2 = acc[2], w0 = gyr[0], w1 = gyr[1], w2 = gyr[2];
+      const accV = [m[0][0] * a0 + m[0][1] * a1 + m[0][2] * a2, m[1][0] * a0 + m[1][1] * a1 + m[1][2] * a2,
+        m[2][0] * a0 + m[2][1] * a1 + m[2][2] * a2];
+      const gyrV = [m[0][0] * w0 + m[0][1] * w1 + m[0][2] * w2, m[1][0] * w0 + m[1][1] * w1 + m[1][2] * w2,
+        m[2][0] * w0 + m[2][1] * w1 + m[2][2] * w2];
+      const [roll, pitch] = this.attitude.update(accV, gyrV);
+      const cr = Math.cos(roll), sr = Math.sin(roll), cp = Math.cos(pitch), sp = Math.sin(pitch);
+      const across = sr * accV[1] + cr * accV[2];
+      const level = this.lowpass.update([cp * accV[0] + sp * across, cr * accV[1] - sr * accV[2],
+        -sp * accV[0] + cp * across - g]);
+      this.bias = L.c * this.bias + (1.0 - L.c) * gyrV[1];
+      this.lean = L.a * this.lean + L.b * (gyrV[1] - this.bias);
+      const aT = this.speedAided.update(accV, gyrV, roll, pitch, speed);
+      const [accLong] = this.longLowpass.update([aT]);
+      return [roll, pitch, gyrV[1], level[0], level[1], level[2], this.lean, accLong];
+    }
+  }
+
+  class Pipeline {
+    // one ride, sample by sample: update(t, acc, gyr, speed) -> {features, label}
+    constructor(spec) {
+      this.spec = spec;
+      this.features = new FeatureStream(spec);
+      const c = spec.channels.length, L = spec.window;
+      this.d = c * L;
+      this.buffer = spec.channels.map(() => new Float64Array(2 * L));
+      this.y = new Float64Array(this.d + (spec.affine !== 0 ? 1 : 0)).fill(spec.affine);
+      this.operator = Float64Array.from(spec.operator);
+      this.time = null;
+      this.resetSegment();
+    }
+    resetSegment() { this.features.reset(); this.position = 0; this.count = 0; this.label = null; }
+    update(t, acc, gyr, speed) {
+      const values = [...acc, ...gyr];
+      const finite = values.every(Number.isFinite);
+      const previous = this.time;
+      this.time = t;
+      const jump = previous !== null && !(t - previous > 0 && t - previous <= this.spec.max_gap);
+      if (jump || !finite) this.resetSegment();
+      if (!finite) return { features: null, label: null };
+      const feats = this.features.update(acc, gyr, speed === null || speed === undefined ? NaN : speed);
+      return { features: feats, label: this.push(feats) };
+    }
+    push(feats) {
+      const s = this.spec, L = s.window, p = this.position;
+      this.count += 1;
+      let due = this.count - L;
+      due = due >= 0 && due % s.step === 0;
+      for (let i = 0; i < s.pick.length; i++) {
+        const v = feats[s.pick[i]] / s.scale[i];
+        this.buffer[i][p] = v;
+        this.buffer[i][p + L] = v;
+      }
+      this.position = (p + 1) % L;
+      if (due) {
+        let k = 0, norm2 = 0.0;
+        for (let i = 0; i < s.pick.length; i++) {
+          for (let j = p + 1; j < p + 1 + L; j++) {
+            this.y[k] = this.buffer[i][j];
+            norm2 += this.y[k] * this.y[k];
+            k++;
+          }
+        }
+        if (s.normalisation === "unit" && norm2 > 0) {
+          const norm = Math.sqrt(norm2);
+          for (k = 0; k < this.d; k++) this.y[k] /= norm;
+        }
+        this.label = this.classify(this.y);
+      }
+      return this.label;
+    }
+    classify(y) {
+      // CRC_RLS: argmin_i ||E_i y||, rejection on min_i r_i / ||y|| when the model sets it
+      const D = y.length, C = this.spec.classes.length, E = this.operator;
+      let norm2 = 0.0;
+      for (let j = 0; j < D; j++) norm2 += y[j] * y[j];
+      let best = 0, bestR2 = Infinity;
+      for (let c = 0; c < C; c++) {
+        let r2 = 0.0;
+        for (let i = c * D; i < (c + 1) * D; i++) {
+          let e = 0.0;
+          const row = i * D;
+          for (let j = 0; j < D; j++) e += E[row + j] * y[j];
+          r2 += e * e;
+        }
+        if (r2 < bestR2) { best = c; bestR2 = r2; }
+      }
+      const reject = this.spec.reject;
+      if (reject !== null && reject !== undefined) {
+        const ratio = norm2 > 0 ? Math.sqrt(bestR2 / norm2) : Infinity;
+        if (ratio > reject) return "unknown";
+      }
+      return this.spec.classes[best];
+    }
+  }
+
+  class Resampler {
+    // DeviceMotion events (any rate) to a uniform grid of 1/rate s: the mean of the events in each slot
+    constructor(rate) { this.period = 1.0 / rate; this.slot = null; this.sum = null; this.n = 0; }
+    add(t, values) {
+      const slot = Math.floor(t / this.period);
+      const out = [];
+      if (this.slot !== null && slot !== this.slot && this.n > 0) {
+        out.push([this.slot * this.period, ...this.sum.map((v) => v / this.n)]);
+        this.n = 0;
+      }
+      if (this.n === 0) { this.slot = slot; this.sum = values.map(() => 0); }
+      values.forEach((v, i) => { this.sum[i] += v; });
+      this.n += 1;
+      return out;
+    }
+  }
+
+  root.spotfreePipeline = { Pipeline, FeatureStream, Resampler };
+  if (typeof module !== "undefined") module.exports = root.spotfreePipeline;
+})(typeof window !== "undefined" ? window : globalThis);
