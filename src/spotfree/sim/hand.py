@@ -9,10 +9,12 @@ numbers and their sources):
   (pointing with the index, with two fingers, or with the open hand; pointing angles; how far the hand is raised for
   ``stop`` and ``backward``), movement time, hold time, path curvature, speed-profile skew, when the fingers move
   within a movement, postural sway and tremor.
-* **protocol**: a calibration hold in ``straight``, then ``rounds`` times each of ``left``, ``right``, ``stop``,
-  ``backward`` in random order, each reached from ``straight`` and left back to it, so that each of the eight
-  gestures ``straight-to-X`` / ``X-to-straight`` occurs ``rounds`` times; every hold varies around the person's
-  posture by a few mm and degrees.
+* **protocol** (``"test"``): a calibration hold in ``straight``, then ``rounds`` times each of ``left``, ``right``,
+  ``stop``, ``backward`` in random order, each reached from ``straight`` and left back to it, so that each of the
+  eight gestures ``straight-to-X`` / ``X-to-straight`` occurs ``rounds`` times; every hold varies around the
+  person's posture by a few mm and degrees. ``"training"``: nine sessions per person (:data:`TRAINING_TASKS`): a
+  still hold, one move out to each posture, and ``rounds`` round trips to each, so that evidence across sessions
+  tells the postures and the gestures apart without marking where any of them starts.
 * **movement**: minimum-jerk (Flash & Hogan 1985) ``s(u) = 10 u^3 - 15 u^4 + 6 u^5`` of the warped time ``u =
   tau^gamma``, ``tau = (t - t0) / T``: palm position ``p_a + (p_b - p_a) s + arc sin(pi s)``, orientation by
   spherical interpolation at ``s``, finger curl by minimum jerk inside a sub-interval of the movement. ``T`` grows
@@ -43,6 +45,10 @@ GESTURES = tuple(g for p in POSTURES[1:] for g in (f"straight-to-{p}", f"{p}-to-
 """The eight gestures: the movement from one posture to another."""
 
 STREAMS = ("person", "plan", "motion", "tracker", "clock")
+
+PROTOCOLS = ("test", "training")
+TRAINING_TASKS = ("hold", *(f"out-{p}" for p in POSTURES[1:]), *(f"round-{p}" for p in POSTURES[1:]))
+"""The sessions of the training protocol of one person, in this order (:func:`training_sequence`)."""
 
 PALM_WIDTH = 0.085
 """m, palm width of a hand of scale 1."""
@@ -161,22 +167,52 @@ def draw_person(seed: int, number: int) -> Person:
 
 
 def simulate_hands(
-    people: int = 6, seed: int = 0, rounds: int = 3, first: int = 1, tracker: TrackerSpec = TrackerSpec()
+    people: int = 6, seed: int = 0, rounds: int = 3, first: int = 1, tracker: TrackerSpec = TrackerSpec(),
+    protocol: str = "test",
 ) -> list[HandFrame]:
-    """Frames of ``people`` sessions (persons ``first`` .. ``first + people - 1``), one after the other on one
-    service clock; session ``k`` of the file carries ``session = k``. ``rounds`` is how often each gesture occurs
-    per person. The same arguments give the same frames."""
+    """Frames of persons ``first`` .. ``first + people - 1``, one session after the other on one service clock;
+    session ``k`` of the file carries ``session = k``. ``protocol="test"``: one session per person in which each
+    gesture occurs ``rounds`` times; ``protocol="training"``: the :data:`TRAINING_TASKS` sessions of every person
+    in that order (see :func:`training_sequence`). The same arguments give the same frames."""
     if people < 1 or rounds < 1 or first < 1:
         raise InputError(f"people ({people}), rounds ({rounds}) and first ({first}) must be at least 1")
+    if protocol not in PROTOCOLS:
+        raise InputError(f"protocol {protocol!r}: use one of {', '.join(PROTOCOLS)}")
     frames: list[HandFrame] = []
     clock = _rng(seed, 0, "clock").uniform(20.0, 600.0)
-    for session, number in enumerate(range(first, first + people), start=1):
+    for number in range(first, first + people):
         person = draw_person(seed, number)
-        first_id = frames[-1].id + 1 if frames else 0
-        session_frames = _session(person, seed, rounds, clock, session, first_id, tracker)
-        frames.extend(session_frames)
-        clock = session_frames[-1].time + _rng(seed, number, "clock").uniform(3.0, 8.0)
+        pause = _rng(seed, number, "clock")
+        if protocol == "test":
+            plan = _rng(seed, number, "plan")
+            plans = [(_test_sequence(plan, rounds), plan, ())]
+        else:
+            plans = [(training_sequence(task, rounds), _rng(seed, number, "plan", k + 1), (k + 1,))
+                     for k, task in enumerate(TRAINING_TASKS)]
+        for sequence, plan, extra in plans:
+            first_id = frames[-1].id + 1 if frames else 0
+            session = frames[-1].session + 1 if frames else 1
+            session_frames = _session(person, seed, sequence, plan, extra, clock, session, first_id, tracker)
+            frames.extend(session_frames)
+            clock = session_frames[-1].time + pause.uniform(3.0, 8.0)
     return frames
+
+
+def training_sequence(task: str, rounds: int = 3) -> list[str]:
+    """Postures of one training session, in order (every session starts in ``straight``):
+
+    * ``hold``: ``straight`` only, held 10-14 s (no gesture);
+    * ``out-X``: ``straight``, then ``X`` held 4-6 s to the end (the one gesture ``straight-to-X``);
+    * ``round-X``: ``rounds`` times ``X`` and back to ``straight`` (both gestures of ``X``).
+    """
+    kind, _, posture = task.partition("-")
+    if task not in TRAINING_TASKS:
+        raise InputError(f"training task {task!r}: use one of {', '.join(TRAINING_TASKS)}")
+    if kind == "hold":
+        return ["straight"]
+    if kind == "out":
+        return ["straight", posture]
+    return ["straight"] + [posture, "straight"] * rounds
 
 
 # ---------------------------------------------------------------- one session
@@ -192,12 +228,20 @@ class _Segment:
     b: Pose
 
 
-def _plan(person: Person, rng: np.random.Generator, rounds: int) -> list[_Segment]:
-    """Holds and movements of the protocol, from t = 0."""
+def _test_sequence(rng: np.random.Generator, rounds: int) -> list[str]:
+    """The test protocol: ``rounds`` times each non-straight posture in random order, each from and back to
+    ``straight``."""
     order = [str(p) for _ in range(rounds) for p in rng.permutation(POSTURES[1:])]
     sequence = ["straight"]
     for posture in order:
         sequence += [posture, "straight"]
+    return sequence
+
+
+def _plan(person: Person, rng: np.random.Generator, sequence: list[str]) -> list[_Segment]:
+    """Holds of the postures of ``sequence`` and the movements between them, from t = 0. The first hold lasts
+    2-3 s (the calibration), or 10-14 s when it is the only one; the last hold of a two-posture session 4-6 s;
+    any other 0.6-1.5 times the person's mean."""
     segments: list[_Segment] = []
     t = 0.0
     previous = None
@@ -209,7 +253,12 @@ def _plan(person: Person, rng: np.random.Generator, rounds: int) -> list[_Segmen
             label = f"{previous[0]}-to-{name}"
             segments.append(_Segment(t, t + duration, "gesture", label, previous[1], pose))
             t += duration
-        hold = 2.0 + rng.uniform(0.0, 1.0) if k == 0 else person.hold_time * rng.uniform(0.6, 1.5)
+        if k == 0:
+            hold = 2.0 + rng.uniform(0.0, 1.0) if len(sequence) > 1 else rng.uniform(10.0, 14.0)
+        elif len(sequence) == 2:
+            hold = rng.uniform(4.0, 6.0)
+        else:
+            hold = person.hold_time * rng.uniform(0.6, 1.5)
         segments.append(_Segment(t, t + hold, "posture", name, pose, pose))
         t += hold
         previous = (name, pose)
@@ -226,11 +275,14 @@ def _vary(pose: Pose, rng: np.random.Generator) -> Pose:
 
 
 def _session(
-    person: Person, seed: int, rounds: int, clock: float, session: int, first_id: int, tracker: TrackerSpec
+    person: Person, seed: int, sequence: list[str], plan: np.random.Generator, extra: tuple[int, ...],
+    clock: float, session: int, first_id: int, tracker: TrackerSpec,
 ) -> list[HandFrame]:
-    """The frames of one person's session, starting at ``clock`` s on the service clock."""
-    segments = _plan(person, _rng(seed, person.number, "plan"), rounds)
-    motion, noise = _rng(seed, person.number, "motion"), _rng(seed, person.number, "tracker")
+    """The frames of one person's session of the postures ``sequence`` (holds and movements drawn from ``plan``),
+    starting at ``clock`` s on the service clock; ``extra`` numbers the session's random streams among the
+    person's (empty: the test session)."""
+    segments = _plan(person, plan, sequence)
+    motion, noise = _rng(seed, person.number, "motion", *extra), _rng(seed, person.number, "tracker", *extra)
     t = _frame_times(segments[-1].end, noise, tracker)
     which = np.clip(np.searchsorted([s.end for s in segments], t, side="right"), 0, len(segments) - 1)
     position = np.empty((len(t), 3))
@@ -368,5 +420,5 @@ def _mm(*values: float) -> np.ndarray:
     return np.array(values) * 1e-3
 
 
-def _rng(seed: int, number: int, stream: str) -> np.random.Generator:
-    return np.random.default_rng(np.random.SeedSequence([seed, number, STREAMS.index(stream)]))
+def _rng(seed: int, number: int, stream: str, *extra: int) -> np.random.Generator:
+    return np.random.default_rng(np.random.SeedSequence([seed, number, STREAMS.index(stream), *extra]))
