@@ -1,0 +1,17 @@
+"""Peers of the spotting-free classifier for the evaluation: each labels every sample of a feature Recording.
+
+* :class:`MiniRocketPeer`: aeon's MiniRocket + ridge, trained on windows labelled by the ground truth;
+* :class:`NearestNeighbourPeer`: 1-NN on channel-scaled windows, trained the same way;
+* :class:`ClaspPeer`: ClaSP unsupervised segmentation, its segments named afterwards.
+
+All share :class:`spotfree.peers.base.Peer`: ``fit(recordings)``, ``predict(recording)`` -> labels (``""`` where
+none), ``fit_time_`` and ``predict_time_`` in seconds. MiniRocket and ClaSP need aeon (``pip install
+'spotfree[eval]'``), imported on first fit or predict.
+"""
+
+from spotfree.peers.base import Peer
+from spotfree.peers.clasp import ClaspPeer
+from spotfree.peers.minirocket import MiniRocketPeer
+from spotfree.peers.neighbours import NearestNeighbourPeer
+
+__all__ = ["ClaspPeer", "MiniRocketPeer", "NearestNeighbourPeer", "Peer"]

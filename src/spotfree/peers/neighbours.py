@@ -1,0 +1,34 @@
+"""Nearest-neighbour baseline: each test window takes the ground-truth label of the closest training window.
+
+Windows are the channel-scaled block-Hankel columns ``y in R^{cL}`` (:mod:`spotfree.windows`); the distance is
+Euclidean, ``label(y) = label(argmin_j ||y - y_j||_2)`` over all training windows ``y_j``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from sklearn.neighbors import KNeighborsClassifier
+
+from spotfree.peers.base import DEFAULT_CHANNELS, WindowClassifierPeer
+
+
+class NearestNeighbourPeer(WindowClassifierPeer):
+    """Supervised k-nearest-neighbour window classifier (1-NN by default).
+
+    Parameters
+    ----------
+    channels, window, alignment
+        As for every peer (:class:`spotfree.peers.base.Peer`).
+    n_neighbors : int
+        Neighbours that vote (1: the nearest window decides).
+    """
+
+    def __init__(self, channels=DEFAULT_CHANNELS, window: int = 20, alignment: str = "causal", n_neighbors: int = 1):
+        super().__init__(channels=channels, window=window, alignment=alignment)
+        self.n_neighbors = n_neighbors
+
+    def _make_estimator(self):
+        return KNeighborsClassifier(n_neighbors=self.n_neighbors)
+
+    def _features(self, windows: np.ndarray) -> np.ndarray:
+        return windows.reshape(len(windows), -1)
