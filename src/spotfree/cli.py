@@ -217,12 +217,23 @@ def evaluate(output: Path = typer.Option(..., "-o", "--output")) -> None:
 @app.command()
 @user_errors
 def serve(
-    host: str = typer.Option("127.0.0.1", "--host"),
+    host: str = typer.Option("127.0.0.1", "--host", help="address to listen on (0.0.0.0 for phones on the LAN)"),
     port: int = typer.Option(8000, "--port"),
-    database: Optional[str] = typer.Option(None, "--database"),
+    database: str = typer.Option("spotfree-rides.db", "--database",
+                                 help="SQLite file, or a postgresql:// URL"),
+    https: bool = typer.Option(False, "--https", help="TLS with a self-signed certificate (phones need it)"),
+    replay: Optional[str] = typer.Option(None, "--replay", help="replay this log as a live ride (real time)"),
+    simulate: Optional[str] = typer.Option(None, "--simulate", help="ride this simulator scenario live"),
+    model_path: Optional[Path] = typer.Option(None, "--model", help="model file (default: trained on simulated "
+                                              "rides once, then cached)"),
+    speed: float = typer.Option(1.0, "--speed", min=0.1, help="replay/simulate at this many times real time"),
+    seed: int = typer.Option(0, "--seed", help="seed of --simulate"),
 ) -> None:
-    """The live ride assistant: phone page, rider and operator views (not built yet)."""
-    _not_built("spotfree serve", 5)
+    """The live ride assistant: phone page (/), rider view (/rider), operator view (/operator)."""
+    from spotfree.ride.server import run_server
+
+    run_server(host=host, port=port, database=database, https=https, replay=replay, simulate=simulate,
+               model_path=model_path, speed=speed, seed=seed, say=err.print)
 
 
 @hand_app.command("simulate")

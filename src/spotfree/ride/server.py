@@ -1,0 +1,67 @@
+"""``spotfree serve``: the model, the store, the service and its web API under uvicorn, with the optional
+replayed or simulated rider (:mod:`spotfree.ride.sources`) and a self-signed certificate (:mod:`spotfree.ride.tls`)."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+from pathlib import Path
+from typing import Callable
+
+from spotfree.errors import InputError
+from spotfree.model import DictionaryModel
+from spotfree.ride.api import create_app
+from spotfree.ride.service import RideService
+from spotfree.ride.store import RideStore
+
+
+def _rider_rows(replay: str | None, simulate: str | None, seed: int):
+    from spotfree.ride.sources import recording_rows
+
+    if replay and simulate:
+        raise InputError("--replay and --simulate: give one of them")
+    if replay:
+        from spotfree.io import read_recording
+
+        return recording_rows(read_recording(replay)), f"replay {Path(replay).name}"
+    from spotfree.sim.scenarios import simulate_scenario
+
+    return recording_rows(simulate_scenario(simulate, repeats=1, seed=seed)), f"simulated {simulate}"
+
+
+def build_service(database: str, model_path: Path | None, say: Callable[[str], None]) -> RideService:
+    """The service over ``database`` with the model at ``model_path`` (the cached default model when None)."""
+    from spotfree.ride.default_model import default_model
+
+    model = DictionaryModel.load(model_path) if model_path else default_model(say)
+    return RideService(model, RideStore(database), model_name=model_path.stem if model_path else "default")
+
+
+def run_server(host: str, port: int, database: str, https: bool, replay: str | None, simulate: str | None,
+               model_path: Path | None, speed: float, seed: int, say: Callable[[str], None]) -> None:
+    """Serve until interrupted (see the module docstring)."""
+    import uvicorn
+
+    rows = _rider_rows(replay, simulate, seed) if (replay or simulate) else None
+    service = build_service(database, model_path, say)
+    app = create_app(service)
+    if rows is not None:
+        from spotfree.ride.sources import ride_live
+
+        @contextlib.asynccontextmanager
+        async def rider(_app):
+            task = asyncio.create_task(ride_live(service, rows[0], rows[1], speed=speed, loop_forever=True))
+            yield
+            task.cancel()
+
+        app.router.lifespan_context = rider
+    tls = {}
+    if https:
+        from spotfree.ride.tls import lan_addresses, self_signed_certificate
+
+        folder = Path(database).parent if "://" not in database else Path(".")
+        cert, key = self_signed_certificate(folder / "spotfree-tls", [host, *lan_addresses()])
+        tls = {"ssl_certfile": str(cert), "ssl_keyfile": str(key)}
+    scheme = "https" if https else "http"
+    say(f"spotfree serve: {scheme}://{host}:{port}/ (phone), /rider, /operator; rides recorded in {database}")
+    uvicorn.run(app, host=host, port=port, log_level="warning", **tls)

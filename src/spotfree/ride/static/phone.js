@@ -1,0 +1,169 @@
+// The phone page: DeviceMotion + Geolocation -> 20 Hz samples -> WebSocket batches (resent until acknowledged),
+// and the same pipeline run locally so labels and warnings go on when the connection drops.
+"use strict";
+
+const $ = (id) => document.getElementById(id);
+const BATCH_SECONDS = 0.25;
+const state = {
+  spec: null, pipeline: null, resampler: null, socket: null, rideId: null, token: null, origin: null,
+  queue: [], seq: 0, sentUpTo: -1, fix: null, lastSent: -Infinity, online: false,
+  localLabels: [], serverLabels: [], times: [],
+};
+
+async function deviceToken() {
+  let token = localStorage.getItem("spotfree-token");
+  if (!token) {
+    const r = await fetch("/api/devices", { method: "POST", body: JSON.stringify({ name: navigator.userAgent.slice(0, 90) }) });
+    token = (await r.json()).token;
+    localStorage.setItem("spotfree-token", token);
+  }
+  return token;
+}
+
+function show(label, warning) {
+  $("label").textContent = label || "–";
+  $("label").style.color = labelColour(label);
+  if (warning) {
+    $("banner").textContent = warning.toUpperCase().replace("-", " ");
+    $("banner").classList.add("on");
+    clearTimeout(show.timer);
+    show.timer = setTimeout(() => $("banner").classList.remove("on"), 4000);
+  }
+}
+
+function setOnline(on) {
+  state.online = on;
+  $("link").textContent = on ? "online" : "offline: classifying on the phone";
+  $("link").className = "badge " + (on ? "online" : "offline");
+}
+
+function sample(t, acc, gyr) {
+  // one 20 Hz sample: classify locally, queue for the server
+  const fix = state.fix;
+  state.fix = null;
+  const row = [t, ...acc, ...gyr, fix ? fix.lat : null, fix ? fix.lon : null, fix ? fix.speed : null];
+  const out = state.pipeline.update(t, acc, gyr, fix && fix.speed !== null ? fix.speed : NaN);
+  const previous = state.localLabels.length ? state.localLabels[state.localLabels.length - 1] : null;
+  state.localLabels.push(out.label);
+  state.times.push(t);
+  if (!state.online) {
+    const warn = DANGEROUS.has(out.label) && out.label !== previous ? out.label : null;
+    show(out.label, warn);
+    if (fix && fix.speed !== null) $("speed").textContent = kmh(fix.speed);
+  }
+  state.queue.push(row);
+  if (t - state.lastSent >= BATCH_SECONDS) flush();
+}
+
+function flush() {
+  if (!state.online || !state.queue.length || state.sentUpTo >= state.queue.length - 1) return;
+  const rows = state.queue.slice(state.sentUpTo + 1);
+  const cols = ["time", "ax", "ay", "az", "gx", "gy", "gz", "lat", "lon", "speed"];
+  const samples = {};
+  cols.forEach((c, j) => { samples[c] = rows.map((r) => r[j]); });
+  state.seq += 1;
+  state.pending = state.pending || {};
+  state.pending[state.seq] = rows.length;
+  state.socket.send(JSON.stringify({ type: "batch", seq: state.seq, samples }));
+  state.sentUpTo = state.queue.length - 1;
+  state.lastSent = rows[rows.length - 1][0];
+}
+
+function onReply(msg) {
+  if (msg.type === "started" || msg.type === "resumed") {
+    state.rideId = msg.ride_id;
+    sessionStorage.setItem("spotfree-ride", msg.ride_id);
+    if (msg.type === "resumed" && msg.last_time !== null) {
+      state.queue = state.queue.filter((r) => r[0] > msg.last_time);
+    }
+    state.sentUpTo = -1;
+    setOnline(true);
+    $("status").textContent = `ride ${msg.ride_id.slice(0, 8)}: streaming`;
+    flush();
+  } else if (msg.type === "ack") {
+    const n = state.pending[msg.seq] || msg.count;
+    delete state.pending[msg.seq];
+    state.queue.splice(0, n);
+    state.sentUpTo -= n;
+    state.serverLabels.push(...msg.labels);
+    const last = msg.labels[msg.labels.length - 1];
+    show(last, msg.warnings.length ? msg.warnings[msg.warnings.length - 1].kind : null);
+    const s = msg.state || {};
+    $("speed").textContent = kmh(s.speed);
+    $("distance").textContent = km(s.distance);
+    $("eta").textContent = minutes(s.eta);
+  } else if (msg.type === "error") {
+    $("status").textContent = `server refused: ${msg.message}`;
+    if (msg.seq !== null && msg.seq !== undefined) {
+      // a refused batch changed nothing on the server; drop it so the stream goes on
+      const n = state.pending[msg.seq] || 0;
+      delete state.pending[msg.seq];
+      state.queue.splice(0, n);
+      state.sentUpTo -= n;
+    }
+  }
+}
+
+function connect() {
+  const socket = new WebSocket(wsUrl("/ws/ride"));
+  state.socket = socket;
+  state.pending = {};
+  socket.onopen = () => {
+    const meta = { vehicle: $("vehicle").value, rider_id: $("rider").value, age_band: $("age_band").value || null,
+      skill: $("skill").value || null };
+    socket.send(JSON.stringify(state.rideId ? { type: "resume", token: state.token, ride_id: state.rideId }
+      : { type: "start", token: state.token, ...meta }));
+  };
+  socket.onmessage = (ev) => onReply(JSON.parse(ev.data));
+  socket.onclose = () => { setOnline(false); setTimeout(connect, 1000); };
+}
+
+function onMotion(ev) {
+  const a = ev.accelerationIncludingGravity, r = ev.rotationRate;
+  if (!a || !r || a.x === null) return;
+  const now = ev.timeStamp / 1000;
+  if (state.origin === null) state.origin = now;
+  const deg = Math.PI / 180;
+  // DeviceMotion: m/s^2 (gravity included) and deg/s about x (beta), y (gamma), z (alpha), device frame
+  const values = [a.x, a.y, a.z, r.beta * deg, r.gamma * deg, r.alpha * deg];
+  for (const row of state.resampler.add(now - state.origin, values)) sample(row[0], row.slice(1, 4), row.slice(4, 7));
+}
+
+function onPosition(p) {
+  const speed = p.coords.speed === null || p.coords.speed < 0 ? null : p.coords.speed;
+  state.fix = { lat: p.coords.latitude, lon: p.coords.longitude, speed };
+}
+
+async function start() {
+  // iOS asks for motion permission only from a tap
+  if (typeof DeviceMotionEvent !== "undefined" && typeof DeviceMotionEvent.requestPermission === "function") {
+    const answer = await DeviceMotionEvent.requestPermission();
+    if (answer !== "granted") { $("status").textContent = "motion permission refused"; return; }
+  }
+  state.token = await deviceToken();
+  window.addEventListener("devicemotion", onMotion);
+  if (navigator.geolocation) {
+    navigator.geolocation.watchPosition(onPosition, (e) => { $("status").textContent = `location: ${e.message}`; },
+      { enableHighAccuracy: true, maximumAge: 0 });
+  }
+  $("setup").hidden = true;
+  connect();
+}
+
+function setDestination() {
+  const parts = $("dest").value.split(",").map(Number);
+  if (parts.length !== 2 || !parts.every(Number.isFinite)) { $("status").textContent = "destination: give lat, lon"; return; }
+  if (state.online) state.socket.send(JSON.stringify({ type: "destination", lat: parts[0], lon: parts[1] }));
+}
+
+async function init() {
+  if (!window.isSecureContext) $("secure").hidden = false;
+  state.spec = await (await fetch("/api/model")).json();
+  state.pipeline = new spotfreePipeline.Pipeline(state.spec);
+  state.resampler = new spotfreePipeline.Resampler(state.spec.rate);
+  $("start").onclick = start;
+  $("setdest").onclick = setDestination;
+}
+
+window.spotfree = { state, start, sample };
+init();
