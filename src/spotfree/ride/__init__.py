@@ -1,6 +1,12 @@
 """The ride assistant application: the ride store, the assistant's warnings and trip figures, and exports."""
 
+from spotfree.ride.assistant import RideAssistant, RideWarning, Status
+from spotfree.ride.export import export_csv, export_geojson, export_gpx, export_ride, ride_geojson, ride_recording
 from spotfree.ride.records import FEATURE_COLUMNS, SAMPLE_COLUMNS, Event, Ride
 from spotfree.ride.store import AccessError, NotFoundError, RideStore
 
-__all__ = ["AccessError", "Event", "FEATURE_COLUMNS", "NotFoundError", "Ride", "RideStore", "SAMPLE_COLUMNS"]
+__all__ = [
+    "AccessError", "Event", "FEATURE_COLUMNS", "NotFoundError", "Ride", "RideAssistant", "RideStore", "RideWarning",
+    "SAMPLE_COLUMNS", "Status", "export_csv", "export_geojson", "export_gpx", "export_ride", "ride_geojson",
+    "ride_recording",
+]
