@@ -53,6 +53,7 @@ def test_a_stop_after_the_refractory_time_warns_again_and_finish_closes_the_epis
     assistant = RideAssistant(refractory=3.0)
     statuses = _feed(assistant, labels)
     assert sum(s.warning is not None for s in statuses) == 2
+    assert assistant.pop_events() == [Event("sudden-braking", 0.0, 0.2)] and assistant.pop_events() == []
     assert assistant.finish() == [Event("sudden-braking", 0.0, 0.2), Event("sudden-braking", 3.3, 3.5)]
 
 
@@ -102,6 +103,9 @@ def test_speed_distance_location_and_eta_on_a_straight_ride():
     assert last.remaining == pytest.approx(400.0 - 4.0 * 59, rel=3e-3)
     assert last.eta == pytest.approx((400.0 - 4.0 * 59) / 4.0, rel=3e-3)
     assert math.isnan(statuses[0].eta)  # one fix: no average speed yet
+    figures = assistant.state()
+    assert figures == last.figures() and figures["eta"] == pytest.approx(last.eta) and figures["time"] == t[-1]
+    assert RideAssistant().state() == {} and statuses[0].figures()["eta"] is None
     assert KMH == 3.6
 
 

@@ -80,6 +80,13 @@ class Status:
         """Speed in km/h."""
         return self.speed * KMH
 
+    def figures(self) -> dict:
+        """The trip figures as JSON-ready numbers (None where unknown): ``time`` s, ``lat lon`` degrees,
+        ``speed`` m/s, ``speed_kmh``, ``distance`` and ``remaining`` m, ``eta`` s."""
+        values = {"time": self.time, "lat": self.lat, "lon": self.lon, "speed": self.speed,
+                  "speed_kmh": self.speed_kmh, "distance": self.distance, "remaining": self.remaining, "eta": self.eta}
+        return {k: v if math.isfinite(v) else None for k, v in values.items()}
+
 
 class RideAssistant:
     """Warnings and trip figures of one ride (see the module docstring for the rules).
@@ -128,6 +135,8 @@ class RideAssistant:
             raise InputError("RideAssistant: dangerous must name at least one class")
         self.destination: tuple[float, float] | None = None
         self.events_: list[Event] = []
+        self._popped = 0
+        self._status_: Status | None = None
         self._time: float | None = None
         self._run: dict[str, float | None] = dict.fromkeys(self.dangerous)
         self._episode: dict[str, list[float] | None] = dict.fromkeys(self.dangerous)
@@ -166,7 +175,17 @@ class RideAssistant:
             self._gps(t, *fix, speed)
         elif math.isfinite(speed):
             self._speed, self._speed_time = speed, t
-        return self._status(t, label, warning, event)
+        self._status_ = self._status(t, label, warning, event)
+        return self._status_
+
+    def state(self) -> dict:
+        """The figures of the latest sample (:meth:`Status.figures`); empty before the first sample."""
+        return {} if self._status_ is None else self._status_.figures()
+
+    def pop_events(self) -> list[Event]:
+        """The events that ended since the last call (to record them as they end)."""
+        new, self._popped = self.events_[self._popped:], len(self.events_)
+        return new
 
     def finish(self) -> list[Event]:
         """End the ride: close the open episodes and return every event of the ride."""
@@ -174,8 +193,7 @@ class RideAssistant:
             if episode is not None:
                 self.events_.append(Event(kind, episode[0], episode[1]))
                 self._episode[kind] = None
-        self.events_.sort(key=lambda e: (e.start, e.kind))
-        return self.events_
+        return sorted(self.events_, key=lambda e: (e.start, e.kind))
 
     # ------------------------------------------------------------ warnings
 
