@@ -7,8 +7,9 @@ Warnings (one per manoeuvre): for each dangerous class (``sudden-braking`` by de
 label has held that class for ``min_duration`` seconds (from its first sample, so a one-window blip does not
 warn); the warning is issued at that sample, its onset is the first sample of the run. The episode goes on while
 a run of the class that holds for ``min_duration`` comes within ``refractory`` seconds of the last one: a stop
-whose label flickers gives one warning, and stray samples of the class neither warn nor prolong it. It ends when the class has been absent for longer than ``refractory``; the
-:class:`~spotfree.ride.records.Event` (``start`` = onset, ``end`` = the last sample labelled with the class) is
+whose label flickers gives one warning, and stray samples of the class neither warn nor prolong it. It ends when
+no such run has come for longer than ``refractory``; the :class:`~spotfree.ride.records.Event` (``start`` = onset,
+``end`` = the last sample of its last run) is
 then reported once, and a later run can warn again.
 
 GPS (``lat``, ``lon`` in WGS-84 degrees; ``speed`` in m/s):
@@ -27,8 +28,8 @@ GPS (``lat``, ``lon`` in WGS-84 degrees; ``speed`` in m/s):
   accepted fix over the time between them; it is NaN once no fix has come for ``fix_timeout`` seconds;
 * time to destination: ``eta = remaining / v_avg``, ``remaining`` the great-circle distance from the position to
   the destination set by the rider, ``v_avg`` the distance travelled over the last ``speed_window`` seconds
-  divided by the time it took (from the last accepted fix at or before ``t - speed_window``, or the first fix). It is NaN while ``v_avg`` is below
-  ``min_moving_speed`` (standing, the time is unknown) and 0 within ``arrival_radius`` of the destination.
+  divided by the time it took (from the last accepted fix at or before ``t - speed_window``, or the first fix).
+  It is NaN while ``v_avg`` is below ``min_moving_speed`` (standing, the time is unknown) and 0 within ``arrival_radius`` of the destination.
 """
 
 from __future__ import annotations
