@@ -9,8 +9,7 @@ warn); the warning is issued at that sample, its onset is the first sample of th
 a run of the class that holds for ``min_duration`` comes within ``refractory`` seconds of the last one: a stop
 whose label flickers gives one warning, and stray samples of the class neither warn nor prolong it. It ends when
 no such run has come for longer than ``refractory``; the :class:`~spotfree.ride.records.Event` (``start`` = onset,
-``end`` = the last sample of its last run) is
-then reported once, and a later run can warn again.
+``end`` = the last sample of its last run) is then reported once, and a later run can warn again.
 
 GPS (``lat``, ``lon`` in WGS-84 degrees; ``speed`` in m/s):
 
@@ -29,7 +28,8 @@ GPS (``lat``, ``lon`` in WGS-84 degrees; ``speed`` in m/s):
 * time to destination: ``eta = remaining / v_avg``, ``remaining`` the great-circle distance from the position to
   the destination set by the rider, ``v_avg`` the distance travelled over the last ``speed_window`` seconds
   divided by the time it took (from the last accepted fix at or before ``t - speed_window``, or the first fix).
-  It is NaN while ``v_avg`` is below ``min_moving_speed`` (standing, the time is unknown) and 0 within ``arrival_radius`` of the destination.
+  It is NaN while ``v_avg`` is below ``min_moving_speed`` (standing, the time is unknown) and 0 within
+  ``arrival_radius`` of the destination.
 """
 
 from __future__ import annotations
