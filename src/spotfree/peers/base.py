@@ -8,7 +8,7 @@ A peer is a method the paper's spotting-free classifier is compared against in t
 * records its wall-clock cost: ``fit_time_`` (s, the last ``fit``) and ``predict_time_`` (s, the last ``predict``).
 
 BLAS runs on one thread inside ``fit`` and ``predict``, as in :mod:`spotfree.cluster`: on the shared 2-core
-machines, OpenBLAS's two threads made the 840 x 840 ``eigh`` of MiniRocket's ridge cross-validation 3-30 times
+machines, OpenBLAS's two threads made the 840 x 840 ``eigh`` of MiniRocket's ridge cross-validation 3-35 times
 slower than one thread (0.45 s against 1.4-16 s, measured while other jobs ran).
 
 Channels are divided by their standard deviation over the training samples

@@ -55,6 +55,15 @@ class ClaspPeer(Peer):
         ClaSP's default 0.05).
     n_jobs : int
         Threads for ClaSP's nearest-neighbour search.
+
+    Attributes
+    ----------
+    classes_ : ndarray of str
+        Classes of the training truth.
+    centroids_ : ndarray (n_classes, n_channels)
+        Mean channel-scaled training sample of each class (dimensionless).
+    change_points_ : list of int
+        Sample indices where the last ``predict`` started a new segment.
     """
 
     def __init__(self, channels=DEFAULT_CHANNELS, window: int = 20, naming: str = "centroid",

@@ -3,7 +3,7 @@
 Each multivariate window ``(c, L)`` becomes ``n_kernels`` features: the proportion of positive values (PPV) of
 its convolution with fixed length-9 kernels of weights {-1, 2} at several dilations, with biases drawn from the
 training windows' convolution quantiles; a ridge classifier with the ridge weight chosen by leave-one-out
-cross-validation over ``10^-3 .. 10^3`` classifies the standardised features. aeon's
+cross-validation over ``10^-3 .. 10^3`` classifies the features divided by their standard deviations. aeon's
 ``MiniRocketClassifier`` does both. Unlike the paper's method, it needs every training window's label, i.e. the
 pattern boundaries marked by hand.
 """
