@@ -11,6 +11,7 @@ from typing import Callable, Optional
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 
 from spotfree.errors import InputError, NotBuiltError, SpotfreeError
 
@@ -38,7 +39,7 @@ def user_errors(command: Callable) -> Callable:
         try:
             return command(*args, **kwargs)
         except SpotfreeError as exc:
-            err.print(f"[bold red]error:[/] {exc}", markup=True)
+            err.print(f"[bold red]error:[/] {escape(str(exc))}", markup=True)
         except OSError as exc:
             where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
             err.print(f"[bold red]error:[/] {where}{exc.strerror or exc}", markup=True)
@@ -209,9 +210,21 @@ def classify(
 
 @app.command()
 @user_errors
-def evaluate(output: Path = typer.Option(..., "-o", "--output")) -> None:
-    """Reproduce the paper's experiments on the simulator (not built yet)."""
-    _not_built("spotfree evaluate", 4)
+def evaluate(
+    output: Path = typer.Option(..., "-o", "--output", help="folder to write report.md and figures into"),
+    seed: int = typer.Option(0, "--seed", help="seed of the simulated rides and of the training clustering"),
+    quick: bool = typer.Option(False, "--quick", help="two experiments per scenario (for tests; not the paper's "
+                               "protocol)"),
+) -> None:
+    """Reproduce the paper's section V on the simulator: accuracy, the 6-of-7800 count, timings, peers, figures."""
+    from spotfree.evaluate import evaluate as run_evaluation
+    from spotfree.evaluation.report import headline
+
+    ev = run_evaluation(output, seed=seed, quick=quick, progress=lambda message: err.print(message))
+    for line in headline(ev):
+        out.print(line, soft_wrap=True)
+    out.print(f"wrote {output / 'report.md'} and {len(ev.figures) + 1} figures; run took {ev.seconds:.0f} s",
+              soft_wrap=True)
 
 
 @app.command()

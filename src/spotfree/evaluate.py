@@ -1,0 +1,103 @@
+"""``spotfree evaluate``: the paper's section V on the simulator, written to a folder as report.md and figures.
+
+:func:`evaluate` runs the protocol (:mod:`spotfree.evaluation.protocol`), the measurements
+(:mod:`spotfree.evaluation.measure`), draws the figures and writes the report (:mod:`spotfree.evaluation.report`).
+The folder is written atomically: everything goes to a temporary folder beside it first; a new folder is then
+renamed into place, an existing one has each file replaced (other files in it are left alone).
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+import shutil
+import tempfile
+import time
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from spotfree.errors import InputError
+from spotfree.evaluation.figures import results_figure
+from spotfree.evaluation.measure import HEADLINE, check_peers, crc_runs, make_peers, method_runs, peer_runs
+from spotfree.evaluation.protocol import SCENARIOS, Protocol, simulate, train_dictionary
+from spotfree.evaluation.report import Evaluation, render
+from spotfree.figures import training_figure
+from spotfree.sim.scenarios import CLASSES
+from spotfree.training import dictionary_purity
+
+Progress = Callable[[str], None]
+
+
+def evaluate(output: str | Path, seed: int = 0, quick: bool = False, progress: Progress | None = None) -> Evaluation:
+    """Run the evaluation (``quick``: :meth:`Protocol.quick_run`) and write ``output``/report.md and its figures."""
+    output = Path(output)
+    check_output(output)
+    check_peers()
+    say = progress or (lambda message: None)
+    protocol = Protocol.quick_run(seed) if quick else Protocol(seed=seed)
+    start = time.perf_counter()
+    say(f"simulating {protocol.repeats} experiments of {', '.join(SCENARIOS)}")
+    data = simulate(protocol)
+    say("training the dictionary (no labels)")
+    trained = train_dictionary(data, protocol)
+    model = trained.result.model
+    say("classifying the tests with CRC_RLS (causal and centred windows)")
+    crc = crc_runs(model, data)
+    say("CRC_RLS vs SRC vs B_SRC on a subsample of windows")
+    methods = method_runs(model, data, protocol.method_windows)
+    say("peers: MiniRocket, 1-NN, ClaSP")
+    peers = peer_runs(make_peers(model, protocol), data)
+    seconds = time.perf_counter() - start
+    figures = {f"results: {name}": f"results-{name}.png" for name in SCENARIOS}
+    ev = Evaluation(
+        protocol=protocol, data=data, trained=trained, purity=dictionary_purity(trained.result, trained.experiments),
+        crc=crc, methods=methods, peers=peers, seconds=seconds,
+        command=f"spotfree evaluate -o {output} --seed {seed}" + (" --quick" if quick else ""),
+        machine=machine_summary(), date=datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"), figures=figures,
+    )
+    say("drawing figures and writing the report")
+    output.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".{output.name}.", dir=output.parent))
+    staging.chmod(0o755)
+    classes = list(dict.fromkeys([c for name in SCENARIOS for c in CLASSES[name]] + list(model.classes)))
+    try:
+        training_figure(trained.result, trained.experiments, staging / "training.png")
+        for name, path in zip(SCENARIOS, figures.values()):
+            results_figure(data[name].test, crc[HEADLINE].runs[name].labels, classes, staging / path,
+                           f"{name} tests, CRC_RLS ({HEADLINE} windows)")
+        (staging / "report.md").write_text(render(ev), encoding="utf-8")
+        _publish(staging, output)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+    return ev
+
+
+def check_output(output: Path) -> None:
+    """Refuse an output that exists and is not a folder."""
+    if output.exists() and not output.is_dir():
+        raise InputError(f"{output}: exists and is not a folder; give -o a folder (it is created if missing)")
+
+
+def machine_summary() -> str:
+    """CPU model, cores, load average, Python and numpy versions (for the report's header)."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as info:
+            cpu = next(line.split(":", 1)[1].strip() for line in info if line.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
+    load = f", load average {os.getloadavg()[0]:.1f}" if hasattr(os, "getloadavg") else ""
+    return (f"{cpu}, {os.cpu_count()} cores{load}; {platform.system()} {platform.release()}; "
+            f"Python {platform.python_version()}, numpy {np.__version__}")
+
+
+def _publish(staging: Path, output: Path) -> None:
+    """Move the staged files to ``output``: a rename of the whole folder when it is new, else file by file."""
+    if not output.exists():
+        os.replace(staging, output)
+        return
+    for path in sorted(staging.iterdir()):
+        os.replace(path, output / path.name)

@@ -1,0 +1,61 @@
+"""Results figures like the paper's (section V): the handlebar pitch angle of every test ride with the label
+stream drawn on it, and the ground truth as a band along the top of each panel."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from spotfree.classify.batch import Labels  # noqa: E402
+from spotfree.io.recording import Recording  # noqa: E402
+
+NONE_COLOUR = (0.6, 0.6, 0.6, 1.0)
+"""Colour of samples with no label (the first window of a ride)."""
+
+
+def class_colours(classes) -> dict[str, tuple]:
+    """A fixed colour per class, in the order given (tab10)."""
+    cmap = plt.get_cmap("tab10")
+    return {str(c): cmap(i % 10) for i, c in enumerate(classes)}
+
+
+def results_figure(test: Recording, labels: Labels, classes, path: str | Path, title: str) -> None:
+    """One panel per experiment of ``test``: ``pitch`` (degrees; positive nose down) over time, each sample
+    coloured by its label; the true class as a band along the top."""
+    colours = class_colours(classes)
+    experiments = [k for k, _ in test.experiments()]
+    fig, axes = plt.subplots(len(experiments), 1, figsize=(11, 1.55 * len(experiments) + 0.9), squeeze=False)
+    for ax, k in zip(axes[:, 0], experiments):
+        rows = test.experiment == k if test.experiment is not None else np.ones(len(test), dtype=bool)
+        t = test.time[rows]
+        pitch = np.rad2deg(test.channels["pitch"][rows])
+        label = labels.label[rows].astype(str)
+        ax.plot(t, pitch, color="0.8", lw=0.7, zorder=1)
+        ax.scatter(t, pitch, c=[colours.get(x, NONE_COLOUR) for x in label], s=2.5, lw=0, zorder=2)
+        truth = test.truth["label"][rows].astype(str)
+        for start, stop in _runs(truth):
+            ax.axvspan(t[start], t[stop - 1] + 1.0 / test.rate, ymin=0.9, ymax=1.0, lw=0,
+                       color=colours.get(truth[start], NONE_COLOUR))
+        ax.set_ylabel(f"exp. {k}\npitch (deg)", fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.set_xlim(t[0], t[-1])
+        low, high = np.nanmin(pitch), np.nanmax(pitch)
+        ax.set_ylim(low - 0.05 * (high - low), high + 0.2 * (high - low))
+    axes[-1, 0].set_xlabel("time (s)", fontsize=8)
+    handles = [plt.Line2D([], [], marker="o", ls="", color=c, label=name) for name, c in colours.items()]
+    fig.legend(handles=handles, loc="upper right", ncol=len(handles), fontsize=8, frameon=False)
+    fig.suptitle(f"{title}: dots = labels, top band = ground truth", x=0.01, ha="left", fontsize=10)
+    fig.tight_layout(rect=(0, 0, 1, 0.97))
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def _runs(values: np.ndarray) -> list[tuple[int, int]]:
+    """``(start, stop)`` of the runs of equal values."""
+    edges = np.r_[0, np.flatnonzero(values[1:] != values[:-1]) + 1, len(values)]
+    return list(zip(edges[:-1].tolist(), edges[1:].tolist()))

@@ -1,0 +1,105 @@
+"""Per-sample scores of a label stream against the ground truth (evaluation only; training never reads truth).
+
+A label stream holds one class name per sample, ``""`` where no window gave one (the first window of every ride,
+gaps). Every score counts labelled samples only, so a method is not charged for the samples it cannot label;
+:func:`accuracy` reports how many it scored.
+
+Transitions: the true label of a braking ride changes at a sample ``c`` (``truth[c] != truth[c - 1]`` within one
+experiment). A window straddling ``c`` holds two states, so a score may leave out the band
+
+    { k : c - h <= k < c + h },    h = round(band * f_s)
+
+of ``2 h`` samples (``band`` = 0.5 s: the last ``h`` samples of the old state and the first ``h`` of the new).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from spotfree.errors import InputError
+
+TRANSITION_BAND = 0.5
+"""Half-width (s) of the band around a true label change that :func:`near_transitions` marks."""
+
+
+@dataclass(frozen=True)
+class Score:
+    """``correct`` of ``total`` scored samples."""
+
+    correct: int
+    total: int
+
+    @property
+    def rate(self) -> float:
+        """``correct / total``; NaN when nothing was scored."""
+        return self.correct / self.total if self.total else float("nan")
+
+    def __add__(self, other: "Score") -> "Score":
+        return Score(self.correct + other.correct, self.total + other.total)
+
+
+def _check(predicted, truth) -> tuple[np.ndarray, np.ndarray]:
+    predicted, truth = np.asarray(predicted).astype(str), np.asarray(truth).astype(str)
+    if predicted.shape != truth.shape or predicted.ndim != 1:
+        raise InputError(f"labels have shape {predicted.shape} and truth {truth.shape}; give one label per sample")
+    return predicted, truth
+
+
+def near_transitions(truth, experiment=None, rate: float = 20.0, band: float = TRANSITION_BAND) -> np.ndarray:
+    """Boolean mask of the samples within ``band`` seconds of a true label change (module docstring).
+
+    ``experiment`` (one number per sample, or None): a change of experiment is not a change of label.
+    """
+    truth = np.asarray(truth).astype(str)
+    half = int(round(band * rate))
+    change = np.flatnonzero(truth[1:] != truth[:-1]) + 1
+    if experiment is not None:
+        experiment = np.asarray(experiment)
+        change = change[experiment[change] == experiment[change - 1]]
+    mask = np.zeros(len(truth), dtype=bool)
+    for c in change:
+        mask[max(0, c - half):c + half] = True
+    return mask
+
+
+def accuracy(predicted, truth, mask=None) -> Score:
+    """Labelled samples (inside ``mask``, when given) whose label equals the truth."""
+    predicted, truth = _check(predicted, truth)
+    scored = predicted != ""
+    if mask is not None:
+        scored &= np.asarray(mask, dtype=bool)
+    return Score(int(np.sum(predicted[scored] == truth[scored])), int(scored.sum()))
+
+
+def class_accuracy(predicted, truth, classes) -> dict[str, Score]:
+    """Per true class: labelled samples of that class labelled as it (the class's recall)."""
+    predicted, truth = _check(predicted, truth)
+    return {c: accuracy(predicted, truth, truth == c) for c in classes}
+
+
+def confusion_matrix(predicted, truth, classes) -> np.ndarray:
+    """Counts ``C[i, j]`` of labelled samples of true class ``classes[i]`` labelled ``classes[j]`` (samples whose
+    truth or label is not in ``classes`` are not counted)."""
+    predicted, truth = _check(predicted, truth)
+    classes = np.asarray(list(classes), dtype=str)
+    row, col = _index(truth, classes), _index(predicted, classes)
+    inside = (row >= 0) & (col >= 0)
+    counts = np.zeros((len(classes), len(classes)), dtype=int)
+    np.add.at(counts, (row[inside], col[inside]), 1)
+    return counts
+
+
+def _index(names: np.ndarray, classes: np.ndarray) -> np.ndarray:
+    """Position of every name in ``classes``, -1 when absent."""
+    index = np.full(len(names), -1)
+    for k, c in enumerate(classes):
+        index[names == c] = k
+    return index
+
+
+def label_count(predicted, name: str) -> Score:
+    """How many labelled samples carry ``name``, out of all labelled samples (the paper's "6 out of 7800")."""
+    predicted = np.asarray(predicted).astype(str)
+    labelled = predicted != ""
+    return Score(int(np.sum(predicted == name)), int(labelled.sum()))

@@ -1,0 +1,151 @@
+"""`spotfree evaluate`: per-sample scores on hand-made label streams, and one quick run of the whole report."""
+
+import re
+import sys
+from importlib.util import find_spec
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import spotfree.evaluate
+from spotfree.cli import app
+from spotfree.errors import InputError
+from spotfree.evaluation.metrics import (
+    Score,
+    accuracy,
+    class_accuracy,
+    confusion_matrix,
+    label_count,
+    near_transitions,
+)
+
+runner = CliRunner()
+
+SECTIONS = ("## Protocol", "## Training", "## Accuracy per sample", "## The paper's count",
+            "## Accuracy per true class", "## Confusion matrices", "## Decision latency",
+            "## CRC_RLS vs SRC vs B_SRC", "## Peers on the same tests", "## Results figures")
+FIGURES = ("training.png", "results-normal-braking.png", "results-sudden-braking.png", "results-cruising.png")
+
+
+# ---------------------------------------------------------------- metrics
+
+def test_transition_band_marks_half_a_second_each_side_of_a_change_inside_one_experiment():
+    truth = np.array(["c"] * 6 + ["n"] * 6 + ["c"] * 4 + ["n"] * 4)
+    experiment = np.array([1] * 16 + [2] * 4)
+    mask = near_transitions(truth, experiment, rate=4.0, band=0.5)  # 2 samples each side
+    assert np.flatnonzero(mask).tolist() == [4, 5, 6, 7, 10, 11, 12, 13]
+    # without the experiment column, the change at sample 16 counts too
+    assert np.flatnonzero(near_transitions(truth, None, rate=4.0, band=0.5)).tolist() == [
+        4, 5, 6, 7, 10, 11, 12, 13, 14, 15, 16, 17]
+
+
+def test_accuracy_scores_labelled_samples_only_with_and_without_the_transition_band():
+    truth = np.array(["c", "c", "c", "n", "n", "n", "c", "c"])
+    label = np.array(["", "c", "n", "n", "c", "n", "c", "n"])
+    assert accuracy(label, truth) == Score(4, 7)
+    near = near_transitions(truth, rate=1.0, band=1.0)  # samples 2, 3 and 5, 6
+    assert np.flatnonzero(near).tolist() == [2, 3, 5, 6]
+    assert accuracy(label, truth, ~near) == Score(1, 3)
+    assert Score(4, 7).rate == pytest.approx(4 / 7) and np.isnan(Score(0, 0).rate)
+    assert Score(1, 2) + Score(3, 4) == Score(4, 6)
+
+
+def test_class_accuracy_is_recall_per_true_class():
+    truth = np.array(["c", "c", "c", "c", "n", "n", "s"])
+    label = np.array(["c", "c", "n", "", "n", "s", ""])
+    scores = class_accuracy(label, truth, ["c", "n", "s"])
+    assert scores == {"c": Score(2, 3), "n": Score(1, 2), "s": Score(0, 0)}
+
+
+def test_confusion_matrix_rows_truth_columns_labels():
+    truth = np.array(["c", "c", "c", "n", "n", "s", "s", "c", "x"])
+    label = np.array(["c", "n", "s", "n", "", "s", "n", "unknown", "c"])
+    counts = confusion_matrix(label, truth, ["c", "n", "s"])
+    np.testing.assert_array_equal(counts, [[1, 1, 1], [0, 1, 0], [0, 1, 1]])
+    assert confusion_matrix(np.array(["", ""]), np.array(["c", "n"]), ["c", "n"]).sum() == 0
+
+
+def test_the_papers_count_is_one_label_out_of_all_labels():
+    label = np.array([""] * 19 + ["cruising"] * 6000 + ["normal-braking"] * 1794 + ["sudden-braking"] * 6)
+    assert label_count(label, "sudden-braking") == Score(6, 7800)
+    assert label_count(label, "sudden-braking").rate == pytest.approx(6 / 7800)
+
+
+def test_metrics_refuse_streams_of_different_lengths():
+    with pytest.raises(InputError, match="one label per sample"):
+        accuracy(np.array(["c", "c"]), np.array(["c"]))
+
+
+# ---------------------------------------------------------------- the command
+
+HAS_AEON = find_spec("aeon") is not None
+
+
+@pytest.fixture(scope="module")
+def quick_run(tmp_path_factory):
+    """One `spotfree evaluate --quick` into a folder that already holds a file of the user's.
+
+    Without aeon (it is in the `eval` extra, not in `test`), the run keeps the one peer that needs no aeon, 1-NN, so
+    that everything else is still run; the aeon peers themselves are tested in test_peers.py.
+    """
+    folder = tmp_path_factory.mktemp("evaluation") / "out"
+    folder.mkdir()
+    (folder / "notes.txt").write_text("mine")
+    with pytest.MonkeyPatch.context() as patch:
+        if not HAS_AEON:
+            make_peers = spotfree.evaluate.make_peers
+            patch.setattr(spotfree.evaluate, "check_peers", lambda: None)
+            patch.setattr(spotfree.evaluate, "make_peers", lambda model, protocol: {
+                k: v for k, v in make_peers(model, protocol).items() if k == "1-NN (supervised)"})
+        result = runner.invoke(app, ["evaluate", "--quick", "-o", str(folder), "--seed", "0"],
+                               catch_exceptions=False)
+    return folder, result
+
+
+def test_quick_run_writes_report_with_every_section_and_the_figures(quick_run):
+    folder, result = quick_run
+    assert result.exit_code == 0, result.output
+    report = (folder / "report.md").read_text()
+    positions = [report.find(section) for section in SECTIONS]
+    assert -1 not in positions and positions == sorted(positions), positions
+    for figure in FIGURES:
+        assert (folder / figure).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        assert f"]({figure})" in report
+    assert (folder / "notes.txt").read_text() == "mine"
+    assert not [p for p in folder.parent.iterdir() if p.name.startswith(".out.")]
+
+
+def test_quick_run_report_quotes_the_paper_beside_measured_figures(quick_run):
+    folder, result = quick_run
+    report = (folder / "report.md").read_text()
+    count = re.search(r"sudden-braking labels in the normal-braking tests: (\d+) of (\d+)", result.output)
+    assert count, result.output
+    assert f"| 6 of 7800 (0.077%) | {count[1]} of {count[2]} (" in report
+    crc = re.search(r"\| normal-braking \| 99\.92 [^|]* \| (\d+\.\d\d) \|", report)
+    assert crc and f"normal-braking: {crc[1]}% of" in result.output
+    assert "0.39" in report and "112" in report
+    for peer in ("MiniRocket (supervised)", "1-NN (supervised)", "ClaSP") if HAS_AEON else ("1-NN (supervised)",):
+        assert re.search(rf"\| {re.escape(peer)}[^|]* \| \d+\.\d \| \d+\.\d\d \|", report), peer
+    for method in ("CRC_RLS", "SRC", "B_SRC"):
+        assert re.search(rf"\| {method} \| \d+ \| \d+\.\d\d \|", report), method
+
+
+def test_output_that_is_a_file_is_refused_with_one_line(tmp_path):
+    target = tmp_path / "report"
+    target.write_text("not a folder")
+    result = runner.invoke(app, ["evaluate", "--quick", "-o", str(target)])
+    assert result.exit_code == 2
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and "not a folder" in lines[0] and str(target) in lines[0]
+    assert target.read_text() == "not a folder"
+
+
+def test_a_missing_aeon_is_refused_before_the_run_with_the_install_line(tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "aeon.classification.convolution_based", None)
+    result = runner.invoke(app, ["evaluate", "--quick", "-o", str(tmp_path / "out")])
+    assert result.exit_code == 2
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and "MiniRocketClassifier comes from aeon" in lines[0]
+    assert "pip install -e '.[eval]'" in lines[0]
+    assert not (tmp_path / "out").exists()
