@@ -59,7 +59,7 @@ class Evaluation:
 
 def render(ev: Evaluation) -> str:
     """The whole ``report.md``."""
-    sections = [_header(ev), _protocol(ev), _training(ev), _accuracy(ev), _count(ev), _per_class(ev),
+    sections = [_header(ev), _summary(ev), _protocol(ev), _training(ev), _accuracy(ev), _count(ev), _per_class(ev),
                 _confusions(ev), _latency(ev), _methods(ev), _peers(ev), _figures(ev)]
     return "\n\n".join(s.rstrip() for s in sections) + "\n"
 
@@ -89,6 +89,27 @@ Wall time of the run: {ev.seconds:.0f} s (simulation, features, training, every 
 figures and this report not included).
 
 Every figure below was measured in this run; the paper's figures are quoted with their section."""
+
+
+def _summary(ev: Evaluation) -> str:
+    paper = PAPER["normal_sudden_labels"]
+    nb = ev.crc[HEADLINE].runs["normal-braking"].labels.label
+    nb_all, nb_away = _scores(ev, nb, "normal-braking")
+    count = label_count(nb, "sudden-braking")
+    ours_total = _total(ev, HEADLINE)[0]
+    peers = ", ".join(f"{name} {_pct(_sum_accuracy(ev, runs))}%" for name, runs in ev.peers.items())
+    speed = {m: 1000 * r.seconds / r.decisions for m, r in ev.methods.items()}
+    ratios = ", ".join(f"{METHODS[m]} {speed[m]:.3g} s" for m in METHODS)
+    paper_s = PAPER["seconds_per_1000"]
+    return f"""## Summary
+
+- Normal-braking tests, spotfree CRC_RLS with causal windows: {_pct(nb_all)}% of {nb_all.total} labels right
+  ({_pct(nb_away)}% away from transitions); paper: {100 * (1 - paper.rate):.2f}% of {paper.total}.
+- Sudden-braking labels inside the normal-braking tests: {count.correct} of {count.total}; paper: {paper.correct}
+  of {paper.total}.
+- All tests: spotfree CRC_RLS {_pct(ours_total)}% (no training label); peers trained with every label: {peers}.
+- Time per 1000 windows: {ratios} (B_SRC / CRC_RLS = {speed["bsrc"] / speed["crc"]:.0f}); paper: CRC_RLS
+  {paper_s["crc"]:g} s, B_SRC {paper_s["bsrc"]:g} s (ratio {paper_s["bsrc"] / paper_s["crc"]:.0f})."""
 
 
 def _protocol(ev: Evaluation) -> str:
@@ -139,7 +160,7 @@ def _training(ev: Evaluation) -> str:
     return f"""## Training
 
 `spotfree.training.train` with its default configuration (channels `{",".join(model.channels)}`, window
-{model.window} samples, recipe `{model.parameters.get("recipe")}`), clustering seed {ev.protocol.seed}:
+{model.window} samples, recipe `{model.parameters.get("recipe")}`), seed {ev.protocol.seed}:
 {model.dictionary.shape[1]} dictionary columns in {ev.trained.seconds:.1f} s. Purity: the share of a class's columns
 whose window centre has that class in the hidden ground truth (the paper aims at pure class representatives; it
 quotes no number).
@@ -164,7 +185,7 @@ def _accuracy(ev: Evaluation) -> str:
     rows.append(["all tests", "-", *[_pct(s) for pair in total for s in pair]])
     return f"""## Accuracy per sample (spotfree CRC_RLS)
 
-Per cent of labelled test samples whose label is the true class.
+Per cent of labelled test samples whose label is the true class; the headline is causal windows.
 
 {_table(["scenario", "paper", "causal: all", "causal: away from transitions", "centred: all",
          "centred: away from transitions"], rows)}"""
@@ -277,9 +298,7 @@ def _peers(ev: Evaluation) -> str:
         for scenario in SCENARIOS:
             all_, away = _scores(ev, runs.runs[scenario].labels.label, scenario)
             cells.append(f"{_pct(all_)} / {_pct(away)}")
-        total = sum((accuracy(r.labels.label, ev.data[s].test.truth["label"]) for s, r in runs.runs.items()),
-                    Score(0, 0))
-        cells.append(_pct(total))
+        cells.append(_pct(_sum_accuracy(ev, runs)))
         rows.append(cells)
     notes = sorted({note for runs in ev.peers.values() for note in runs.notes})
     noted = "\n" + "".join(f"\n- {note}" for note in notes) if notes else ""
@@ -326,6 +345,11 @@ def _scores(ev: Evaluation, label: np.ndarray, scenario: str) -> tuple[Score, Sc
 def _total(ev: Evaluation, alignment: str) -> tuple[Score, Score]:
     pairs = [_scores(ev, ev.crc[alignment].runs[s].labels.label, s) for s in SCENARIOS]
     return sum((p[0] for p in pairs), Score(0, 0)), sum((p[1] for p in pairs), Score(0, 0))
+
+
+def _sum_accuracy(ev: Evaluation, runs: MethodRuns) -> Score:
+    """Accuracy over the labelled samples of every scenario's tests."""
+    return sum((accuracy(r.labels.label, ev.data[s].test.truth["label"]) for s, r in runs.runs.items()), Score(0, 0))
 
 
 def _pct(score: Score) -> str:
