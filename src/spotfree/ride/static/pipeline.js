@@ -287,10 +287,11 @@
   }
 
   class Resampler {
-    // DeviceMotion events (any rate) to a uniform grid of 1/rate s: the mean of the events in each slot
+    // DeviceMotion events (any rate) to a uniform grid of 1/rate s: the mean of the events within half a period
+    // of each grid time (as spotfree.ride.sensorpush.PushResampler)
     constructor(rate) { this.period = 1.0 / rate; this.slot = null; this.sum = null; this.n = 0; }
     add(t, values) {
-      const slot = Math.floor(t / this.period);
+      const slot = Math.floor(t / this.period + 0.5);
       const out = [];
       if (this.slot !== null && slot !== this.slot && this.n > 0) {
         out.push([this.slot * this.period, ...this.sum.map((v) => v / this.n)]);

@@ -1,0 +1,117 @@
+"""The pages in a real headless Chromium (Debian's, scripts/ensure_browser.sh), driven by Playwright: the phone page
+streams synthetic DeviceMotion events, its own labels equal the server's, and the operator view draws the track."""
+
+import math
+import shutil
+import socket
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+playwright_api = pytest.importorskip("playwright.sync_api")
+uvicorn = pytest.importorskip("uvicorn")
+
+from classify_fixtures import rides, truth_model  # noqa: E402
+from spotfree.ride.api import create_app  # noqa: E402
+from spotfree.ride.service import RideService  # noqa: E402
+from spotfree.ride.sources import recording_rows  # noqa: E402
+from spotfree.ride.store import RideStore  # noqa: E402
+
+pytestmark = [pytest.mark.browser,
+              pytest.mark.skipif(shutil.which("chromium") is None, reason="run scripts/ensure_browser.sh")]
+SHOTS = Path(__file__).resolve().parents[1] / "docs" / "img"
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    raw = rides(seed=1, repeats=2)
+    service = RideService(truth_model(raw.select_experiment(1)),
+                          RideStore(tmp_path_factory.mktemp("db") / "rides.db", synchronous="normal"))
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    config = uvicorn.Config(create_app(service), host="127.0.0.1", port=port, log_level="warning")
+    srv = uvicorn.Server(config)
+    thread = threading.Thread(target=srv.run, daemon=True)
+    thread.start()
+    while not srv.started:
+        time.sleep(0.05)
+    yield f"http://127.0.0.1:{port}", service, recording_rows(raw.select_experiment(2))
+    srv.should_exit = True
+    thread.join(5)
+
+
+@pytest.fixture(scope="module")
+def browser():
+    with playwright_api.sync_playwright() as p:
+        b = p.chromium.launch(executable_path=shutil.which("chromium"), args=["--no-sandbox"])
+        yield b
+        b.close()
+
+
+MOTION = """([rows, t0]) => {
+  for (const r of rows) {
+    const ev = new DeviceMotionEvent('devicemotion', {
+      accelerationIncludingGravity: {x: r[1], y: r[2], z: r[3]},
+      rotationRate: {alpha: r[6] * 180 / Math.PI, beta: r[4] * 180 / Math.PI, gamma: r[5] * 180 / Math.PI},
+      interval: 50});
+    Object.defineProperty(ev, 'timeStamp', {value: (t0 + r[0]) * 1000});
+    if (r[7] !== null) window.spotfree.state.fix = {lat: r[7], lon: r[8], speed: r[9]};
+    window.dispatchEvent(ev);
+  }
+}"""
+
+
+def _rows_js(rows):
+    return [[None if math.isnan(v) else float(v) for v in r] for r in rows]
+
+
+def test_phone_streams_and_labels_equal_server(server, browser):
+    url, service, rows = server
+    page = browser.new_page(viewport={"width": 420, "height": 860})
+    page.goto(url + "/")
+    page.wait_for_function("window.spotfree && window.spotfree.state.pipeline !== null")
+    page.click("#start")
+    page.wait_for_function("window.spotfree.state.online")
+    # a sample lands mid-slot so that the page's 20 Hz grid keeps every sample of the ride
+    shifted = rows.copy()
+    shifted[:, 0] += 0.01
+    for k in range(0, 600, 20):
+        page.evaluate(MOTION, [_rows_js(shifted[k:k + 20]), 1000.0])
+        page.wait_for_timeout(150)  # 4 batches per chunk: under the service's 50 batches/s limit
+    page.evaluate(MOTION, [_rows_js(shifted[600:601]), 1000.0])
+    page.wait_for_function("window.spotfree.state.serverLabels.length >= 400", timeout=20000)
+    remote = page.evaluate("window.spotfree.state.serverLabels")
+    local = page.evaluate("window.spotfree.state.localLabels")[:len(remote)]
+    assert local == remote
+    assert {"cruising", "normal-braking"} <= set(filter(None, remote))
+    ride_id = page.evaluate("window.spotfree.state.rideId")
+    assert len(service.store.samples(ride_id)["time"]) == len(remote)
+    page.screenshot(path=str(SHOTS / "phone.png"))
+    page.close()
+
+
+def test_rider_and_operator_views(server, browser):
+    url, service, rows = server
+    operator = browser.new_page(viewport={"width": 1280, "height": 820})
+    rider = browser.new_page(viewport={"width": 420, "height": 760})
+    operator.goto(url + "/operator")
+    rider.goto(url + "/rider")
+    operator.wait_for_timeout(500)
+    _, token = service.register_device("replay")
+    ride_id = service.start_ride(token, "segway", "replay")
+    for k in range(0, 900, 20):
+        batch = rows[k:k + 20]
+        service.ingest(token, ride_id, {name: [None if math.isnan(v) else float(v) for v in batch[:, j]]
+                                        for j, name in enumerate(["time", "ax", "ay", "az", "gx", "gy", "gz",
+                                                                  "lat", "lon", "speed"])})
+        time.sleep(0.01)
+    operator.wait_for_function("Number(document.getElementById('track').dataset.points || 0) > 5", timeout=10000)
+    assert operator.locator("#scalebar text").text_content().endswith("m")
+    assert rider.locator("#speed").inner_text() != "–"
+    operator.screenshot(path=str(SHOTS / "operator.png"))
+    rider.screenshot(path=str(SHOTS / "rider.png"))
+    operator.close()
+    rider.close()
