@@ -256,30 +256,71 @@ def hand_simulate(
     people: int = typer.Option(6, "--people", min=1, help="simulated people, one session each"),
     seed: int = typer.Option(0, "--seed", help="random seed; the same seed gives the same file"),
     rounds: int = typer.Option(3, "--rounds", min=1, help="how often each of the eight gestures occurs per person"),
+    protocol: str = typer.Option("test", "--protocol", help="test (one session per person) | training (the nine "
+                                 "sessions per person that 'spotfree hand train' reads)"),
 ) -> None:
     """Simulate hand-tracking frames: people holding the five postures and moving between them."""
     from spotfree.hand.log import write_hand_log
     from spotfree.sim.hand import simulate_hands
 
-    frames = simulate_hands(people=people, seed=seed, rounds=rounds)
+    frames = simulate_hands(people=people, seed=seed, rounds=rounds, protocol=protocol)
     write_hand_log(frames, output)
     with_hand = sum(1 for f in frames if f.hands)
-    out.print(f"wrote {output}: {people} session(s), {len(frames)} frames ({len(frames) - with_hand} without a hand), "
+    out.print(f"wrote {output}: {frames[-1].session} session(s), {len(frames)} frames ({len(frames) - with_hand} without a hand), "
               f"{frames[-1].time - frames[0].time:.1f} s of service clock")
 
 
 @hand_app.command("train")
 @user_errors
-def hand_train(output: Path = typer.Option(..., "-o", "--output"), logs: list[Path] = typer.Argument(None)) -> None:
-    """Train the two-stage posture / gesture recogniser (not built yet)."""
-    _not_built("spotfree hand train", 6)
+def hand_train(
+    output: Path = typer.Option(..., "-o", "--output", help="model file to write (.npz; two siblings go next to it)"),
+    logs: Optional[list[Path]] = typer.Argument(None, metavar="[LOG.jsonl ...]",
+                                                help="training-protocol logs (none: simulate one)"),
+    people: int = typer.Option(4, "--people", min=1, help="simulated people when no LOG is given"),
+    seed: int = typer.Option(0, "--seed", help="seed of the simulation and of the clustering"),
+) -> None:
+    """Train the two-stage posture / gesture recogniser without spotting."""
+    from spotfree.hand.log import frames_to_recording, read_hand_log
+    from spotfree.hand.recognition import HandTrainingConfig, features_of, session_tasks, train_hand
+    from spotfree.sim.hand import simulate_hands
+
+    if logs:
+        recordings = [read_hand_log(log) for log in logs]
+    else:
+        err.print(f"simulating the training protocol of {people} people (seed {seed})")
+        recordings = [frames_to_recording(simulate_hands(people=people, seed=seed, protocol="training"),
+                                          source="simulated training protocol")]
+    sessions = []
+    for rec in recordings:
+        _report_repairs_and_gaps(rec)
+        sessions += [(features_of(part), task) for part, task in session_tasks(rec)]
+    result = train_hand(sessions, HandTrainingConfig(seed=seed), progress=lambda m: err.print(m))
+    result.model.save(output)
+    for stage, model in result.model.stages().items():
+        columns = ", ".join(f"{c} {k}" for c, k in model.summary["columns_per_class"].items())
+        out.print(f"{stage}: window {model.window} samples, channels {','.join(model.channels)}; columns: {columns}")
+    out.print(f"wrote {output} and its posture and gesture stages next to it, from {len(sessions)} sessions")
 
 
 @hand_app.command("run")
 @user_errors
-def hand_run(model: Path, log: Path, output: Path = typer.Option(..., "-o", "--output")) -> None:
-    """Recognise postures and gestures in a log and emit wheelchair commands (not built yet)."""
-    _not_built("spotfree hand run", 6)
+def hand_run(
+    model: Path = typer.Argument(..., metavar="MODEL.npz", help="model written by 'spotfree hand train'"),
+    log: Path = typer.Argument(..., metavar="LOG.jsonl", help="hand-tracking log"),
+    output: Path = typer.Option(..., "-o", "--output", help="CSV file to write: time, state, label, command"),
+) -> None:
+    """Recognise postures and gestures in a log and emit wheelchair commands."""
+    from spotfree.hand.log import read_hand_log
+    from spotfree.hand.recognition import HandModel, features_of, recognise
+
+    hand_model = HandModel.load(model)
+    rec = read_hand_log(log, rate=hand_model.state.rate)
+    labels = recognise(hand_model, features_of(rec))
+    labels.write_csv(output)
+    _report_repairs_and_gaps(rec)
+    labelled = labels.state != ""
+    out.print(f"wrote {output}: {int(labelled.sum())} of {len(labels.time)} samples labelled; no label and the "
+              f"command 'stop' where there is no hand")
 
 
 @fleet_app.command("ingest")

@@ -1,0 +1,324 @@
+"""Two-stage hand recognition trained without spotting: posture or gesture, then which one.
+
+Three dictionaries of the framework (:func:`spotfree.training.train`, classified by CRC):
+
+1. **state** (``posture`` / ``gesture``) on the :mod:`~spotfree.hand.motion` channels ``speed turn flex``, which do
+   not depend on the posture held;
+2. **posture** (the five postures) on palm position, normal and direction;
+3. **gesture** (the eight gestures) on palm velocity, normal and direction.
+
+Training reads whole sessions of the training protocol (:data:`~spotfree.sim.hand.TRAINING_TASKS`), each declaring
+only the classes that occur in it:
+
+======================  ===========================  ====================  ===========================================
+session                 state                        posture               gesture
+======================  ===========================  ====================  ===========================================
+``hold``                posture                      straight              (not used: no gesture)
+``out-X``               posture, gesture             straight, X           hold, straight-to-X
+``round-X``             posture, gesture             straight, X           hold, straight-to-X, X-to-straight
+======================  ===========================  ====================  ===========================================
+
+The state dictionary is trained first; it then cuts every session (centred windows, offline) into the stretches
+it calls posture and those it calls gesture, the latter widened by :data:`MARGIN` samples on both sides so that
+each holds a little of the postures around it (``hold``, the gesture stage's background). The posture dictionary
+is trained on the posture stretches and the gesture dictionary on the gesture stretches (the rest of a session is
+left NaN, so that no window spans a cut); the ``hold`` columns are then dropped from the gesture dictionary, so
+that it names one of the eight gestures. Ground truth is never read.
+
+Recognition, per sample: the state label of the window that ends at it, and the label of the posture or the
+gesture dictionary accordingly (:class:`HandRecognizer` one sample at a time, :func:`recognise` for a whole
+Recording; they give the same labels). A sample at which any feature channel is not finite (no hand) gets no
+state and no label, and every stage starts afresh after it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from spotfree.classify.batch import classify_recording
+from spotfree.classify.stream import RideClassifier
+from spotfree.errors import InputError
+from spotfree.hand.commands import CommandFilter
+from spotfree.hand.features import FEATURES, hand_features
+from spotfree.hand.frames import DIRECTION, NORMAL, VELOCITY
+from spotfree.hand.motion import MOTION, SOURCES, motion_channels, motion_step
+from spotfree.io.checks import write_text
+from spotfree.io.recording import Recording
+from spotfree.model import DictionaryModel
+from spotfree.sim.hand import GESTURES, POSTURES, TRAINING_TASKS
+from spotfree.training import TrainingConfig, TrainingExperiment, TrainingResult, train
+
+STAGES = ("state", "posture", "gesture")
+STATES = ("posture", "gesture")
+HOLD = "hold"
+"""Background class of the gesture stage's training (the postures at the ends of a gesture stretch)."""
+
+CHANNELS = {
+    "state": MOTION,
+    "posture": ("pos_x", "pos_y", "pos_z", *NORMAL, *DIRECTION),
+    "gesture": (*VELOCITY, *NORMAL, *DIRECTION),
+}
+"""Feature channels of each stage."""
+
+WINDOWS = {"state": 4, "posture": 6, "gesture": 6}
+"""Window of each stage, samples at 20 Hz: 0.2 s for the state (the shorter, the less it lags a change), 0.3 s (the
+shortest gesture of the simulator) for the labels."""
+
+MARGIN = 2
+"""Samples by which a gesture stretch is widened on each side for the gesture stage's training."""
+
+
+@dataclass
+class HandTrainingConfig:
+    """Windows and channels per stage, the widening of gesture stretches, and the clustering seed."""
+
+    windows: dict[str, int] = field(default_factory=lambda: dict(WINDOWS))
+    channels: dict[str, tuple[str, ...]] = field(default_factory=lambda: dict(CHANNELS))
+    margin: int = MARGIN
+    seed: int = 0
+
+
+@dataclass
+class HandModel:
+    """The three dictionaries of the two-stage recogniser."""
+
+    state: DictionaryModel
+    posture: DictionaryModel
+    gesture: DictionaryModel
+
+    def stages(self) -> dict[str, DictionaryModel]:
+        return {"state": self.state, "posture": self.posture, "gesture": self.gesture}
+
+    def save(self, path: str | Path) -> None:
+        """Write ``MODEL.npz`` (the state dictionary, naming its siblings) and ``MODEL.posture.npz``,
+        ``MODEL.gesture.npz`` next to it (:meth:`DictionaryModel.save` each)."""
+        path = Path(path)
+        if path.suffix != ".npz":
+            raise InputError(f"{path}: a model file must end in .npz")
+        siblings = {stage: _sibling(path, stage).name for stage in STAGES[1:]}
+        self.posture.save(path.parent / siblings["posture"])
+        self.gesture.save(path.parent / siblings["gesture"])
+        state = replace(self.state, parameters={**self.state.parameters, "hand": siblings})
+        state.save(path)
+
+    @classmethod
+    def load(cls, path: str | Path) -> "HandModel":
+        """Read a model written by :meth:`save` (three ``.npz`` files; never unpickles)."""
+        path = Path(path)
+        state = DictionaryModel.load(path)
+        siblings = state.parameters.get("hand")
+        if not isinstance(siblings, dict) or set(siblings) != set(STAGES[1:]):
+            raise InputError(f"{path}: not a hand model (no posture and gesture stages); train one with "
+                             f"'spotfree hand train -o {path.name}'")
+        stages = {}
+        for stage, name in siblings.items():
+            if not (path.parent / name).exists():
+                raise InputError(f"{path}: its {stage} stage {path.parent / name} is missing; keep the three files "
+                                 f"of 'spotfree hand train' together")
+            stages[stage] = DictionaryModel.load(path.parent / name)
+        if sorted(state.classes) != sorted(STATES):
+            raise InputError(f"{path}: state stage classes {state.classes} are not {list(STATES)}; retrain it")
+        return cls(state=state, **stages)
+
+
+@dataclass
+class HandTrainingResult:
+    """The model and each stage's training result (names, evidence, kept windows)."""
+
+    model: HandModel
+    stages: dict[str, TrainingResult]
+    experiments: dict[str, list[TrainingExperiment]]
+
+
+def _sibling(path: Path, stage: str) -> Path:
+    return path.with_name(f"{path.stem}.{stage}.npz")
+
+
+def session_tasks(rec: Recording) -> list[tuple[Recording, str]]:
+    """The sessions of a training log, each with its task: the ``k``-th session in the file performs
+    ``TRAINING_TASKS[k % 9]`` (the protocol of one person is its nine sessions in that order)."""
+    parts = rec.experiments()
+    if len(parts) % len(TRAINING_TASKS):
+        raise InputError(
+            f"{rec.source}: {len(parts)} session(s); a training log holds {len(TRAINING_TASKS)} sessions per person, "
+            f"in the order {', '.join(TRAINING_TASKS)} (spotfree hand simulate --protocol training writes one)"
+        )
+    return [(part, TRAINING_TASKS[k % len(TRAINING_TASKS)]) for k, (_, part) in enumerate(parts)]
+
+
+def features_of(rec: Recording) -> Recording:
+    """Hand features and motion channels of a hand-tracking Recording (every channel a stage may use)."""
+    feats = motion_channels(hand_features(rec))
+    return feats.with_channels({c: feats.channels[c] for c in (*FEATURES, *MOTION)})
+
+
+def declared(task: str, stage: str) -> list[str]:
+    """Classes that occur in a session of ``task`` at ``stage`` (the table of the module docstring)."""
+    kind, _, posture = task.partition("-")
+    if stage == "state":
+        return ["posture"] if kind == "hold" else ["posture", "gesture"]
+    if stage == "posture":
+        return ["straight"] if kind == "hold" else ["straight", posture]
+    if kind == "hold":
+        return []
+    out = f"straight-to-{posture}"
+    return [HOLD, out] if kind == "out" else [HOLD, out, f"{posture}-to-straight"]
+
+
+def train_hand(sessions: list[tuple[Recording, str]], config: HandTrainingConfig | None = None,
+               progress=None) -> HandTrainingResult:
+    """Train the three stages from feature sessions (:func:`features_of`) of the training protocol, each with its
+    task name (see the module docstring)."""
+    config = config or HandTrainingConfig()
+    say = progress or (lambda message: None)
+    unknown = sorted({task for _, task in sessions} - set(TRAINING_TASKS))
+    if unknown:
+        raise InputError(f"unknown training task(s) {', '.join(unknown)}; use {', '.join(TRAINING_TASKS)}")
+    missing = sorted(set(TRAINING_TASKS) - {task for _, task in sessions})
+    if missing:
+        raise InputError(f"training sessions lack the task(s) {', '.join(missing)}; record the whole protocol")
+
+    def stage_config(stage: str) -> TrainingConfig:
+        return TrainingConfig(channels=tuple(config.channels[stage]), window=config.windows[stage], train_step=1,
+                              seed=config.seed)
+
+    say("state stage: posture or gesture")
+    experiments = {"state": [TrainingExperiment(rec, declared(task, "state")) for rec, task in sessions]}
+    results = {"state": train(experiments["state"], stage_config("state"))}
+    state = results["state"].model
+    experiments["posture"], experiments["gesture"] = [], []
+    for rec, task in sessions:
+        labels = classify_recording(state, rec, centred=True).label
+        gesture = _widen(labels == "gesture", config.margin) & (labels != "")
+        posture = (labels == "posture") & ~gesture
+        experiments["posture"].append(TrainingExperiment(_only(rec, posture), declared(task, "posture")))
+        if declared(task, "gesture") and _longest_run(gesture) >= config.windows["gesture"]:
+            experiments["gesture"].append(TrainingExperiment(_only(rec, gesture), declared(task, "gesture")))
+    for stage in STAGES[1:]:
+        say(f"{stage} stage: {len(experiments[stage])} sessions")
+        results[stage] = train(experiments[stage], stage_config(stage))
+    gesture = _without(results["gesture"].model, HOLD)
+    for stage, classes in (("posture", POSTURES), ("gesture", GESTURES)):
+        model = results[stage].model if stage == "posture" else gesture
+        absent = sorted(set(classes) - set(model.classes))
+        if absent:
+            raise InputError(f"the {stage} stage found no windows of {', '.join(absent)}; the training sessions are "
+                             f"too short or too few (record the protocol for more people)")
+    return HandTrainingResult(HandModel(state, results["posture"].model, gesture), results, experiments)
+
+
+def _widen(mask: np.ndarray, margin: int) -> np.ndarray:
+    """``mask`` grown by ``margin`` samples on both sides."""
+    if margin <= 0:
+        return mask.copy()
+    return np.convolve(mask.astype(int), np.ones(2 * margin + 1, dtype=int), mode="same") > 0
+
+
+def _longest_run(mask: np.ndarray) -> int:
+    edges = np.diff(np.r_[0, mask.astype(int), 0])
+    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    return int((stops - starts).max()) if len(starts) else 0
+
+
+def _only(rec: Recording, keep: np.ndarray) -> Recording:
+    """``rec`` with every channel NaN outside ``keep`` (no window spans the cut)."""
+    return rec.with_channels({name: np.where(keep, values, np.nan) for name, values in rec.channels.items()})
+
+
+def _without(model: DictionaryModel, name: str) -> DictionaryModel:
+    """``model`` without class ``name`` and its columns."""
+    if name not in model.classes:
+        return model
+    keep = np.asarray(model.classes)[model.column_class] != name
+    classes = [c for c in model.classes if c != name]
+    index = np.array([classes.index(c) for c in np.asarray(model.classes)[model.column_class][keep]], dtype=int)
+    summary = {**model.summary, "dropped_class": name,
+               "columns_per_class": {c: int((index == i).sum()) for i, c in enumerate(classes)}}
+    return replace(model, classes=classes, dictionary=model.dictionary[:, keep], column_class=index, summary=summary)
+
+
+# ---------------------------------------------------------------- recognition
+
+
+@dataclass
+class HandLabels:
+    """Per sample: ``state`` (posture / gesture), ``label`` and wheelchair ``command``; ``""`` where none."""
+
+    time: np.ndarray
+    state: np.ndarray
+    label: np.ndarray
+    command: np.ndarray
+    experiment: np.ndarray | None = None
+
+    def write_csv(self, path: str | Path) -> None:
+        """Write ``time`` (s), ``state``, ``label`` and ``command`` as CSV, atomically."""
+        columns = {"time": [repr(float(t)) for t in np.round(self.time, 9)], "state": self.state,
+                   "label": self.label, "command": self.command}
+        write_text(Path(path), pd.DataFrame(columns).to_csv(index=False, lineterminator="\n"))
+
+
+def recognise(model: HandModel, feats: Recording, confirm: float | None = None) -> HandLabels:
+    """Label every sample of a feature Recording (:func:`features_of`) causally, stage by stage, and derive the
+    commands (:class:`~spotfree.hand.commands.CommandFilter`, ``confirm`` s, its default when None)."""
+    labels = {stage: classify_recording(m, feats).label for stage, m in model.stages().items()}
+    state = labels["state"].astype(object)
+    ready = (state != "") & (labels["posture"] != "") & (labels["gesture"] != "")
+    state = np.where(ready, state, "")
+    label = np.where(state == "posture", labels["posture"], np.where(state == "gesture", labels["gesture"], ""))
+    commands = np.empty(len(feats), dtype=object)
+    experiment = feats.experiment if feats.experiment is not None else np.ones(len(feats), dtype=int)
+    for number in np.unique(experiment):
+        rows = np.flatnonzero(experiment == number)
+        command = CommandFilter(feats.rate) if confirm is None else CommandFilter(feats.rate, confirm)
+        commands[rows] = [command.update(state[i], label[i]) for i in rows]
+    return HandLabels(feats.time, state.astype(str), label.astype(str), commands.astype(str), feats.experiment)
+
+
+class HandRecognizer:
+    """One feature sample in, ``(state, label, command)`` out; the same labels as :func:`recognise`.
+
+    A sample is the hand features of :data:`~spotfree.hand.features.FEATURES` (a dict by name, or a row in that
+    order), e.g. a row of :func:`~spotfree.hand.features.hand_features`; the motion channels are computed here.
+    """
+
+    def __init__(self, model: HandModel, confirm: float | None = None):
+        self.model = model
+        self.rate = model.state.rate
+        self._classifiers = {stage: RideClassifier(m) for stage, m in model.stages().items()}
+        self._pick = {stage: np.array([_CHANNELS.index(c) for c in m.channels])
+                      for stage, m in model.stages().items()}
+        missing = sorted({c for m in model.stages().values() for c in m.channels} - set(_CHANNELS))
+        if missing:
+            raise InputError(f"model channel(s) {', '.join(missing)} are not hand features or motion channels")
+        self._sources = np.array([FEATURES.index(c) for c in SOURCES])
+        self._commands = CommandFilter(self.rate) if confirm is None else CommandFilter(self.rate, confirm)
+        self.reset()
+
+    def reset(self) -> None:
+        """A new session: every stage and the command start afresh."""
+        for classifier in self._classifiers.values():
+            classifier.reset()
+        self._commands.reset()
+        self._previous = np.full(len(SOURCES), np.nan)
+
+    def update(self, sample) -> tuple[str, str, str]:
+        """``(state, label, command)`` at this sample (``""`` for state and label where there is none)."""
+        x = np.array([sample[c] for c in FEATURES] if isinstance(sample, dict) else sample, dtype=float)
+        if x.shape != (len(FEATURES),):
+            raise InputError(f"a hand sample holds {len(FEATURES)} features ({', '.join(FEATURES)}), got {x.shape}")
+        source = x[self._sources]
+        row = np.r_[x, motion_step(source, self._previous, self.rate)[0]]
+        self._previous = source
+        if not np.isfinite(row).all():
+            row[:] = np.nan
+        out = {stage: c.update_features(row[self._pick[stage]]) for stage, c in self._classifiers.items()}
+        state = out["state"] if all(out.values()) else ""
+        label = out[state] if state else ""
+        return state, label, self._commands.update(state, label)
+
+
+_CHANNELS = (*FEATURES, *MOTION)

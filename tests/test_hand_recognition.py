@@ -1,0 +1,147 @@
+"""Two-stage hand recognition: spotting-free training (truth never read), accuracy on a held-out person, streaming
+equal to batch, model files, commands and their confirmation rule."""
+
+import numpy as np
+import pytest
+
+from spotfree.errors import InputError
+from spotfree.hand.commands import COMMANDS, CommandFilter, command_latencies
+from spotfree.hand.features import FEATURES
+from spotfree.hand.log import frames_to_recording
+from spotfree.hand.motion import MOTION, motion_channels
+from spotfree.hand.recognition import (
+    HandModel, HandRecognizer, declared, features_of, recognise, session_tasks, train_hand,
+)
+from spotfree.sim.hand import GESTURES, POSTURES, TRAINING_TASKS, simulate_hands
+
+
+@pytest.fixture(scope="module")
+def training():
+    rec = frames_to_recording(simulate_hands(people=2, seed=4, rounds=2, protocol="training"))
+    return [(features_of(part), task) for part, task in session_tasks(rec)]
+
+
+@pytest.fixture(scope="module")
+def result(training):
+    return train_hand(training)
+
+
+@pytest.fixture(scope="module")
+def test_run():
+    return features_of(frames_to_recording(simulate_hands(people=1, seed=4, rounds=2, first=101)))
+
+
+def test_training_protocol_sessions_and_declarations(training):
+    assert [task for _, task in training] == list(TRAINING_TASKS) * 2
+    assert declared("hold", "state") == ["posture"] and declared("hold", "gesture") == []
+    assert declared("round-stop", "gesture") == ["hold", "straight-to-stop", "stop-to-straight"]
+    for rec, task in training:
+        assert {str(s) for s in rec.truth["state"]} == ({"posture"} if task == "hold" else {"posture", "gesture"})
+
+
+def test_each_stage_names_all_its_classes(result):
+    model = result.model
+    assert sorted(model.state.classes) == ["gesture", "posture"]
+    assert sorted(model.posture.classes) == sorted(POSTURES)
+    assert sorted(model.gesture.classes) == sorted(GESTURES)
+
+
+def test_truth_is_never_read_by_training(training, result, tmp_path):
+    rng = np.random.default_rng(3)
+    scrambled = []
+    for rec, task in training:
+        copy = rec.take(slice(None))
+        copy.truth = {k: rng.permutation(v) for k, v in copy.truth.items()}
+        scrambled.append((copy, task))
+    train_hand(scrambled).model.save(tmp_path / "a.npz")
+    result.model.save(tmp_path / "b.npz")
+    for name in ("a.npz", "a.posture.npz", "a.gesture.npz"):
+        a, b = np.load(tmp_path / name), np.load(tmp_path / name.replace("a", "b", 1))
+        assert a.files == b.files and all(np.array_equal(a[k], b[k]) for k in a.files if k != "metadata")
+        assert str(a["metadata"]).replace('"a.', '"b.') == str(b["metadata"])
+
+
+def test_held_out_person_postures_and_gestures(result, test_run):
+    labels = recognise(result.model, test_run)
+    state, label = test_run.truth["state"], test_run.truth["label"]
+    ok = labels.state != ""
+    assert ok.mean() > 0.9
+    posture = ok & (state == "posture")
+    gesture = ok & (state == "gesture")
+    assert (labels.state[posture] == "posture").mean() > 0.9
+    assert (labels.state[gesture] == "gesture").mean() > 0.4
+    caught = posture & (labels.state == "posture")
+    assert (labels.label[caught] == label[caught]).mean() > 0.97
+    caught = gesture & (labels.state == "gesture")
+    assert (labels.label[caught] == label[caught]).mean() > 0.6  # two training people; chance is 1/8
+    assert not (labels.label[~ok] != "").any()
+
+
+def test_streaming_equals_batch_and_gaps_give_no_label(result, test_run):
+    labels = recognise(result.model, test_run)
+    recogniser = HandRecognizer(result.model)
+    rows = test_run.array(FEATURES)
+    out = [recogniser.update(row) for row in rows]
+    assert [o[0] for o in out] == list(labels.state)
+    assert [o[1] for o in out] == list(labels.label)
+    assert [o[2] for o in out] == list(labels.command)
+    gap = ~np.all(np.isfinite(rows), axis=1)
+    assert gap.any() and all(out[i] == ("", "", "stop") for i in np.flatnonzero(gap))
+    assert recogniser.update({c: v for c, v in zip(FEATURES, rows[-1])})[2] in COMMANDS.values()
+    with pytest.raises(InputError, match="hand sample holds"):
+        recogniser.update(rows[0][:5])
+
+
+def test_model_files_round_trip_and_missing_sibling_is_clear(result, test_run, tmp_path):
+    result.model.save(tmp_path / "m.npz")
+    loaded = HandModel.load(tmp_path / "m.npz")
+    a, b = recognise(result.model, test_run), recognise(loaded, test_run)
+    assert list(a.label) == list(b.label) and list(a.command) == list(b.command)
+    (tmp_path / "m.gesture.npz").unlink()
+    with pytest.raises(InputError, match="gesture stage"):
+        HandModel.load(tmp_path / "m.npz")
+    result.model.posture.save(tmp_path / "plain.npz")
+    with pytest.raises(InputError, match="not a hand model"):
+        HandModel.load(tmp_path / "plain.npz")
+
+
+def test_a_log_that_is_not_the_protocol_is_refused(test_run):
+    with pytest.raises(InputError, match="9 sessions per person"):
+        session_tasks(test_run)
+    with pytest.raises(InputError, match="lack the task"):
+        train_hand([(test_run, "hold")])
+
+
+def test_motion_channels_are_zero_for_a_still_hand_and_nan_at_segment_starts(test_run):
+    still = test_run.take(slice(0, 30))
+    for name in ("vel_x", "vel_y", "vel_z"):
+        still.channels[name] = np.zeros(30)
+    for name in [c for c in FEATURES if c.startswith(("normal", "dir", "grab", "ext"))]:
+        still.channels[name] = np.full(30, still.channels[name][0])
+    out = motion_channels(still)
+    assert np.isnan(out.channels["turn"][0]) and np.isnan(out.channels["flex"][0])
+    assert np.allclose([out.channels[c][1:] for c in MOTION], 0.0, atol=1e-6)
+
+
+def test_command_changes_only_after_confirmation():
+    f = CommandFilter(rate=20.0, confirm=0.25)
+    assert f.needed == 5
+    stream = [("posture", "straight")] * 5 + [("gesture", "straight-to-left")] * 3 + [("posture", "left")] * 4
+    out = [f.update(*x) for x in stream]
+    assert out[:4] == ["stop"] * 4 and out[4] == "go-straight"
+    assert out[5:] == ["go-straight"] * 7
+    assert f.update("posture", "left") == "turn-left"
+    assert f.update("posture", "right") == "turn-left"  # one sample of another posture does not switch
+    assert f.update("", "") == "stop"  # no hand: stop at once
+    with pytest.raises(InputError):
+        CommandFilter(rate=20.0, confirm=-1)
+
+
+def test_command_latency_from_true_onsets():
+    t = np.arange(12) / 20.0
+    state = np.array(["posture"] * 3 + ["gesture"] * 3 + ["posture"] * 6)
+    label = np.array(["straight"] * 3 + ["straight-to-left"] * 3 + ["left"] * 6)
+    command = np.array(["go-straight"] * 8 + ["turn-left"] * 4)
+    lat = command_latencies(t, command, state, label)
+    assert lat.posture.tolist() == ["left"] and lat.latency == pytest.approx([0.1])
+    assert np.isnan(command_latencies(t, np.array(["stop"] * 12), state, label).latency[0])
