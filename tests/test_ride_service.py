@@ -1,4 +1,5 @@
-"""The live service's web API with FastAPI's TestClient: devices, rides, batches, refusals, views, push, pipeline."""
+"""The live service's web API with FastAPI's TestClient: devices, rides, batches, refusals, rate, warnings, views,
+push, pipeline; and ``spotfree serve --simulate`` in a subprocess."""
 
 import json
 import math
@@ -17,7 +18,8 @@ from spotfree.ride.api import create_app  # noqa: E402
 from spotfree.ride.live import LiveRide, pipeline_spec  # noqa: E402
 from spotfree.ride.records import SAMPLE_COLUMNS  # noqa: E402
 from spotfree.ride.sensorpush import PushResampler, parse_push  # noqa: E402
-from spotfree.ride.service import RideService  # noqa: E402
+from spotfree.ride import service as service_module  # noqa: E402
+from spotfree.ride.service import BACKLOG_SECONDS, RATE_FACTOR, RideService  # noqa: E402
 from spotfree.ride.sources import recording_rows  # noqa: E402
 from spotfree.ride.store import RideStore  # noqa: E402
 
@@ -132,13 +134,135 @@ def test_tokens_rides_and_views_are_guarded(client, raw):
     assert client.post("/api/rides/" + ride_id).status_code == 405
 
 
-def test_batch_rate_limited(client, raw):
+class _Clock:
+    """A monotonic clock the test moves by hand."""
+
+    def __init__(self):
+        self.now = 1000.0
+
+    def monotonic(self):
+        return self.now
+
+
+@pytest.fixture()
+def fake(monkeypatch):
+    """The service's rate limit on a clock the test moves."""
+    clock = _Clock()
+    monkeypatch.setattr(service_module, "clock", clock)
+    return clock
+
+
+def test_rate_limit_counts_samples_and_takes_a_minute_of_backlog(client, raw, fake):
     headers = _device(client)
     ride_id = client.post("/api/rides", json={"vehicle": "v", "rider_id": "r"}, headers=headers).json()["ride_id"]
-    rows = _ride_rows(raw)
-    codes = [client.post(f"/api/rides/{ride_id}/samples", json={"samples": _columns(rows[k:k + 1])},
-                         headers=headers).status_code for k in range(60)]
-    assert codes[:50] == [200] * 50 and 429 in codes[50:]
+    rows, rate = _ride_rows(raw), client.service.model.rate
+    url = f"/api/rides/{ride_id}/samples"
+    # a phone back after 60 s offline resends its backlog at once, in 10 s batches: all taken
+    backlog = int(BACKLOG_SECONDS * rate)
+    for k in range(0, backlog, 200):
+        assert client.post(url, json={"samples": _columns(rows[k:k + 200])}, headers=headers).status_code == 200
+    refused = client.post(url, json={"samples": _columns(rows[backlog:backlog + 40])}, headers=headers)
+    assert refused.status_code == 429 and refused.headers["retry-after"] == "1"
+    assert len(client.get(f"/api/rides/{ride_id}").json()["samples"]["time"]) == backlog
+    # sustained: RATE_FACTOR times the model's rate, whatever the batch size
+    fake.now += 0.5
+    sent, k = 0, backlog
+    for size in (1, 1, 5, 10, 20, 3):
+        assert client.post(url, json={"samples": _columns(rows[k:k + size])}, headers=headers).status_code == 200
+        sent, k = sent + size, k + size
+    assert sent == 0.5 * RATE_FACTOR * rate
+    assert client.post(url, json={"samples": _columns(rows[k:k + 1])}, headers=headers).status_code == 429
+    fake.now += 1 / (RATE_FACTOR * rate)
+    assert client.post(url, json={"samples": _columns(rows[k:k + 1])}, headers=headers).status_code == 200
+    with client.websocket_connect("/ws/ride") as ws:
+        ws.send_json({"type": "resume", "token": headers["Authorization"][7:], "ride_id": ride_id})
+        ws.receive_json()
+        ws.send_json({"type": "batch", "seq": 9, "samples": _columns(rows[k + 1:k + 21])})
+        reply = ws.receive_json()
+        assert reply["status"] == 429 and reply["seq"] == 9
+        assert reply["retry_after"] == pytest.approx(20 / (RATE_FACTOR * rate))
+
+
+def test_sudden_stops_warn_once_each_and_are_recorded(client, raw, fake):
+    """A simulated ride with three sudden stops streamed in phone-sized batches: one warning per stop although
+    the label flickers within a stop, every warning at a stop, events recorded, trip figures in the ack."""
+    rec = raw.select_experiment(2)
+    rows, truth = _ride_rows(raw), rec.truth["label"]
+    headers = _device(client)
+    ride_id = client.post("/api/rides", json={"vehicle": "v", "rider_id": "r"}, headers=headers).json()["ride_id"]
+    last = rows[~np.isnan(rows[:, 7])][-1]
+    assert client.post(f"/api/rides/{ride_id}/destination", json={"lat": last[7], "lon": last[8]},
+                       headers=headers).status_code == 200
+    assert client.post(f"/api/rides/{ride_id}/destination", json={"lat": 91, "lon": 0},
+                       headers=headers).status_code == 400
+    labels, warnings, events, states = [], [], [], []
+    for k in range(0, len(rows), 5):
+        fake.now += 0.25  # a phone's pace
+        ack = client.post(f"/api/rides/{ride_id}/samples", json={"samples": _columns(rows[k:k + 5])},
+                          headers=headers).json()
+        labels += ack["labels"]
+        warnings += ack["warnings"]
+        events += ack["events"]
+        states.append(ack["state"])
+    assert client.post(f"/api/rides/{ride_id}/end", headers=headers).status_code == 200
+    time = rows[:, 0]
+    # stops: runs of braking in the truth (the simulator's near-sudden crossing stop is one too)
+    braking = truth != "cruising"
+    edges = np.flatnonzero(np.diff(np.r_[0, braking.astype(int), 0]))
+    stops = list(zip(time[edges[::2]], time[edges[1::2] - 1]))
+    sudden = [(a, b) for a, b in stops if "sudden-braking" in truth[(time >= a) & (time <= b)]]
+    assert len(sudden) == 3
+    runs = sum(1 for k in range(len(labels)) if labels[k] == "sudden-braking" and (k == 0 or labels[k - 1] != labels[k]))
+    assert runs > len(warnings)  # the label flickers: without debouncing there would be more warnings
+    per_stop = [sum(a - 0.5 <= w["onset"] <= b for w in warnings) for a, b in stops]
+    assert all(per_stop[stops.index(s)] == 1 for s in sudden) and max(per_stop) == 1
+    assert sum(per_stop) == len(warnings)  # no warning away from a stop
+    stored = client.get(f"/api/rides/{ride_id}").json()["events"]
+    assert [(e["kind"], e["start"]) for e in stored] == [("sudden-braking", w["onset"]) for w in warnings]
+    assert len(events) == len(warnings) - 1 or len(events) == len(warnings)  # the last may end with the ride
+    final = states[-1]
+    assert final["distance"] > 50 and final["remaining"] < 20 and final["speed"] is not None
+    assert any(s["eta"] is not None and s["eta"] > 0 for s in states)
+
+
+def test_serve_simulate_end_to_end(tmp_path, model):
+    """``spotfree serve --simulate sudden-braking`` in a subprocess: a ride appears, is recorded and warned of."""
+    import os
+    import signal
+    import socket
+    import sys
+    import time
+
+    import httpx
+
+    model.save(tmp_path / "model.npz")
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    server = subprocess.Popen([sys.executable, "-m", "spotfree.cli", "serve", "--port", str(port), "--database",
+                               str(tmp_path / "rides.db"), "--model", str(tmp_path / "model.npz"), "--simulate",
+                               "sudden-braking", "--speed", "10"],
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                              env={**os.environ, "SPOTFREE_CACHE": str(tmp_path)})
+    url, events, rides_listed = f"http://127.0.0.1:{port}", [], []
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and not events:
+            time.sleep(0.3)
+            assert server.poll() is None, server.stderr.read()
+            try:
+                rides_listed = httpx.get(url + "/api/rides").json()
+            except httpx.TransportError:
+                continue
+            if rides_listed:
+                events = httpx.get(f"{url}/api/rides/{rides_listed[-1]['ride_id']}").json()["events"]
+        assert rides_listed and rides_listed[-1]["vehicle"].startswith("simulated sudden-braking")
+        assert rides_listed[-1]["live"] and events and events[0]["kind"] == "sudden-braking"
+        assert httpx.get(url + "/rider").status_code == 200
+    finally:
+        server.send_signal(signal.SIGINT)
+        server.wait(20)
+    assert server.returncode == 0
 
 
 def test_websocket_stream_ack_resume_and_views(client, raw):

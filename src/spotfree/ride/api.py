@@ -11,7 +11,8 @@ WebSocket message):
 * ``WS /ws/ride``: ``{"type": "start", "token", "vehicle", "rider_id"}`` or ``{"type": "resume", "token",
   "ride_id"}``, then ``{"type": "batch", "seq", "samples"}`` (answered ``{"type": "ack", "seq", ...}``),
   ``{"type": "destination", "lat", "lon"}``, ``{"type": "end"}``; a refused message is answered
-  ``{"type": "error", "status", "message"}`` (``seq`` too for a batch) and changes nothing;
+  ``{"type": "error", "status", "message"}`` (``seq`` too for a batch, ``retry_after`` s for a 429) and changes
+  nothing;
 * ``POST /push?platform=android|ios`` the Sensor Logger app's HTTP push (:mod:`spotfree.ride.sensorpush`): one
   ride per ``sessionId``.
 
@@ -20,7 +21,8 @@ Views: ``GET /api/model`` (the pipeline for the page, :func:`~spotfree.ride.live
 (``?ride=`` one ride) stream what the service publishes; nothing a view sends is read.
 
 Refusals: 400 bad input, 401 no or unknown token, 403 a ride of another device, 404 unknown ride, 413 a body over
-:data:`MAX_BODY` bytes, 429 too many batches.
+:data:`MAX_BODY` bytes, 429 samples sent faster than the service takes them (``Retry-After``; see
+:mod:`spotfree.ride.service`).
 """
 
 from __future__ import annotations
@@ -56,11 +58,12 @@ def _status(exc: Exception) -> int:
 
 
 async def _call(function, *args, **kwargs):
-    """Run a blocking service call in the thread pool; refusals become HTTP errors."""
+    """Run a blocking service call in the thread pool; refusals become HTTP errors (429 with Retry-After)."""
     try:
         return await run_in_threadpool(function, *args, **kwargs)
     except (SpotfreeError, ValueError) as exc:
-        raise HTTPException(_status(exc), str(exc)) from None
+        headers = {"Retry-After": str(math.ceil(exc.retry_after))} if isinstance(exc, RateError) else None
+        raise HTTPException(_status(exc), str(exc), headers=headers) from None
 
 
 def _token(request: Request) -> str:
@@ -244,4 +247,5 @@ async def _ws_message(service: RideService, raw: str, token: str | None, ride_id
             return {"type": "ended", "ride_id": ride_id}
         raise InputError(f"unknown message type {kind!r}; send start, resume, batch, destination or end")
     except (SpotfreeError, ValueError) as exc:
-        return {"type": "error", "status": _status(exc), "message": str(exc), "seq": seq}
+        reply = {"type": "error", "status": _status(exc), "message": str(exc), "seq": seq}
+        return {**reply, "retry_after": exc.retry_after} if isinstance(exc, RateError) else reply

@@ -5,17 +5,24 @@
 distance, time to the destination). A batch of samples is taken in this order, so that a refused batch changes
 nothing: (1) the token must be the one the ride was started with (:class:`~spotfree.ride.store.AccessError`);
 (2) the batch is validated as the store validates it (:mod:`spotfree.ride.validation`, InputError); (3) features,
-labels and assistant run; (4) samples, features, labels and events are committed to the store; (5) the result is
-published to the views. The acknowledgement a device gets is sent after (4): an acknowledged sample is on disk.
+labels and assistant run; (4) samples, features, labels and the events that ended are committed to the store;
+(5) the result is published to the views. The acknowledgement a device gets is sent after (4): an acknowledged
+sample is on disk. Ending a ride closes the assistant's open episodes and records them.
+
+Rate: each ride has a bucket of ``BACKLOG_SECONDS * rate`` samples (``rate`` the model's, Hz) refilled at
+``RATE_FACTOR * rate`` samples/s; a batch of ``n`` samples takes ``n`` from it or is refused whole (HTTP 429,
+with the seconds to wait). A phone streaming at ``rate`` keeps the bucket full, so the backlog of a disconnect of
+up to ``BACKLOG_SECONDS`` goes through at once; a longer one is taken at ``RATE_FACTOR`` times real time.
 """
 
 from __future__ import annotations
 
 import asyncio
+import functools
 import math
 import threading
 import time as clock
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -24,6 +31,7 @@ from spotfree.classify.batch import dictionary_classifier
 from spotfree.errors import InputError
 from spotfree.model import DictionaryModel
 from spotfree.ride import validation
+from spotfree.ride.assistant import RideAssistant
 from spotfree.ride.live import LiveRide, pipeline_spec
 from spotfree.ride.records import FEATURE_COLUMNS, SAMPLE_COLUMNS
 from spotfree.ride.store import AccessError, RideStore
@@ -31,12 +39,49 @@ from spotfree.ride.tokens import token_hash
 
 PLOT_CHANNELS = ("pitch", "pitch_rate", "acc_long")
 """Features sent to the operator view's live plot (rad, rad/s, m/s^2)."""
-MAX_BATCHES_PER_SECOND = 50.0
-"""A device sending batches faster than this (averaged over a second) is refused (HTTP 429)."""
+RATE_FACTOR = 4.0
+"""Samples a device may send per second, sustained, in multiples of the model's rate."""
+BACKLOG_SECONDS = 60.0
+"""Seconds of samples (at the model's rate) a device may send at once: the backlog of a disconnect this long."""
+DANGEROUS_CLASSES = ("sudden-braking", "sharp-turn")
+"""Classes the rider is warned of when the model has them."""
 
 
 class RateError(InputError):
-    """A device sends batches faster than :data:`MAX_BATCHES_PER_SECOND`."""
+    """A device sends samples faster than the service takes them; ``retry_after`` s until this batch would fit."""
+
+    def __init__(self, message: str, retry_after: float):
+        super().__init__(message)
+        self.retry_after = retry_after
+
+
+class SampleBucket:
+    """Token bucket of samples: holds at most ``capacity`` samples, refilled at ``refill`` samples/s, full at
+    first (``level(now) = min(capacity, level + refill * (now - last))``)."""
+
+    def __init__(self, capacity: float, refill: float):
+        self.capacity, self.refill = capacity, refill
+        self.level, self.last = capacity, clock.monotonic()
+
+    def take(self, n: int, what: str) -> None:
+        """Take ``n`` samples or raise :class:`RateError` (the bucket unchanged)."""
+        now = clock.monotonic()
+        self.level, self.last = min(self.capacity, self.level + self.refill * (now - self.last)), now
+        if n > self.capacity:
+            raise RateError(f"{what}: {n} samples in one batch; send at most {self.capacity:.0f} per batch",
+                            retry_after=0.0)
+        if n > self.level:
+            wait = (n - self.level) / self.refill
+            raise RateError(f"{what}: samples sent faster than {self.refill:g}/s; send this batch again in "
+                            f"{wait:.2f} s", retry_after=wait)
+        self.level -= n
+
+
+def assistant_factory(model: DictionaryModel) -> Callable[[], RideAssistant]:
+    """Makes one :class:`RideAssistant` per ride, warning of the model's classes in :data:`DANGEROUS_CLASSES`
+    (``sudden-braking`` when it has none)."""
+    dangerous = tuple(c for c in DANGEROUS_CLASSES if c in model.classes) or DANGEROUS_CLASSES[:1]
+    return functools.partial(RideAssistant, dangerous=dangerous)
 
 
 @dataclass
@@ -44,10 +89,9 @@ class _OpenRide:
     ride_id: str
     token_hash: str
     live: LiveRide
-    assistant: object | None
+    assistant: RideAssistant
+    bucket: SampleBucket
     last_time: float | None = None
-    speed: float | None = None
-    batches: list[float] = field(default_factory=list)
     lock: threading.Lock = field(default_factory=threading.Lock)
 
 
@@ -62,19 +106,24 @@ class RideService:
     model_name : str
         The name the labels are stored under.
     assistant : callable, optional
-        Makes one assistant per ride: an object with ``update(t, label, lat, lon, speed) -> [warning, ...]``
-        (a warning has ``kind``, ``time``, ``detail``), ``set_destination(lat, lon)``, ``state() -> dict``
-        (``speed`` m/s, ``distance`` m, ``eta`` s) and ``pop_events() -> [Event, ...]``. Without one the
-        acknowledgement's state holds the last GPS speed only and no warning is raised.
+        Makes the :class:`~spotfree.ride.assistant.RideAssistant` of each ride (default
+        :func:`assistant_factory` of the model).
+
+    ``spec`` is what the page runs: the pipeline (:func:`~spotfree.ride.live.pipeline_spec`) and, under
+    ``warnings``, the assistant's warning rule (``dangerous``, ``min_duration`` and ``refractory`` s).
     """
 
-    def __init__(self, model: DictionaryModel, store: RideStore, model_name: str = "default", assistant=None):
+    def __init__(self, model: DictionaryModel, store: RideStore, model_name: str = "default",
+                 assistant: Callable[[], RideAssistant] | None = None):
         self.model = model
-        self.assistant = assistant
+        self.assistant = assistant or assistant_factory(model)
         self.store = store
         self.model_name = model_name
         self.classifier = dictionary_classifier(model, "crc")
-        self.spec = pipeline_spec(model, self.classifier)
+        rule = self.assistant()
+        self.spec = {**pipeline_spec(model, self.classifier),
+                     "warnings": {"dangerous": list(rule.dangerous), "min_duration": rule.min_duration,
+                                  "refractory": rule.refractory}}
         self._open: dict[str, _OpenRide] = {}
         self._lock = threading.Lock()
         self._watchers: set[tuple[asyncio.AbstractEventLoop, asyncio.Queue, str | None]] = set()
@@ -89,8 +138,9 @@ class RideService:
         """Open a ride for the token's device; ``meta``: ``age_band``, ``gender``, ``skill``, ``started``."""
         ride_id = self.store.start_ride(token, vehicle, rider_id, model=self.model_name, **meta)
         with self._lock:
-            self._open[ride_id] = _OpenRide(ride_id, token_hash(token), LiveRide(self.model, self.classifier),
-                                            self.assistant() if self.assistant else None)
+            self._open[ride_id] = _OpenRide(
+                ride_id, token_hash(token), LiveRide(self.model, self.classifier), self.assistant(),
+                SampleBucket(BACKLOG_SECONDS * self.model.rate, RATE_FACTOR * self.model.rate))
         self._publish({"type": "ride", "ride_id": ride_id, "vehicle": vehicle, "rider_id": rider_id}, ride_id)
         return ride_id
 
@@ -98,11 +148,11 @@ class RideService:
         """The rider's destination (degrees) for the time-to-arrival."""
         ride = self._own(token, ride_id)
         for name, value, bound in (("lat", lat, 90), ("lon", lon, 180)):
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and abs(value) <= bound):
+            if isinstance(value, bool) or not (isinstance(value, (int, float)) and math.isfinite(value)
+                                               and abs(value) <= bound):
                 raise InputError(f"destination: field {name!r} must be degrees within +-{bound}")
-        if ride.assistant is None:
-            raise InputError("destination: this server runs without an assistant; no time to arrival")
-        ride.assistant.set_destination(float(lat), float(lon))
+        with ride.lock:
+            ride.assistant.set_destination(float(lat), float(lon))
 
     def resume(self, token: str, ride_id: str) -> float | None:
         """Check that ``token`` may write to the open ride ``ride_id`` (a device that reconnects); returns the time
@@ -110,12 +160,17 @@ class RideService:
         return self._own(token, ride_id).last_time
 
     def end_ride(self, token: str, ride_id: str) -> None:
-        """Close the ride: the store refuses later samples."""
-        self._own(token, ride_id)
-        self.store.end_ride(token, ride_id)
-        with self._lock:
-            self._open.pop(ride_id, None)
-        self._publish({"type": "end", "ride_id": ride_id}, ride_id)
+        """Close the ride: its open episodes become events, and the store refuses later samples."""
+        ride = self._own(token, ride_id)
+        with ride.lock:
+            ride.assistant.finish()
+            events = ride.assistant.pop_events()
+            for event in events:
+                self.store.add_event(token, ride_id, event)
+            self.store.end_ride(token, ride_id)
+            with self._lock:
+                self._open.pop(ride_id, None)
+        self._publish({"type": "end", "ride_id": ride_id, "events": [vars(e) for e in events]}, ride_id)
 
     def open_rides(self) -> list[str]:
         with self._lock:
@@ -123,14 +178,18 @@ class RideService:
 
     # ------------------------------------------------------------ samples
 
-    def ingest(self, token: str, ride_id: str, samples: Mapping[str, Sequence[float]]) -> dict:
+    def ingest(self, token: str, ride_id: str, samples: Mapping[str, Sequence[float]],
+               check_rate: bool = True) -> dict:
         """Take one batch (columns of :data:`SAMPLE_COLUMNS`, see the module docstring); returns the
         acknowledgement: ``count``, ``labels`` (one per sample), ``state`` (the assistant's figures after the
-        last sample) and ``warnings`` (warnings raised in this batch)."""
+        last sample: :meth:`~spotfree.ride.assistant.Status.figures`), ``warnings`` (raised in this batch:
+        ``kind``, ``onset``, ``time`` s) and ``events`` (ended in this batch: ``kind``, ``start``, ``end`` s,
+        ``detail``). ``check_rate=False`` skips the rate limit (for in-process sources only)."""
         ride = self._own(token, ride_id)
         with ride.lock:
-            self._check_rate(ride)
             table = validation.sample_batch(samples, ride.last_time, f"ride {ride_id}")
+            if check_rate:
+                ride.bucket.take(len(table), f"ride {ride_id}")
             n = len(table)
             feats = np.empty((n, len(FEATURE_COLUMNS)))
             labels: list[str | None] = []
@@ -139,23 +198,23 @@ class RideService:
                 t, acc, gyr, (lat, lon, speed) = row[0], row[1:4], row[4:7], row[7:10]
                 feats[k], label = ride.live.update(t, acc, gyr, speed)
                 labels.append(label)
-                if ride.assistant is not None:
-                    warnings += ride.assistant.update(t, label, lat, lon, speed)
-                elif math.isfinite(speed):
-                    ride.speed = float(speed)
+                status = ride.assistant.update(t, label, lat, lon, speed)
+                if status.warning is not None:
+                    warnings.append(vars(status.warning))
             columns = {name: table[:, j] for j, name in enumerate(SAMPLE_COLUMNS)}
             self.store.append_samples(token, ride_id, columns, features=dict(zip(FEATURE_COLUMNS, feats.T)),
                                       labels={self.model_name: labels})
-            for event in ride.assistant.pop_events() if ride.assistant is not None else []:
+            events = ride.assistant.pop_events()
+            for event in events:
                 self.store.add_event(token, ride_id, event)
             ride.last_time = float(table[-1, 0])
-        state = ride.assistant.state() if ride.assistant is not None else {"speed": ride.speed}
-        warned = [vars(w) for w in warnings]
+            state = ride.assistant.state()
+        ended = [vars(e) for e in events]
         plot = {name: _json_floats(feats[:, FEATURE_COLUMNS.index(name)]) for name in PLOT_CHANNELS}
         self._publish({"type": "samples", "ride_id": ride_id, "time": _json_floats(table[:, 0]),
                        "lat": _json_floats(table[:, 7]), "lon": _json_floats(table[:, 8]), **plot,
-                       "labels": labels, "state": state, "warnings": warned}, ride_id)
-        return {"count": n, "labels": labels, "state": state, "warnings": warned}
+                       "labels": labels, "state": state, "warnings": warnings, "events": ended}, ride_id)
+        return {"count": n, "labels": labels, "state": state, "warnings": warnings, "events": ended}
 
     def _own(self, token: str, ride_id: str) -> _OpenRide:
         with self._lock:
@@ -166,15 +225,6 @@ class RideService:
         if not isinstance(token, str) or token_hash(token) != ride.token_hash:
             raise AccessError(f"this device token may not write to ride {ride_id}; use the token that started it")
         return ride
-
-    @staticmethod
-    def _check_rate(ride: _OpenRide) -> None:
-        now = clock.monotonic()
-        ride.batches = [s for s in ride.batches if now - s < 1.0]
-        if len(ride.batches) >= MAX_BATCHES_PER_SECOND:
-            raise RateError(f"ride {ride.ride_id}: more than {MAX_BATCHES_PER_SECOND:g} batches in one second; "
-                            "send larger batches less often")
-        ride.batches.append(now)
 
     # ------------------------------------------------------------ views
 

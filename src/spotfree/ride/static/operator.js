@@ -25,13 +25,23 @@ function append(msg) {
   }
   const keep = view.t.length - WINDOW_S * 40;
   if (keep > 0) for (const key of ["t", "labels", "pitch", "pitch_rate", "acc_long"]) view[key].splice(0, keep);
-  for (const w of msg.warnings || []) addEvent(w.kind, w.time, w.detail);
+  for (const w of msg.warnings || []) addEvent(w.kind, w.onset, null, `warned at ${w.time.toFixed(2)} s`);
+  for (const e of msg.events || []) addEvent(e.kind, e.start, e.end, e.detail);
 }
 
-function addEvent(kind, t, detail) {
-  const li = document.createElement("li");
-  li.innerHTML = `<i class="swatch" style="background:${labelColour(kind)}"></i>${t !== undefined ? t.toFixed(1) + " s " : ""}<b>${kind}</b> ${detail || ""}`;
-  $("events").prepend(li);
+function addEvent(kind, start, end, detail) {
+  // one line per episode (kind and onset): shown when the rider is warned, its duration added when it ends
+  const key = `${kind}@${start.toFixed(3)}`;
+  let li = [...$("events").children].find((item) => item.dataset.key === key);
+  if (!li) {
+    li = document.createElement("li");
+    li.dataset.key = key;
+    $("events").prepend(li);
+  }
+  const span = end === null ? "ongoing" : `${(end - start).toFixed(1)} s`;
+  li.dataset.kind = kind;
+  if (end === null) li.dataset.note = detail || "";
+  li.innerHTML = `<i class="swatch" style="background:${labelColour(kind)}"></i>${start.toFixed(1)} s <b>${kind}</b> ${span} ${detail || li.dataset.note || ""}`;
 }
 
 function drawPlot() {
@@ -115,7 +125,7 @@ async function replay(rideId) {
     append({ time: idx.map((i) => s.time[i]), lat: idx.map((i) => s.lat[i]), lon: idx.map((i) => s.lon[i]),
       pitch: idx.map((i) => f.pitch[i]), pitch_rate: idx.map((i) => f.pitch_rate[i]),
       acc_long: idx.map((i) => f.acc_long[i]), labels: idx.map((i) => labels[i]), warnings: [] });
-    for (const e of data.events) if (e.start >= s.time[k] && e.start < s.time[idx[idx.length - 1]] + 1e-9) addEvent(e.kind, e.start, e.detail);
+    for (const e of data.events) if (e.start >= s.time[k] && e.start < s.time[idx[idx.length - 1]] + 1e-9) addEvent(e.kind, e.start, e.end, e.detail);
     await new Promise((r) => setTimeout(r, 100));
   }
   view.replaying = false;
@@ -130,6 +140,7 @@ async function init() {
   watch("/ws/watch", (msg) => {
     if (view.replaying) return;
     if (msg.type === "ride") listRides();
+    if (msg.type === "end" && msg.ride_id === view.rideId) for (const e of msg.events) addEvent(e.kind, e.start, e.end, e.detail);
     if (msg.type !== "samples") return;
     if (msg.ride_id !== view.rideId) reset(msg.ride_id);
     append(msg);

@@ -1,14 +1,45 @@
 // The phone page: DeviceMotion + Geolocation -> 20 Hz samples -> WebSocket batches (resent until acknowledged),
 // and the same pipeline run locally so labels and warnings go on when the connection drops.
+// One batch is in flight at a time and a batch holds at most MAX_BATCH_SECONDS of samples, so the backlog of a
+// disconnect goes in order and in paced chunks; a batch refused for the rate (429) is sent again when the server
+// says.
 "use strict";
 
 const $ = (id) => document.getElementById(id);
-const BATCH_SECONDS = 0.25;
+const BATCH_SECONDS = 0.25, MAX_BATCH_SECONDS = 10;
 const state = {
-  spec: null, pipeline: null, resampler: null, socket: null, rideId: null, token: null, origin: null,
-  queue: [], seq: 0, sentUpTo: -1, fix: null, lastSent: -Infinity, online: false,
-  localLabels: [], serverLabels: [], times: [],
+  spec: null, pipeline: null, warner: null, resampler: null, socket: null, rideId: null, token: null, origin: null,
+  queue: [], seq: 0, inFlight: null, retryTimer: null, fix: null, lastSent: -Infinity, online: false,
+  localLabels: [], serverLabels: [], times: [], warnings: [], localWarnings: [],
 };
+
+class Warner {
+  // the server's debouncing (spotfree.ride.assistant) for the warnings shown while offline: a dangerous label
+  // warns once it has held minDuration s; its episode goes on while runs that hold come within refractory s
+  constructor(rule) {
+    this.rule = rule;
+    this.run = {};
+    this.episode = {};
+  }
+
+  update(t, label) {
+    const tol = 1e-6;
+    let warned = null;
+    for (const kind of this.rule.dangerous) {
+      if (label === kind) {
+        if (this.run[kind] === undefined) this.run[kind] = t;
+        if (t - this.run[kind] < this.rule.min_duration - tol) continue;
+        if (this.episode[kind] !== undefined) { this.episode[kind] = t; continue; }
+        this.episode[kind] = t;
+        warned = warned || kind;
+      } else {
+        delete this.run[kind];
+        if (this.episode[kind] !== undefined && t - this.episode[kind] > this.rule.refractory + tol) delete this.episode[kind];
+      }
+    }
+    return warned;
+  }
+}
 
 async function deviceToken() {
   let token = localStorage.getItem("spotfree-token");
@@ -43,30 +74,35 @@ function sample(t, acc, gyr) {
   state.fix = null;
   const row = [t, ...acc, ...gyr, fix ? fix.lat : null, fix ? fix.lon : null, fix ? fix.speed : null];
   const out = state.pipeline.update(t, acc, gyr, fix && fix.speed !== null ? fix.speed : NaN);
-  const previous = state.localLabels.length ? state.localLabels[state.localLabels.length - 1] : null;
   state.localLabels.push(out.label);
   state.times.push(t);
+  const warn = state.warner.update(t, out.label);
+  if (warn) state.localWarnings.push({ kind: warn, time: t });
   if (!state.online) {
-    const warn = DANGEROUS.has(out.label) && out.label !== previous ? out.label : null;
     show(out.label, warn);
     if (fix && fix.speed !== null) $("speed").textContent = kmh(fix.speed);
   }
   state.queue.push(row);
-  if (t - state.lastSent >= BATCH_SECONDS) flush();
+  if (due()) flush();
+}
+
+function due() {
+  return state.queue.length > 0 && state.queue[state.queue.length - 1][0] - state.lastSent >= BATCH_SECONDS;
 }
 
 function flush() {
-  if (!state.online || !state.queue.length || state.sentUpTo >= state.queue.length - 1) return;
-  const rows = state.queue.slice(state.sentUpTo + 1);
+  if (!state.online || state.inFlight !== null || state.retryTimer !== null || !state.queue.length) return;
+  const t0 = state.queue[0][0];
+  let n = 0;
+  while (n < state.queue.length && state.queue[n][0] - t0 < MAX_BATCH_SECONDS) n++;
+  const rows = state.queue.slice(0, n);
   const cols = ["time", "ax", "ay", "az", "gx", "gy", "gz", "lat", "lon", "speed"];
   const samples = {};
   cols.forEach((c, j) => { samples[c] = rows.map((r) => r[j]); });
   state.seq += 1;
-  state.pending = state.pending || {};
-  state.pending[state.seq] = rows.length;
+  state.inFlight = { seq: state.seq, n };
   state.socket.send(JSON.stringify({ type: "batch", seq: state.seq, samples }));
-  state.sentUpTo = state.queue.length - 1;
-  state.lastSent = rows[rows.length - 1][0];
+  state.lastSent = rows[n - 1][0];
 }
 
 function onReply(msg) {
@@ -76,30 +112,37 @@ function onReply(msg) {
     if (msg.type === "resumed" && msg.last_time !== null) {
       state.queue = state.queue.filter((r) => r[0] > msg.last_time);
     }
-    state.sentUpTo = -1;
+    state.inFlight = null;
     setOnline(true);
     $("status").textContent = `ride ${msg.ride_id.slice(0, 8)}: streaming`;
     flush();
   } else if (msg.type === "ack") {
-    const n = state.pending[msg.seq] || msg.count;
-    delete state.pending[msg.seq];
-    state.queue.splice(0, n);
-    state.sentUpTo -= n;
+    state.queue.splice(0, state.inFlight ? state.inFlight.n : msg.count);
+    state.inFlight = null;
     state.serverLabels.push(...msg.labels);
+    state.warnings.push(...msg.warnings);
     const last = msg.labels[msg.labels.length - 1];
     show(last, msg.warnings.length ? msg.warnings[msg.warnings.length - 1].kind : null);
     const s = msg.state || {};
     $("speed").textContent = kmh(s.speed);
     $("distance").textContent = km(s.distance);
     $("eta").textContent = minutes(s.eta);
+    if (due()) flush();
+  } else if (msg.type === "destination") {
+    $("status").textContent = "destination set";
   } else if (msg.type === "error") {
     $("status").textContent = `server refused: ${msg.message}`;
-    if (msg.seq !== null && msg.seq !== undefined) {
-      // a refused batch changed nothing on the server; drop it so the stream goes on
-      const n = state.pending[msg.seq] || 0;
-      delete state.pending[msg.seq];
-      state.queue.splice(0, n);
-      state.sentUpTo -= n;
+    if (msg.seq !== null && msg.seq !== undefined && state.inFlight && msg.seq === state.inFlight.seq) {
+      const n = state.inFlight.n;
+      state.inFlight = null;
+      if (msg.status === 429) {
+        // too fast: the same rows again when the server can take them
+        state.retryTimer = setTimeout(() => { state.retryTimer = null; flush(); }, 1000 * msg.retry_after + 10);
+      } else {
+        // a refused batch changed nothing on the server; drop it so the stream goes on
+        state.queue.splice(0, n);
+        flush();
+      }
     }
   }
 }
@@ -107,7 +150,7 @@ function onReply(msg) {
 function connect() {
   const socket = new WebSocket(wsUrl("/ws/ride"));
   state.socket = socket;
-  state.pending = {};
+  state.inFlight = null;
   socket.onopen = () => {
     const meta = { vehicle: $("vehicle").value, rider_id: $("rider").value, age_band: $("age_band").value || null,
       skill: $("skill").value || null };
@@ -160,6 +203,7 @@ async function init() {
   if (!window.isSecureContext) $("secure").hidden = false;
   state.spec = await (await fetch("/api/model")).json();
   state.pipeline = new spotfreePipeline.Pipeline(state.spec);
+  state.warner = new Warner(state.spec.warnings);
   state.resampler = new spotfreePipeline.Resampler(state.spec.rate);
   $("start").onclick = start;
   $("setdest").onclick = setDestination;

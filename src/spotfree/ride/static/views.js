@@ -6,7 +6,6 @@ const LABEL_COLOURS = {
   "straight": "#2e933c", "gentle-turn": "#3a86ff", "sharp-turn": "#d7263d", "slalom": "#8338ec",
   "unknown": "#9aa4ad",
 };
-const DANGEROUS = new Set(["sudden-braking", "sharp-turn"]);
 
 function labelColour(label) {
   return label ? (LABEL_COLOURS[label] || "#8ecae6") : "#55606a";
