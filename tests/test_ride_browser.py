@@ -1,5 +1,7 @@
 """The pages in a real headless Chromium (Debian's, scripts/ensure_browser.sh), driven by Playwright: the phone page
-streams synthetic DeviceMotion events, its own labels equal the server's, and the operator view draws the track."""
+streams synthetic DeviceMotion events, its own labels and warnings equal the server's, it resends a backlog longer
+than the burst allowance after being offline and nothing is lost; a simulated sudden stop lights the rider's
+warning banner and the operator view lists the event and draws the track."""
 
 import math
 import shutil
@@ -15,6 +17,7 @@ uvicorn = pytest.importorskip("uvicorn")
 
 from classify_fixtures import rides, truth_model  # noqa: E402
 from spotfree.ride.api import create_app  # noqa: E402
+from spotfree.ride.records import SAMPLE_COLUMNS  # noqa: E402
 from spotfree.ride.service import RideService  # noqa: E402
 from spotfree.ride.sources import recording_rows  # noqa: E402
 from spotfree.ride.store import RideStore  # noqa: E402
@@ -80,7 +83,7 @@ def test_phone_streams_and_labels_equal_server(server, browser):
     shifted[:, 0] += 0.01
     for k in range(0, 600, 20):
         page.evaluate(MOTION, [_rows_js(shifted[k:k + 20]), 1000.0])
-        page.wait_for_timeout(150)  # 4 batches per chunk: under the service's 50 batches/s limit
+        page.wait_for_timeout(150)
     page.evaluate(MOTION, [_rows_js(shifted[600:601]), 1000.0])
     page.wait_for_function("window.spotfree.state.serverLabels.length >= 400", timeout=20000)
     remote = page.evaluate("window.spotfree.state.serverLabels")
@@ -89,8 +92,50 @@ def test_phone_streams_and_labels_equal_server(server, browser):
     assert {"cruising", "normal-braking"} <= set(filter(None, remote))
     ride_id = page.evaluate("window.spotfree.state.rideId")
     assert len(service.store.samples(ride_id)["time"]) == len(remote)
+    # the page's own warnings (shown while offline) follow the server's debouncing
+    warned = page.evaluate("window.spotfree.state.warnings")
+    assert warned and [(w["kind"], w["time"]) for w in warned] == [
+        (w["kind"], pytest.approx(w["time"])) for w in page.evaluate("window.spotfree.state.localWarnings")
+        if w["time"] <= remote_time(page)]
     page.screenshot(path=str(SHOTS / "phone.png"))
     page.close()
+
+
+def remote_time(page):
+    """Time (s) of the last sample the server acknowledged to the page."""
+    return page.evaluate("window.spotfree.state.times[window.spotfree.state.serverLabels.length - 1]")
+
+
+def test_phone_resends_a_long_backlog_after_being_offline(server, browser):
+    """64 s offline (more than the 60 s the rate limit takes at once): the page sends the backlog in paced chunks,
+    waits when refused for the rate, and every sample reaches the store in order."""
+    url, service, rows = server
+    context = browser.new_context()
+    page = context.new_page()
+    page.goto(url + "/")
+    page.wait_for_function("window.spotfree && window.spotfree.state.pipeline !== null")
+    page.click("#start")
+    page.wait_for_function("window.spotfree.state.online")
+    shifted = rows.copy()
+    shifted[:, 0] += 0.01
+    page.evaluate(MOTION, [_rows_js(shifted[:100]), 1000.0])
+    page.wait_for_function("window.spotfree.state.serverLabels.length >= 99")
+    context.set_offline(True)
+    page.evaluate("window.spotfree.state.socket.close()")
+    page.wait_for_function("!window.spotfree.state.online")
+    for k in range(100, len(shifted), 200):
+        page.evaluate(MOTION, [_rows_js(shifted[k:k + 200]), 1000.0])
+    assert page.evaluate("window.spotfree.state.queue.length") > 60 * 20
+    context.set_offline(False)
+    page.wait_for_function("window.spotfree.state.queue.length <= 1", timeout=30000)
+    remote = page.evaluate("window.spotfree.state.serverLabels")
+    assert len(remote) == len(shifted) - 1  # the last 20 Hz slot waits for a later reading
+    assert page.evaluate("window.spotfree.state.localLabels")[:len(remote)] == remote
+    ride_id = page.evaluate("window.spotfree.state.rideId")
+    stored = service.store.samples(ride_id)["time"]
+    assert len(stored) == len(remote) and all(b > a for a, b in zip(stored, stored[1:]))
+    assert "faster than" in page.locator("#status").inner_text()  # one chunk was refused for the rate, then resent
+    context.close()
 
 
 def test_rider_and_operator_views(server, browser):
@@ -102,16 +147,30 @@ def test_rider_and_operator_views(server, browser):
     operator.wait_for_timeout(500)
     _, token = service.register_device("replay")
     ride_id = service.start_ride(token, "segway", "replay")
-    for k in range(0, 900, 20):
-        batch = rows[k:k + 20]
-        service.ingest(token, ride_id, {name: [None if math.isnan(v) else float(v) for v in batch[:, j]]
-                                        for j, name in enumerate(["time", "ax", "ay", "az", "gx", "gy", "gz",
-                                                                  "lat", "lon", "speed"])})
-        time.sleep(0.01)
+    warnings = []
+
+    def stream():  # 45 s of the ride at 10 times real time, as the views would see a phone
+        for k in range(0, 900, 20):
+            batch = rows[k:k + 20]
+            ack = service.ingest(token, ride_id, {name: [None if math.isnan(v) else float(v) for v in batch[:, j]]
+                                                  for j, name in enumerate(SAMPLE_COLUMNS)}, check_rate=False)
+            warnings.extend(ack["warnings"])
+            time.sleep(0.1)
+
+    streaming = threading.Thread(target=stream)
+    streaming.start()
+    rider.wait_for_selector("#banner.on", timeout=20000)
+    assert rider.locator("#banner").inner_text() == "SUDDEN BRAKING"
+    rider.screenshot(path=str(SHOTS / "rider.png"))
+    streaming.join()
+    assert warnings
+    listed = operator.locator("#events li[data-kind='sudden-braking']")
+    operator.wait_for_function(f"document.querySelectorAll('#events li').length >= {len(warnings)}")
+    assert listed.count() == len(warnings)
+    assert listed.last.inner_text().startswith(f"{warnings[0]['onset']:.1f} s sudden-braking")
     operator.wait_for_function("Number(document.getElementById('track').dataset.points || 0) > 5", timeout=10000)
     assert operator.locator("#scalebar text").text_content().endswith("m")
     assert rider.locator("#speed").inner_text() != "–"
     operator.screenshot(path=str(SHOTS / "operator.png"))
-    rider.screenshot(path=str(SHOTS / "rider.png"))
     operator.close()
     rider.close()
