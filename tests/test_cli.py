@@ -14,7 +14,6 @@ runner = CliRunner()
 
 CONTRACT = ["simulate", "features", "train", "classify", "evaluate", "serve", "hand", "fleet"]
 UNBUILT = [
-    ["evaluate", "-o", "report"],
     ["serve"],
     ["hand", "train", "-o", "h.npz"],
     ["hand", "run", "h.npz", "h.jsonl", "-o", "o.csv"],
