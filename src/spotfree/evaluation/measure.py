@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 import time
 import warnings
+from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -91,12 +92,10 @@ def method_runs(model: DictionaryModel, data: dict[str, ScenarioData], target: i
         for scenario_name, scenario in data.items():
             stride = max(1, math.ceil(_window_count(scenario, model.window) / target))
             strided = replace(model, step=stride)
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always")
+            with _noted(runs, scenario_name):
                 start = time.perf_counter()
                 labels = classify_recording(strided, scenario.test, method, classifier=clf)
                 seconds = time.perf_counter() - start
-            runs.notes += [f"{scenario_name}: {w.message}" for w in caught]
             scored = np.zeros(len(labels), dtype=bool)
             for a, b in labels.stretches():
                 scored[a:b:stride] = True
@@ -127,16 +126,28 @@ def peer_runs(peers: dict[str, Peer], data: dict[str, ScenarioData]) -> dict[str
     training = [data[s].training for s in TRAINED_ON]
     out = {}
     for name, peer in peers.items():
-        peer.fit(training)
-        runs = MethodRuns(name, peer.fit_time_)
+        runs = MethodRuns(name, 0.0)
+        with _noted(runs, "training"):
+            peer.fit(training)
+        runs.fit_seconds = peer.fit_time_
         for scenario_name, scenario in data.items():
-            predicted = peer.predict(scenario.test)
+            with _noted(runs, scenario_name):
+                predicted = peer.predict(scenario.test)
             labels = Labels(time=scenario.test.time, label=np.asarray(predicted, dtype=object),
                             rate=scenario.test.rate, experiment=scenario.test.experiment, source=scenario.test.source,
                             meta={"method": name})
             runs.runs[scenario_name] = Run(labels, peer.predict_time_, int(np.sum(predicted != "")))
         out[name] = runs
     return out
+
+
+@contextmanager
+def _noted(runs: MethodRuns, where: str):
+    """Keep the warnings raised inside the block as ``runs.notes`` (``where: message``) for the report."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        yield
+    runs.notes += [f"{runs.name}, {where}: {w.message}" for w in caught]
 
 
 def _window_count(scenario: ScenarioData, window: int) -> int:

@@ -273,8 +273,7 @@ def _methods(ev: Evaluation) -> str:
     first = next(iter(ev.methods.values()))
     for name, run in first.runs.items():
         strides.append(f"{name}: stride {run.labels.meta['step']}, {run.decisions} windows")
-    notes = sorted({note for runs in ev.methods.values() for note in runs.notes})
-    noted = "\n" + "".join(f"\n- {note}" for note in notes) if notes else ""
+    noted = _notes(ev.methods)
     paper_crc, paper_bsrc = PAPER["seconds_per_1000"]["crc"], PAPER["seconds_per_1000"]["bsrc"]
     return f"""## CRC_RLS vs SRC vs B_SRC on the same windows
 
@@ -300,8 +299,7 @@ def _peers(ev: Evaluation) -> str:
             cells.append(f"{_pct(all_)} / {_pct(away)}")
         cells.append(_pct(_sum_accuracy(ev, runs)))
         rows.append(cells)
-    notes = sorted({note for runs in ev.peers.values() for note in runs.notes})
-    noted = "\n" + "".join(f"\n- {note}" for note in notes) if notes else ""
+    noted = _notes(ev.peers)
     return f"""## Peers on the same tests
 
 Trained on the same two training experiments, on the same channels and window, but given every training sample's
@@ -350,6 +348,12 @@ def _total(ev: Evaluation, alignment: str) -> tuple[Score, Score]:
 def _sum_accuracy(ev: Evaluation, runs: MethodRuns) -> Score:
     """Accuracy over the labelled samples of every scenario's tests."""
     return sum((accuracy(r.labels.label, ev.data[s].test.truth["label"]) for s, r in runs.runs.items()), Score(0, 0))
+
+
+def _notes(runs: dict[str, MethodRuns]) -> str:
+    """The warnings the runs raised, one bullet each (empty when none)."""
+    notes = sorted({note for r in runs.values() for note in r.notes})
+    return "\n" + "".join(f"\n- warning: {note}" for note in notes) if notes else ""
 
 
 def _pct(score: Score) -> str:
