@@ -1,9 +1,9 @@
 """The paper's timing table, measured: CRC_RLS vs SRC vs B_SRC classifying 1000 windows; accuracy and rejection.
 
 Dictionary and test windows come from simulated rides (``spotfree.sim``): ``normal-braking`` and ``sudden-braking``
-files (7 experiments each), ride features with the derived ``lean`` channel, and training's defaults
-(``TrainingConfig``): channels ``lean, acc_x`` scaled by their training standard deviation, windows of 20 samples
-(1 s at 20 Hz) and the constant row 6 appended, so ``d = 41``. Each window takes the
+files (7 experiments each), ride features with the derived channels, and training's defaults (``TrainingConfig``,
+printed: at the time of writing channels ``acc_long, acc_x`` scaled by their training standard deviation, windows
+of 20 samples, 1 s at 20 Hz, and the constant row 6 appended, so ``d = 41``). Each window takes the
 hidden ground-truth label of its centre sample (the benchmark's own labelling; training in spotfree never reads
 it). Atoms: ``--atoms`` per class, evenly over time, from experiments 1-3 of both files; test: ``--windows``
 windows drawn at random (seeded) from experiments 4-7, in the classes' natural proportions.
@@ -137,7 +137,8 @@ def main() -> None:
     args = parser.parse_args()
     print(f"# classifier_timing  {date.today()}  {machine(args.threads)}")
     atoms, atom_label, X, truth, outside, _ = ride_data(args.seed, args.atoms, args.windows)
-    print(f"dictionary {len(atoms)} atoms x d={atoms.shape[1]} ({args.atoms} per class); test {len(X)} windows: "
+    print(f"channels {', '.join(CHANNELS)}, window {WINDOW}, affine row {AFFINE:g}; "
+          f"dictionary {len(atoms)} atoms x d={atoms.shape[1]} ({args.atoms} per class); test {len(X)} windows: "
           + ", ".join(f"{c} {np.sum(truth == c)}" for c in CLASSES) + f"; outside (cobblestone) {len(outside)}")
     synth = subspace_data(args.seed)
     header = (f"{'method':<20} {'fit s':>7} {'predict s':>10} {'x CRC':>7} {'paper s':>8} {'accuracy':>9} "
