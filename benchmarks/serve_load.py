@@ -17,7 +17,9 @@ Measured per N over ``--seconds`` s of streaming:
 The model is a dictionary of every third window of one simulated ride named by the simulator's truth
 (``tests/classify_fixtures.truth_model``): it warns on the simulated stops, which the trained default model does
 not, and costs the same per sample (the CRC_RLS operator is ``(C d, d)`` whatever the number of columns).
-The largest N with p99 batch-to-ack under 100 ms is printed; the run stops at the first N that fails.
+The largest N with p99 batch-to-ack under 100 ms (and nothing lost) is printed; the run stops at the first N whose
+p99 exceeds ten times that or that loses a sample. The 1-minute load average before each N is printed: on a shared
+machine other jobs move the tail.
 
     python benchmarks/serve_load.py [--phones 10,25,50,100,200,500] [--seconds 15] [--batch 0.25]
 """
@@ -187,22 +189,24 @@ def main() -> None:
           f"{platform.python_version()}, {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC")
     print(f"# {args.seconds:g} s per N, {rate:g} Hz, batches of {args.batch:g} s, SQLite synchronous=FULL, "
           "latency in ms from sending a batch to its acknowledgement")
-    print("| phones | batches sent | acked | refused | p50 | p99 | max | warnings | warn p50 | warn p99 "
+    print("| phones | load avg | batches sent | acked | refused | p50 | p99 | max | warnings | warn p50 | warn p99 "
           "| samples acked | rows stored |")
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     best = 0
     with tempfile.TemporaryDirectory() as folder:
         model = Path(folder) / "model.npz"
         truth_model(raw.select_experiment(1)).save(model)
         for phones in (int(n) for n in args.phones.split(",")):
+            load = os.getloadavg()[0]
             r = run(phones, args.seconds, args.batch, rows, rate, model)
-            print(f"| {r['phones']} | {r['batches']} | {r['acked']} | {r['refused']} | {r['p50']:.1f} | "
+            print(f"| {r['phones']} | {load:.1f} | {r['batches']} | {r['acked']} | {r['refused']} | {r['p50']:.1f} | "
                   f"{r['p99']:.1f} | {r['max']:.0f} | {r['warnings']} | {r['warn_p50']:.1f} | {r['warn_p99']:.1f} | "
                   f"{r['acked_samples']} | {r['stored']} |", flush=True)
-            holds = r["p99"] < LIMIT_MS and r["acked"] == r["batches"] and r["stored"] == r["acked_samples"]
-            if not holds:
+            whole = r["acked"] == r["batches"] and r["stored"] == r["acked_samples"]
+            if whole and r["p99"] < LIMIT_MS:
+                best = phones
+            if not whole or r["p99"] > 10 * LIMIT_MS:
                 break
-            best = phones
     print(f"# largest N with p99 < {LIMIT_MS:g} ms, every batch acknowledged and every acknowledged sample stored: "
           f"{best}")
 

@@ -64,12 +64,12 @@ class SampleBucket:
         self.level, self.last = capacity, clock.monotonic()
 
     def take(self, n: int, what: str) -> None:
-        """Take ``n`` samples or raise :class:`RateError` (the bucket unchanged)."""
+        """Take ``n`` samples, or raise :class:`RateError` (InputError for more than ``capacity``: never taken)
+        and take nothing."""
+        if n > self.capacity:
+            raise InputError(f"{what}: {n} samples in one batch; send at most {self.capacity:.0f} per batch")
         now = clock.monotonic()
         self.level, self.last = min(self.capacity, self.level + self.refill * (now - self.last)), now
-        if n > self.capacity:
-            raise RateError(f"{what}: {n} samples in one batch; send at most {self.capacity:.0f} per batch",
-                            retry_after=0.0)
         if n > self.level:
             wait = (n - self.level) / self.refill
             raise RateError(f"{what}: samples sent faster than {self.refill:g}/s; send this batch again in "
