@@ -15,8 +15,6 @@ runner = CliRunner()
 CONTRACT = ["simulate", "features", "train", "classify", "evaluate", "serve", "hand", "fleet"]
 UNBUILT = [
     ["serve"],
-    ["hand", "train", "-o", "h.npz"],
-    ["hand", "run", "h.npz", "h.jsonl", "-o", "o.csv"],
     ["fleet", "ingest"],
     ["fleet", "process"],
     ["fleet", "stats"],
