@@ -94,7 +94,7 @@ def test_bad_input_is_one_line_and_exit_2_and_writes_nothing(folder, case):
     assert result.exit_code == 2
     lines = [line for line in result.output.splitlines() if line.strip()]
     assert len(lines) == 1, result.output
-    expected = {"rate": "model expects channels lean,acc_x at 20 Hz; .*fast.csv has .* at 50 Hz",
+    expected = {"rate": "model expects channels [a-z_,]+ at 20 Hz; .*fast.csv has .* at 50 Hz",
                 "model": "missing.npz: no such model file", "method": "'lasso' is unknown",
                 "smooth": r"\(--smooth\).* got -3"}[case]
     assert pd.Series(lines).str.contains(expected).any(), result.output
