@@ -14,7 +14,6 @@ runner = CliRunner()
 
 CONTRACT = ["simulate", "features", "train", "classify", "evaluate", "serve", "hand", "fleet"]
 UNBUILT = [
-    ["serve"],
     ["fleet", "ingest"],
     ["fleet", "process"],
     ["fleet", "stats"],
