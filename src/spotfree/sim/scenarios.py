@@ -25,7 +25,7 @@ Each experiment draws its own rider, vehicle set-up, programme, road, sensor err
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields, replace
 
 import numpy as np
 from scipy.ndimage import maximum_filter1d
@@ -212,14 +212,24 @@ def _ground_truth(scenario: str, programme: Programme, motion: Motion, lean_plan
 
 
 def simulate_ride(scenario: str, experiment: int = 1, *, repeats: int = 7, seed: int = 0,
-                  rate: float = 20.0) -> SimulatedRide:
-    """Experiment ``experiment`` (1..repeats) of ``scenario`` at ``rate`` Hz, with its kinematic truth."""
+                  rate: float = 20.0, habits: dict[str, float] | None = None) -> SimulatedRide:
+    """Experiment ``experiment`` (1..repeats) of ``scenario`` at ``rate`` Hz, with its kinematic truth.
+
+    ``habits`` multiplies the drawn rider's habits by factors, e.g. ``{"cruise_speed": 0.9}`` (fields of
+    :class:`~spotfree.sim.manoeuvres.Rider` other than ``body``); the other draws are unchanged.
+    """
     _validate(scenario, repeats, seed, rate)
     if isinstance(experiment, bool) or not isinstance(experiment, (int, np.integer)) or not 1 <= experiment <= repeats:
         raise InputError(f"simulate: experiment must be a whole number from 1 to {repeats}, got {experiment!r}")
     fs = max(200.0, 10.0 * rate)
     rider_rng = _rng(seed, scenario, experiment, "rider")
     rider, vehicle = draw_rider(rider_rng), draw_vehicle(rider_rng)
+    if habits:
+        unknown = sorted(set(habits) - {f.name for f in fields(rider)} | ({"body"} & set(habits)))
+        if unknown:
+            raise InputError(f"simulate: habits {', '.join(unknown)} are not rider habits; use "
+                             f"{', '.join(f.name for f in fields(rider) if f.name != 'body')}")
+        rider = replace(rider, **{k: getattr(rider, k) * float(f) for k, f in habits.items()})
     heading0 = rider_rng.uniform(0.0, 2.0 * np.pi)
     share = _share_target(scenario, experiment, repeats, seed)
     near_sudden = experiment == min(NEAR_SUDDEN_EXPERIMENT, repeats)
