@@ -12,6 +12,7 @@ from spotfree.signal.features import (
     FEATURE_CHANNELS,
     LEAN_BIAS_TIME_CONSTANT,
     LEAN_TIME_CONSTANT,
+    VIB_TIME_CONSTANT,
     FeatureStream,
     lean_coefficients,
     ride_features,
@@ -178,6 +179,22 @@ def test_derived_lean_forgets_a_constant_gyro_bias():
     gyr = np.column_stack([np.zeros(n), np.full(n, bias), np.zeros(n)])
     lean = ride_features(device_recording(acc, gyr), derived=True).array(["lean"])[:, 0]
     assert abs(lean[-1]) < 0.1 * bias * LEAN_TIME_CONSTANT
+
+
+def test_derived_rates_are_the_vehicle_gyro_and_vibration_is_the_rms_the_lowpass_removes():
+    n = 400
+    t = np.arange(n) / RATE
+    heave = 2.0 * np.sin(2 * np.pi * 8.0 * t)  # m/s^2 at 8 Hz, far above the 3 Hz low-pass
+    acc = np.column_stack([np.zeros(n), np.zeros(n), GRAVITY + np.where(t >= 10.0, heave, 0.0)])
+    turning = np.column_stack([0.3 * np.sin(t), np.zeros(n), -0.2 * np.ones(n)])
+    rates = ride_features(device_recording(acc, turning), derived=True).array(["roll_rate", "yaw_rate"])
+    np.testing.assert_allclose(rates, turning[:, [0, 2]], atol=1e-12)
+    vib = ride_features(device_recording(acc, np.zeros((n, 3))), derived=True).array(["vib_x", "vib_y", "vib_z"])
+    calm, shaken = t < 10.0, t >= 10.0 + 5 * VIB_TIME_CONSTANT
+    assert np.all(vib[calm] < 0.02)  # only the attitude filter's own ripple
+    # the low-pass passes almost nothing at 8 Hz, so the RMS of the residual is the heave's, 2 / sqrt(2)
+    assert np.median(vib[shaken, 2]) == pytest.approx(np.sqrt(2.0), rel=0.1)
+    assert np.all(vib[shaken, :2] < 0.2 * vib[shaken, 2:])
 
 
 def test_stream_with_derived_channels_equals_batch_and_keeps_six_by_default():
