@@ -13,7 +13,7 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
-from spotfree.errors import InputError, NotBuiltError, SpotfreeError
+from spotfree.errors import InputError, SpotfreeError
 
 app = typer.Typer(
     name="spotfree",
@@ -56,10 +56,6 @@ def _report_repairs_and_gaps(rec) -> None:
         err.print(f"warning: {warning}")
     for gap in rec.gaps:
         err.print(f"warning: {rec.source}: {gap}; no output there")
-
-
-def _not_built(what: str, issue: int) -> None:
-    raise NotBuiltError(f"'{what}' is not built yet (tracked in issue {issue}); nothing was done")
 
 
 @app.command()
@@ -323,25 +319,93 @@ def hand_run(
               f"command 'stop' where there is no hand")
 
 
+@fleet_app.command("generate")
+@user_errors
+def fleet_generate(
+    output: Path = typer.Option(..., "-o", "--output", help="folder to write: riders.csv, rides.csv, logs/"),
+    riders: int = typer.Option(50, help="riders in the population"),
+    rides: int = typer.Option(1000, help="rides among them"),
+    vehicles: int = typer.Option(10, help="vehicles in the fleet"),
+    days: int = typer.Option(7, help="days the rides are spread over (from 2024-04-01 UTC)"),
+    seed: int = typer.Option(0, help="random seed: the same seed writes the same files"),
+) -> None:
+    """Simulate a fleet: riders whose age band and skill shape their rides, written as ride logs."""
+    from spotfree.fleet.generator import generate_fleet
+
+    fleet = generate_fleet(output, riders=riders, rides=rides, vehicles=vehicles, days=days, seed=seed)
+    out.print(f"wrote {len(fleet.rides)} ride logs of {len(fleet.riders)} riders into {output}")
+
+
 @fleet_app.command("ingest")
 @user_errors
-def fleet_ingest(paths: list[Path] = typer.Argument(None)) -> None:
-    """Ingest many ride logs into the ride store (not built yet)."""
-    _not_built("spotfree fleet ingest", 8)
+def fleet_ingest(
+    logs: Optional[list[str]] = typer.Argument(None, metavar="[LOG ...]", help="ride logs (PATH or PATH@K)"),
+    store: str = typer.Option(..., "--store", help="ride store: SQLite file or postgresql:// URL"),
+    manifest: Optional[Path] = typer.Option(None, help="CSV of logs: file, vehicle, rider_id[, started, ...]"),
+    riders: Optional[Path] = typer.Option(None, help="CSV of riders: rider_id, age_band, gender, skill"),
+    from_store: Optional[str] = typer.Option(None, help="copy the ended rides of this ride store"),
+    vehicle: Optional[str] = typer.Option(None, help="vehicle of the LOGs"),
+    rider: Optional[str] = typer.Option(None, help="rider id of the LOGs"),
+    started: Optional[float] = typer.Option(None, help="UNIX s the LOG started (else from the log)"),
+) -> None:
+    """Ingest ride logs (any supported format) or another store's rides into the ride store; idempotent."""
+    from spotfree.fleet.ingest import LogEntry, ingest_logs, ingest_store, read_manifest
+    from spotfree.ride.store import RideStore
+
+    if logs and not (vehicle and rider):
+        raise InputError("fleet ingest: LOGs need --vehicle and --rider (or list them in a --manifest)")
+    if not (logs or manifest or from_store):
+        raise InputError("fleet ingest: nothing to ingest; give LOGs, --manifest or --from-store")
+    entries = [LogEntry(path, vehicle, rider, started) for path in logs or []]
+    entries += read_manifest(manifest, riders) if manifest else []
+    with RideStore(store) as target:
+        out.print(f"logs: {ingest_logs(target, entries)}")
+        if from_store:
+            with RideStore(from_store) as source:
+                out.print(f"{from_store}: {ingest_store(target, source)}")
 
 
 @fleet_app.command("process")
 @user_errors
-def fleet_process() -> None:
-    """Process stored rides in parallel (not built yet)."""
-    _not_built("spotfree fleet process", 8)
+def fleet_process(
+    store: str = typer.Option(..., "--store", help="ride store: SQLite file or postgresql:// URL"),
+    output: Path = typer.Option(..., "-o", "--output", help="Parquet folder: rides/, samples/, events/"),
+    model: Optional[list[str]] = typer.Option(None, help="NAME=MODEL.npz (braking, lateral, road...); "
+                                              "braking defaults to the built-in model"),
+    scheduler: Optional[str] = typer.Option(None, help="tcp://HOST:PORT of a Dask scheduler (else a local cluster)"),
+    workers: int = typer.Option(2, help="worker processes of the local cluster"),
+    database: Optional[str] = typer.Option(None, help="postgresql:// URL to write fleet_rides and fleet_events"),
+    redo: bool = typer.Option(False, help="process rides already done with the same models again"),
+) -> None:
+    """Process every ended ride (features, all models, events) in parallel on Dask; idempotent."""
+    from spotfree.fleet.engine import process_fleet
+    from spotfree.model import DictionaryModel
+    from spotfree.ride.default_model import default_model
+
+    models = {}
+    for spec in model or []:
+        name, sep, path = spec.partition("=")
+        if not (sep and name and path):
+            raise InputError(f"--model {spec!r}: write NAME=MODEL.npz")
+        models[name] = DictionaryModel.load(path)
+    if "braking" not in models:
+        models["braking"] = default_model(progress=lambda m: err.print(m))
+    report = process_fleet(store, output, models, scheduler=scheduler, workers=workers, database=database,
+                           redo=redo)
+    out.print(f"{report}; results in {output}")
 
 
 @fleet_app.command("stats")
 @user_errors
-def fleet_stats() -> None:
-    """Ride statistics by rider group, vehicle and place (not built yet)."""
-    _not_built("spotfree fleet stats", 8)
+def fleet_stats(
+    results: Path = typer.Argument(..., help="folder written by 'spotfree fleet process'"),
+    output: Path = typer.Option(..., "-o", "--output", help="folder for stats.md, by_<group>.csv and .png"),
+) -> None:
+    """Braking events per km, sudden-stop rate, speed and deceleration by rider group, vehicle and place."""
+    from spotfree.fleet.stats import fleet_stats as write_stats
+
+    tables = write_stats(results, output)
+    out.print(f"wrote {output}/stats.md and a CSV and PNG for each of {', '.join(tables)}")
 
 
 if __name__ == "__main__":  # pragma: no cover

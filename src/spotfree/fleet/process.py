@@ -40,6 +40,8 @@ BRAKING = ("normal-braking", "sudden-braking")
 SUDDEN = "sudden-braking"
 MOVING = 0.5
 """m/s: a sample is moving above this speed (for ``mean_speed``)."""
+EVENT_TYPES = {"kind": str, "start": float, "end": float, "peak_decel": float, "onset_speed": float}
+"""Columns of the events table after ``ride_id``."""
 PLACE_STEP = 0.1
 """degrees: size of the latitude/longitude cell that names a ride's place (about 11 km north-south)."""
 
@@ -132,5 +134,5 @@ def _assist(rec: Recording, label: np.ndarray, decel: np.ndarray,
         rows.append({"kind": event.kind, "start": event.start, "end": event.end,
                      "peak_decel": float(np.nanmax(decel[inside])) if inside.any() else math.nan,
                      "onset_speed": float(speed[onset])})
-    events = pd.DataFrame(rows, columns=["kind", "start", "end", "peak_decel", "onset_speed"])
+    events = pd.DataFrame(rows, columns=list(EVENT_TYPES)).astype(EVENT_TYPES)
     return speed, float(distance), events.sort_values(["start", "kind"], ignore_index=True)
