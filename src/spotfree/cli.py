@@ -177,20 +177,28 @@ def _parse_names(specs: list[str]) -> dict[int, str]:
 @app.command()
 @user_errors
 def classify(
-    model: Path = typer.Argument(..., metavar="MODEL.npz", help="model file written by 'spotfree train'"),
-    source: str = typer.Argument(..., metavar="IN", help="any supported log; PATH@K selects experiment K"),
-    output: Path = typer.Option(..., "-o", "--output", help="CSV file to write: time, label (and experiment)"),
+    paths: list[str] = typer.Argument(..., metavar="MODEL.npz [MODEL2.npz ...] IN",
+                                      help="model file(s) written by 'spotfree train', then any supported log "
+                                      "(PATH@K selects experiment K)"),
+    output: Path = typer.Option(..., "-o", "--output", help="CSV file to write: time, label (and experiment); "
+                                "with several models one label column per model, named by its file stem"),
     method: str = typer.Option("crc", "--method", help="crc | src | bsrc"),
     centred: bool = typer.Option(False, "--centred", help="label each sample by the window centred on it "
                                  "(offline); default: the window ending at it, as a live stream does"),
     smooth: int = typer.Option(0, "--smooth", help="majority vote over N samples (0: none)"),
 ) -> None:
-    """Label every sample of a log with a trained model."""
+    """Label every sample of a log with a trained model, or with several models at once (one feature pass)."""
     from spotfree.classify.batch import classify_recording
     from spotfree.io import read_recording
     from spotfree.model import DictionaryModel
 
-    dictionary = DictionaryModel.load(model)
+    if len(paths) < 2:
+        raise InputError("classify needs MODEL.npz [MODEL2.npz ...] IN: at least one model file and the log")
+    *model_paths, source = paths
+    if len(model_paths) > 1:
+        _classify_several(model_paths, source, output, method, centred, smooth)
+        return
+    dictionary = DictionaryModel.load(model_paths[0])
     rec = read_recording(source, rate=dictionary.rate)
     labels = classify_recording(dictionary, rec, method=method, centred=centred, smoothing=smooth)
     labels.write_csv(output)
@@ -202,6 +210,24 @@ def classify(
               + (f"; majority vote over {smooth} samples" if smooth else ""))
     for gap in labels.breaks():
         out.print(f"{gap} (gap in {rec.source}; no label across it)")
+
+
+def _classify_several(model_paths: list[str], source: str, output: Path, method: str, centred: bool,
+                      smooth: int) -> None:
+    """``classify`` with several models: one label column per model (file stem), see :mod:`spotfree.classify.multi`."""
+    from spotfree.classify.multi import classify_models, model_names, write_labels
+    from spotfree.io import read_recording
+    from spotfree.model import DictionaryModel
+
+    models = dict(zip(model_names(model_paths), (DictionaryModel.load(p) for p in model_paths)))
+    rec = read_recording(source, rate=next(iter(models.values())).rate)
+    table = classify_models(models, rec, method=method, centred=centred, smoothing=smooth)
+    write_labels(table, output)
+    _report_repairs_and_gaps(rec)
+    windows = ", ".join(f"{name} {m.window} samples" for name, m in models.items())
+    out.print(f"wrote {output}: {len(table)} samples, one label column per model ({', '.join(models)}) by {method}; "
+              f"windows {'centred on' if centred else 'ending at'} each sample: {windows}"
+              + (f"; majority vote over {smooth} samples" if smooth else ""))
 
 
 @app.command()

@@ -1,0 +1,135 @@
+"""Several models on one ride (braking, lateral manoeuvres, road surface): one feature pass, one label per model.
+
+The ride features (:func:`~spotfree.signal.features.ride_features` with the derived channels, or one
+:class:`~spotfree.signal.features.FeatureStream` when streaming) are computed once for all models, so the models must
+share the rate and the attitude filter. Each model then keeps its own channels, window, step and classifier: in
+batch :func:`~spotfree.classify.batch.classify_recording` on the shared features, in streaming one
+:class:`~spotfree.classify.stream.RideClassifier` per model fed with its channels of the shared feature vector. The
+labels of :class:`MultiModelStream` equal the causal labels of :func:`classify_models` sample for sample.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+import pandas as pd
+
+from spotfree.classify.batch import classify_recording
+from spotfree.classify.stream import MAX_GAP, RideClassifier
+from spotfree.errors import InputError
+from spotfree.io.checks import write_text
+from spotfree.io.recording import Recording
+from spotfree.model import DictionaryModel
+from spotfree.signal.features import DERIVED_CHANNELS, FEATURE_CHANNELS, FeatureStream, ride_features
+
+PRODUCED = FEATURE_CHANNELS + DERIVED_CHANNELS
+"""The channels of one feature pass, in :meth:`FeatureStream.update` order."""
+
+
+def model_names(paths) -> list[str]:
+    """Column names for model files: their stems, which must differ (``braking.npz`` -> ``braking``)."""
+    names = [Path(p).stem for p in paths]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise InputError(f"model files share the name {', '.join(twice)}; the label columns are named by the file "
+                         "stem, so rename one of the files")
+    return names
+
+
+def _check_models(models: Mapping[str, DictionaryModel]) -> None:
+    """One feature pass must serve every model: same rate, same attitude filter, same kind of features."""
+    if not models:
+        raise InputError("no model given; pass at least one MODEL.npz")
+    first_name, first = next(iter(models.items()))
+    for name, model in models.items():
+        if name in ("time", "experiment"):
+            raise InputError(f"a model may not be named '{name}' (a column of the output); rename its file")
+        if abs(model.rate - first.rate) > 1e-6 * first.rate or model.features != first.features or (
+                model.features == "ride" and model.orientation != first.orientation):
+            raise InputError(
+                f"models {first_name} ({first.rate:g} Hz, {first.features}, {first.orientation}) and {name} "
+                f"({model.rate:g} Hz, {model.features}, {model.orientation}) cannot share one feature pass; train "
+                "them at one rate with the same --orientation"
+            )
+
+
+def classify_models(models: Mapping[str, DictionaryModel], rec: Recording, method: str = "crc",
+                    centred: bool = False, smoothing: int | None = None) -> pd.DataFrame:
+    """One label column per model (named by its key) for every sample of ``rec``, after ``experiment`` (when the
+    recording has one) and ``time`` (s); ``""`` where a model gives no label (see
+    :mod:`spotfree.classify.batch`). The ride features of a raw IMU log are computed once for all models."""
+    _check_models(models)
+    first = next(iter(models.values()))
+    if first.features == "ride" and rec.has_imu:
+        rec = ride_features(rec, orientation=first.orientation, derived=True)
+    table: dict[str, object] = {}
+    if rec.experiment is not None:
+        table["experiment"] = rec.experiment
+    table["time"] = rec.time
+    for name, model in models.items():
+        table[name] = classify_recording(model, rec, method=method, centred=centred, smoothing=smoothing).label
+    return pd.DataFrame(table)
+
+
+def write_labels(table: pd.DataFrame, path: str | Path) -> None:
+    """Write a :func:`classify_models` table as CSV, atomically (times written exactly, empty where no label)."""
+    table = table.assign(time=[repr(float(t)) for t in np.round(table["time"].to_numpy(float), 9)])
+    write_text(Path(path), table.to_csv(index=False, lineterminator="\n"))
+
+
+class MultiModelStream:
+    """Label a ride sample by sample with several ride-feature models at once (see the module docstring).
+
+    Parameters
+    ----------
+    models : mapping of name to DictionaryModel
+        Models of ride features at one rate and attitude filter; :attr:`names` keeps their order.
+    method, smoothing, max_gap :
+        As for :class:`~spotfree.classify.stream.RideClassifier`, the same for every model.
+    classifiers : mapping of name to fitted classifier, optional
+        Classifiers already fitted by :func:`~spotfree.classify.batch.dictionary_classifier`.
+    """
+
+    def __init__(self, models: Mapping[str, DictionaryModel], method: str = "crc", smoothing: int | None = None,
+                 max_gap: float = MAX_GAP, classifiers: Mapping[str, object] | None = None):
+        _check_models(models)
+        first = next(iter(models.values()))
+        if first.features != "ride":
+            raise InputError("MultiModelStream runs models of ride features on raw IMU samples; these models were "
+                             "trained on other channels")
+        classifiers = classifiers or {}
+        self.names = tuple(models)
+        self.max_gap = max_gap
+        self._features = FeatureStream(first.rate, first.orientation, derived=True)
+        self._models = [RideClassifier(m, method, smoothing, classifier=classifiers.get(n)) for n, m in models.items()]
+        self._picks = [np.array([PRODUCED.index(c) for c in m.channels]) for m in models.values()]
+        self._time: float | None = None
+
+    def reset(self) -> None:
+        """Start a new segment for every model (at a gap or a new ride)."""
+        self._features.reset()
+        for model in self._models:
+            model.reset()
+
+    def update(self, acc, gyr, t: float | None = None, speed: float = math.nan) -> tuple[str | None, ...]:
+        """The label of every model (in :attr:`names` order; None before its first full window) at this sample.
+
+        ``acc`` (m/s^2, gravity included) and ``gyr`` (rad/s): device-frame 3-vectors (Android: x right, y up, z
+        out of the screen); ``t`` (s), optional: a step longer than ``max_gap`` or not forward starts a segment;
+        ``speed``: GPS speed (m/s) on a fix, NaN otherwise.
+        """
+        a0, a1, a2 = float(acc[0]), float(acc[1]), float(acc[2])
+        w0, w1, w2 = float(gyr[0]), float(gyr[1]), float(gyr[2])
+        finite = math.isfinite(a0 + a1 + a2 + w0 + w1 + w2)
+        if t is not None:
+            previous, self._time = self._time, float(t)
+            if previous is not None and not 0 < self._time - previous <= self.max_gap:
+                self.reset()
+        if not finite:
+            self.reset()
+            return (None,) * len(self._models)
+        feats = self._features.update((a0, a1, a2), (w0, w1, w2), speed)
+        return tuple(model.update_features(feats[pick]) for model, pick in zip(self._models, self._picks))

@@ -1,0 +1,136 @@
+"""Lateral-manoeuvre and road-surface models: spotting-free training and per-class accuracy on held-out riders.
+
+Per model (:data:`MODELS`), one simulated file of its scenario and one of the other scenario (``repeats``
+experiments each, one seed; every experiment draws its own rider) are split: experiments ``1..n_train`` of both are
+trained on, experiments ``n_train + 1..repeats`` of the model's own scenario are the held-out tests. Training is
+:func:`spotfree.training.train` on the ride features, each training experiment declaring only the set of the model's
+classes that occur somewhere in it, as a rider who knows what the ride held would declare it (background first:
+``straight``, ``smooth``): in its own scenario the classes of its labels; in the other scenario the classes its
+confounders amount to (:data:`EVENT_CLASSES`: a road ride's gentle turns, a lateral ride's surface patches and
+kerbs). The other scenario's rides give each class recordings where it is the most specific declared class, which
+naming by evidence (:mod:`spotfree.naming`) needs: in the lateral file alone, gentle turns always come with sharp
+turns or slaloms. Tests are labelled causally by
+:func:`~spotfree.classify.batch.classify_recording` and scored per true class
+(:func:`~spotfree.evaluation.metrics.class_accuracy`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from spotfree.classify.batch import classify_recording
+from spotfree.evaluation.metrics import Score, class_accuracy
+from spotfree.io.recording import Recording
+from spotfree.model import DictionaryModel
+from spotfree.signal.features import ride_features
+from spotfree.sim.scenarios import CLASSES, simulate_scenario
+from spotfree.training import TrainingConfig, TrainingExperiment, train
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """A model of one scenario's classes: feature channels, window (samples) and training stride."""
+
+    scenario: str
+    channels: tuple[str, ...]
+    window: int
+    train_step: int = 2
+    extra_clusters: int = 7
+
+    def config(self, seed: int, **changes) -> TrainingConfig:
+        """The :class:`~spotfree.training.TrainingConfig` of this spec (``changes`` override fields)."""
+        fields = dict(channels=self.channels, window=self.window, train_step=self.train_step,
+                      extra_clusters=self.extra_clusters, background=CLASSES[self.scenario][0], seed=seed)
+        fields.update(changes)
+        return TrainingConfig(**fields)
+
+
+MODELS = {
+    "lateral": ModelSpec("lateral", ("yaw_rate", "roll_rate"), 20),
+    "road": ModelSpec("road", ("vib_y", "vib_z"), 10),
+}
+"""The chosen channels and windows (grid on development seeds: ``benchmarks/lateral_road.py``, BENCHMARKS.md)."""
+
+
+OTHER = {"lateral": "road", "road": "lateral"}
+"""The scenario whose rides are added to a model's training."""
+EVENT_CLASSES = {
+    "lateral": {"turn": "gentle-turn"},
+    "road": {"rough-asphalt": "rough-asphalt", "cobblestone": "cobblestone", "kerb": "kerb", "bump": "kerb"},
+}
+"""Per model, the class a confounder of the other scenario (:data:`spotfree.sim.scenarios` ``event``) amounts to:
+a confounding turn is 0.15-0.35 rad/s (below :data:`~spotfree.sim.scenarios.SHARP`), a bump strikes like a kerb."""
+
+
+@dataclass
+class Split:
+    """One scenario file as ride features: the training experiments with their declared classes, and the tests."""
+
+    training: list[TrainingExperiment]
+    test: Recording
+    test_experiments: list[int]
+
+
+@dataclass
+class ModelScore:
+    """A trained model and its per-class scores on the held-out experiments."""
+
+    model: DictionaryModel
+    per_class: dict[str, Score]
+    overall: Score
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def worst(self) -> float:
+        """The lowest per-class accuracy (NaN classes skipped)."""
+        rates = [s.rate for s in self.per_class.values() if s.total]
+        return min(rates) if rates else float("nan")
+
+
+def declared_classes(labels: np.ndarray, scenario: str) -> list[str]:
+    """The scenario's classes that occur in ``labels``, in :data:`~spotfree.sim.scenarios.CLASSES` order."""
+    present = set(np.asarray(labels).astype(str))
+    return [c for c in CLASSES[scenario] if c in present]
+
+
+def event_classes(events: np.ndarray, scenario: str) -> list[str]:
+    """The classes of ``scenario`` that the confounders ``events`` (``+``-joined names) of another scenario's ride
+    amount to, with the background class, in :data:`~spotfree.sim.scenarios.CLASSES` order."""
+    names = {name for joined in np.asarray(events).astype(str) for name in joined.split("+")}
+    present = {CLASSES[scenario][0]} | {c for name, c in EVENT_CLASSES[scenario].items() if name in names}
+    return [c for c in CLASSES[scenario] if c in present]
+
+
+def split(scenario: str, seed: int, repeats: int = 7, n_train: int = 4, rate: float = 20.0) -> Split:
+    """Simulate ``scenario`` and :data:`OTHER` of it; experiments ``1..n_train`` of both are the training
+    experiments, the rest of ``scenario`` the tests."""
+    feats = ride_features(simulate_scenario(scenario, repeats=repeats, seed=seed, rate=rate), derived=True)
+    other = ride_features(simulate_scenario(OTHER[scenario], repeats=repeats, seed=seed, rate=rate), derived=True)
+    training = []
+    for source, declare in ((feats, lambda r: declared_classes(r.truth["label"], scenario)),
+                            (other, lambda r: event_classes(r.truth["event"], scenario))):
+        for k in range(1, n_train + 1):
+            rec = source.select_experiment(k)
+            rec.source = f"{source.meta['scenario']} seed {seed} experiment {k}"
+            training.append(TrainingExperiment(rec, declare(rec)))
+    tests = list(range(n_train + 1, repeats + 1))
+    test = feats.take(np.isin(feats.experiment, tests))
+    test.source = f"{scenario} seed {seed} experiments {tests[0]}-{tests[-1]}"
+    return Split(training, test, tests)
+
+
+def score(model: DictionaryModel, test: Recording, scenario: str) -> tuple[dict[str, Score], Score]:
+    """Per-class and overall accuracy of the causal labels of ``test`` (every labelled sample)."""
+    labels = classify_recording(model, test).label
+    truth = test.truth["label"]
+    per_class = class_accuracy(labels, truth, CLASSES[scenario])
+    return per_class, sum(per_class.values(), Score(0, 0))
+
+
+def train_and_score(spec: ModelSpec, data: Split, seed: int, **changes) -> ModelScore:
+    """Train ``spec`` on ``data.training`` and score it on ``data.test``."""
+    result = train(data.training, spec.config(seed, **changes))
+    per_class, overall = score(result.model, data.test, spec.scenario)
+    return ModelScore(result.model, per_class, overall, result.warnings)

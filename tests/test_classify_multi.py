@@ -1,0 +1,89 @@
+"""Several models on one stream: batch table, streaming equal to batch, one feature pass, the CLI, bad input."""
+
+import numpy as np
+import pandas as pd
+import pytest
+from classify_fixtures import truth_model, with_gap
+from typer.testing import CliRunner
+
+from spotfree.classify.batch import classify_recording
+from spotfree.classify.multi import MultiModelStream, classify_models, model_names
+from spotfree.cli import app
+from spotfree.errors import InputError
+from spotfree.io.csvlog import write_csv
+from spotfree.sim.scenarios import simulate_scenario
+
+
+@pytest.fixture(scope="module")
+def models():
+    """Truth-named braking, lateral and road dictionaries (mechanics only; not trained models)."""
+    lateral = simulate_scenario("lateral", repeats=1, seed=3)
+    road = simulate_scenario("road", repeats=1, seed=3)
+    braking = simulate_scenario("sudden-braking", repeats=1, seed=3)
+    return {
+        "braking": truth_model(braking),
+        "lateral": truth_model(lateral, channels=("yaw_rate", "roll_rate"), window=30),
+        "road": truth_model(road, channels=("vib_y", "vib_z"), window=12, step=2),
+    }
+
+
+@pytest.fixture(scope="module")
+def ride():
+    """Two lateral rides of other riders, the first 600 samples of each, with a gap in the first."""
+    rec = simulate_scenario("lateral", repeats=2, seed=11)
+    keep = np.concatenate([np.flatnonzero(rec.experiment == k)[:600] for k in (1, 2)])
+    return with_gap(rec.take(keep), 300, 310)
+
+
+def test_batch_table_has_one_column_per_model_equal_to_each_model_alone(models, ride):
+    table = classify_models(models, ride)
+    assert list(table.columns) == ["experiment", "time", "braking", "lateral", "road"]
+    for name, model in models.items():
+        np.testing.assert_array_equal(table[name].to_numpy(), classify_recording(model, ride).label)
+    # each model keeps its own window: the first label of a segment comes window - 1 samples in
+    for name, model in models.items():
+        assert np.flatnonzero(table[name].to_numpy() != "")[0] == model.window - 1
+    assert set(table["lateral"]) - {""} <= {"straight", "gentle-turn", "sharp-turn", "slalom"}
+
+
+def test_stream_labels_equal_batch_causal_labels(models, ride):
+    table = classify_models(models, ride)
+    stream = MultiModelStream(models)
+    assert stream.names == ("braking", "lateral", "road")
+    acc, gyr, speed = ride.array(["ax", "ay", "az"]), ride.array(["gx", "gy", "gz"]), ride.channels["speed"]
+    got = [stream.update(a, w, t, s) for a, w, t, s in zip(acc, gyr, ride.time, speed)]
+    for k, name in enumerate(stream.names):
+        streamed = np.array(["" if labels[k] is None else labels[k] for labels in got])
+        np.testing.assert_array_equal(streamed, table[name].to_numpy())
+
+
+def test_models_that_cannot_share_one_feature_pass_are_refused(models):
+    other = dict(models, road=models["road"].__class__(**{**vars(models["road"]), "rate": 50.0}))
+    with pytest.raises(InputError, match="cannot share one feature pass"):
+        MultiModelStream(other)
+    with pytest.raises(InputError, match="no model given"):
+        classify_models({}, None)
+    with pytest.raises(InputError, match="share the name braking"):
+        model_names(["a/braking.npz", "b/braking.npz"])
+
+
+def test_cli_classify_with_several_models_writes_a_column_per_model_and_keeps_the_single_contract(
+        models, ride, tmp_path):
+    for name, model in models.items():
+        model.save(tmp_path / f"{name}.npz")
+    write_csv(ride, tmp_path / "ride.csv")
+    runner = CliRunner()
+    paths = [str(tmp_path / f"{name}.npz") for name in models]
+    result = runner.invoke(app, ["classify", *paths, str(tmp_path / "ride.csv"), "-o", str(tmp_path / "out.csv")])
+    assert result.exit_code == 0, result.output
+    table = pd.read_csv(tmp_path / "out.csv", keep_default_na=False)
+    assert list(table.columns) == ["experiment", "time", "braking", "lateral", "road"]
+    expected = classify_models(models, ride)
+    for name in models:
+        np.testing.assert_array_equal(table[name].astype(str).to_numpy(), expected[name].to_numpy())
+    single = runner.invoke(app, ["classify", paths[1], str(tmp_path / "ride.csv"), "-o", str(tmp_path / "one.csv")])
+    assert single.exit_code == 0, single.output
+    assert list(pd.read_csv(tmp_path / "one.csv").columns) == ["experiment", "time", "label"]
+    twice = runner.invoke(app, ["classify", paths[0], paths[0], str(tmp_path / "ride.csv"), "-o",
+                                str(tmp_path / "x.csv")])
+    assert twice.exit_code == 2 and "share the name braking" in twice.output
