@@ -1,0 +1,48 @@
+"""Lateral and road models: declarations as a rider would make them, held-out split, scoring by true class."""
+
+import numpy as np
+import pytest
+
+from spotfree.evaluation.lateral_road import MODELS, Split, declared_classes, event_classes, score, split
+from spotfree.evaluation.metrics import Score
+from spotfree.training import train
+
+
+def test_declarations_name_only_the_classes_present_background_first():
+    assert declared_classes(np.array(["slalom", "straight", "slalom"]), "lateral") == ["straight", "slalom"]
+    assert event_classes(np.array(["", "turn", "braking+turn"]), "lateral") == ["straight", "gentle-turn"]
+    assert event_classes(np.array(["bump", "", "cobblestone+speed-change"]), "road") == [
+        "smooth", "cobblestone", "kerb"]
+    assert event_classes(np.array(["", "braking"]), "road") == ["smooth"]
+
+
+@pytest.fixture(scope="module")
+def road_split() -> Split:
+    return split("road", seed=5, repeats=3, n_train=2)
+
+
+def test_split_holds_out_riders_and_declares_from_the_rides_not_from_labels(road_split):
+    data = road_split
+    assert data.test_experiments == [3]
+    assert set(np.unique(data.test.experiment)) == {3}
+    assert len(data.training) == 4  # two road rides and two lateral rides
+    sources = [e.recording.source for e in data.training]
+    assert sources == ["road seed 5 experiment 1", "road seed 5 experiment 2",
+                       "lateral seed 5 experiment 1", "lateral seed 5 experiment 2"]
+    for e in data.training[:2]:
+        assert e.classes == declared_classes(e.recording.truth["label"], "road")
+    for e in data.training[2:]:
+        assert e.classes[0] == "smooth" and e.classes == event_classes(e.recording.truth["event"], "road")
+
+
+def test_score_counts_every_labelled_sample_of_each_true_class(road_split):
+    data = road_split
+    model = train(data.training, MODELS["road"].config(5)).model
+    per_class, overall = score(model, data.test, "road")
+    truth = data.test.truth["label"]
+    assert set(per_class) == {"smooth", "rough-asphalt", "cobblestone", "kerb"}
+    total = sum(per_class.values(), Score(0, 0))
+    assert total == overall
+    # every sample but the first window - 1 of the ride is labelled and counted under its true class
+    assert overall.total == len(truth) - (model.window - 1)
+    assert per_class["smooth"].total == int(np.sum(truth[model.window - 1:] == "smooth"))
