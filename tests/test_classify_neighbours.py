@@ -1,0 +1,60 @@
+"""The nearest-columns rule: exact residuals, streaming equal to batch, and amplitude that CRC_RLS cannot see."""
+
+import numpy as np
+import pytest
+
+from spotfree.classify import UNKNOWN, CRCClassifier, NearestColumnsClassifier
+from spotfree.errors import InputError
+
+
+def amplitude_data(seed: int, d: int = 40, atoms: int = 60, windows: int = 50):
+    """Two classes of windows of one shape, a soft one (amplitude about 1) and a hard one (about 3), with noise;
+    and windows of another shape, far from both."""
+    rng = np.random.default_rng(seed)
+    shape = np.sin(np.linspace(0, np.pi, d))
+
+    def draw(amplitude, n):
+        return np.outer(amplitude * rng.uniform(0.8, 1.2, n), shape) + 0.05 * rng.normal(size=(n, d))
+
+    X = np.vstack([draw(1.0, atoms), draw(3.0, atoms)])
+    y = np.repeat(["soft", "hard"], atoms)
+    test = np.vstack([draw(1.0, windows), draw(3.0, windows)])
+    outside = 2.0 * np.cos(np.linspace(0, 3 * np.pi, d)) + 0.05 * rng.normal(size=(windows, d))
+    return X, y, test, np.repeat(["soft", "hard"], windows), outside
+
+
+def test_residuals_are_the_mean_distance_to_the_k_nearest_atoms_of_each_class():
+    X, y, test, _, _ = amplitude_data(0)
+    clf = NearestColumnsClassifier(n_neighbors=3).fit(X, y)
+    distance = np.linalg.norm(test[:, None, :] - X[None, :, :], axis=2)
+    expected = np.column_stack([np.sort(distance[:, y == c], axis=1)[:, :3].mean(axis=1) for c in clf.classes_])
+    np.testing.assert_allclose(clf.decision_function(test), expected, rtol=1e-9, atol=1e-9)
+
+
+def test_amplitude_separates_classes_that_crc_confuses():
+    X, y, test, truth, _ = amplitude_data(1)
+    nearest = NearestColumnsClassifier().fit(X, y).predict(test)
+    crc = CRCClassifier().fit(X, y).predict(test)
+    assert (nearest == truth).all()
+    assert np.mean(crc == truth) < 0.9  # one shape at two amplitudes is one subspace
+
+
+def test_predict_one_equals_predict():
+    X, y, test, _, _ = amplitude_data(2)
+    clf = NearestColumnsClassifier(n_neighbors=4).fit(X, y)
+    assert [clf.predict_one(w) for w in test] == list(clf.predict(test))
+
+
+def test_windows_far_from_every_atom_are_rejected():
+    X, y, test, truth, outside = amplitude_data(3)
+    clf = NearestColumnsClassifier(reject=0.5).fit(X, y)
+    assert (clf.predict(outside) == UNKNOWN).all()
+    assert (clf.predict(test) == truth).all()
+    assert clf.predict_one(outside[0]) == UNKNOWN
+
+
+@pytest.mark.parametrize("k", [0, -2, 1.5, True])
+def test_bad_neighbour_count_is_a_clear_error(k):
+    X, y, _, _, _ = amplitude_data(4)
+    with pytest.raises(InputError, match="n_neighbors"):
+        NearestColumnsClassifier(n_neighbors=k).fit(X, y)
