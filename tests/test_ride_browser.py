@@ -4,8 +4,10 @@ than the burst allowance after being offline and nothing is lost; a simulated su
 warning banner and the operator view lists the event and draws the track."""
 
 import math
+import os
 import shutil
 import socket
+import tempfile
 import threading
 import time
 from pathlib import Path
@@ -24,7 +26,9 @@ from spotfree.ride.store import RideStore  # noqa: E402
 
 pytestmark = [pytest.mark.browser,
               pytest.mark.skipif(shutil.which("chromium") is None, reason="run scripts/ensure_browser.sh")]
-SHOTS = Path(__file__).resolve().parents[1] / "docs" / "img"
+SHOTS = Path(os.environ.get("SPOTFREE_SCREENSHOTS") or tempfile.mkdtemp(prefix="spotfree-shots-"))
+"""Where the views' screenshots go: ``SPOTFREE_SCREENSHOTS=docs/img`` refreshes the README's; a temporary folder
+otherwise, so that a test run leaves the checkout as it was."""
 
 
 @pytest.fixture(scope="module")
