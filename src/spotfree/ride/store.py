@@ -103,6 +103,7 @@ class RideStore:
         with self._transaction() as db:
             for statement in SCHEMA:
                 db.execute(statement)
+            _add_feature_columns(db)
             db.execute("INSERT INTO meta (key, value) VALUES (?, ?) ON CONFLICT (key) DO NOTHING",
                        ("schema_version", str(SCHEMA_VERSION)))
         version = self._query("SELECT value FROM meta WHERE key = ?", ("schema_version",))[0][0]
@@ -346,6 +347,15 @@ class SQLiteConnection:
     def close(self) -> None:
         self._connection.execute("PRAGMA wal_checkpoint(TRUNCATE)")
         self._connection.close()
+
+
+def _add_feature_columns(db) -> None:
+    """Give a store written before a feature channel existed that channel as a column (NULL in its old rows, which
+    keep their values), so that a new spotfree can record into an older file."""
+    present = {column[0].lower() for column in db.execute("SELECT * FROM features LIMIT 0").description}
+    for column in FEATURE_COLUMNS:
+        if column.lower() not in present:
+            db.execute(f"ALTER TABLE features ADD COLUMN {column} {_REAL}")
 
 
 def _insert(table: str, columns: Sequence[str]) -> str:
