@@ -75,16 +75,27 @@ def _rows_js(rows):
     return [[None if math.isnan(v) else float(v) for v in r] for r in rows]
 
 
-def test_phone_streams_and_labels_equal_server(server, browser):
-    url, service, rows = server
-    page = browser.new_page(viewport={"width": 420, "height": 860})
+def _started_phone(opener, url, **page_args):
+    """The phone page opened by ``opener`` (a browser or a context), its pipeline loaded and Start tapped."""
+    page = opener.new_page(**page_args)
     page.goto(url + "/")
     page.wait_for_function("window.spotfree && window.spotfree.state.pipeline !== null")
     page.click("#start")
     page.wait_for_function("window.spotfree.state.online")
-    # a sample lands mid-slot so that the page's 20 Hz grid keeps every sample of the ride
+    return page
+
+
+def _mid_slot(rows):
+    """The rows 10 ms later: every sample lands mid-slot, so the page's 20 Hz grid keeps each one."""
     shifted = rows.copy()
     shifted[:, 0] += 0.01
+    return shifted
+
+
+def test_phone_streams_and_labels_equal_server(server, browser):
+    url, service, rows = server
+    page = _started_phone(browser, url, viewport={"width": 420, "height": 860})
+    shifted = _mid_slot(rows)
     for k in range(0, 600, 20):
         page.evaluate(MOTION, [_rows_js(shifted[k:k + 20]), 1000.0])
         page.wait_for_timeout(150)
@@ -115,13 +126,8 @@ def test_phone_resends_a_long_backlog_after_being_offline(server, browser):
     waits when refused for the rate, and every sample reaches the store in order."""
     url, service, rows = server
     context = browser.new_context()
-    page = context.new_page()
-    page.goto(url + "/")
-    page.wait_for_function("window.spotfree && window.spotfree.state.pipeline !== null")
-    page.click("#start")
-    page.wait_for_function("window.spotfree.state.online")
-    shifted = rows.copy()
-    shifted[:, 0] += 0.01
+    page = _started_phone(context, url)
+    shifted = _mid_slot(rows)
     page.evaluate(MOTION, [_rows_js(shifted[:100]), 1000.0])
     page.wait_for_function("window.spotfree.state.serverLabels.length >= 99")
     context.set_offline(True)
