@@ -20,7 +20,8 @@ def training_figure(result: TrainingResult, experiments: list[TrainingExperiment
     n = len(experiments)
     fig, axes = plt.subplots(n, 3, figsize=(15, 2.6 * n), squeeze=False, sharex="row")
     cmap = plt.get_cmap("tab10")
-    titles = ["level 1: OSC clusters", "level 2: nested split", "dictionary: kept windows by name"]
+    method = {"osc": "OSC", "kmeans": "k-means"}.get(result.model.parameters.get("clustering"), "level-1")
+    titles = [f"level 1: {method} clusters", "level 2: nested split", "dictionary: kept windows by name"]
     for r, exp in enumerate(experiments):
         rec = exp.recording
         signal = rec.channels[channel]

@@ -147,6 +147,7 @@ def train(experiments: list[TrainingExperiment], config: TrainingConfig | None =
         features="ride" if experiments[0].recording.meta.get("features") == "ride" else "channels",
         orientation=experiments[0].recording.meta.get("orientation", "default"),
         parameters={"recipe": config.recipe, "extra_clusters": config.extra_clusters, "seed": config.seed,
+                    "clustering": "osc" if config.recipe == "paper" else config.clustering,
                     "affine": config.affine,
                     "train_step": config.train_step, "max_columns": config.max_columns},
         summary={
