@@ -60,10 +60,10 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def _start_server(folder: Path, model: Path) -> tuple[subprocess.Popen, str]:
+def _start_server(folder: Path, model: Path, sync: str) -> tuple[subprocess.Popen, str]:
     port = _free_port()
     server = subprocess.Popen([sys.executable, "-m", "spotfree.cli", "serve", "--port", str(port), "--database",
-                               str(folder / "rides.db"), "--model", str(model)],
+                               str(folder / "rides.db"), "--model", str(model), "--sync", sync],
                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     url = f"http://127.0.0.1:{port}"
     deadline = time.monotonic() + 60
@@ -156,9 +156,10 @@ async def _load(url: str, phones: int, seconds: float, batch: float, rows: np.nd
     return crowd
 
 
-def run(phones: int, seconds: float, batch: float, rows: np.ndarray, rate: float, model: Path) -> dict:
+def run(phones: int, seconds: float, batch: float, rows: np.ndarray, rate: float, model: Path,
+        sync: str = "full") -> dict:
     with tempfile.TemporaryDirectory() as folder:
-        server, url = _start_server(Path(folder), model)
+        server, url = _start_server(Path(folder), model, sync)
         try:
             crowd = asyncio.run(_load(url, phones, seconds, batch, rows, rate))
         finally:
@@ -181,13 +182,14 @@ def main() -> None:
     parser.add_argument("--phones", default="10,25,50,100,200,500")
     parser.add_argument("--seconds", type=float, default=15.0)
     parser.add_argument("--batch", type=float, default=0.25, help="s of samples per batch (the page sends 0.25)")
+    parser.add_argument("--sync", default="full", choices=("full", "normal"), help="spotfree serve --sync")
     args = parser.parse_args()
     raw = rides(seed=1, repeats=2)
     rows = recording_rows(raw.select_experiment(2))
     rate = raw.rate
     print(f"# serve_load: {platform.node()} {platform.machine()}, {os.cpu_count()} cores, Python "
           f"{platform.python_version()}, {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC")
-    print(f"# {args.seconds:g} s per N, {rate:g} Hz, batches of {args.batch:g} s, SQLite synchronous=FULL, "
+    print(f"# {args.seconds:g} s per N, {rate:g} Hz, batches of {args.batch:g} s, SQLite synchronous={args.sync.upper()}, "
           "latency in ms from sending a batch to its acknowledgement")
     print("| phones | load avg | batches sent | acked | refused | p50 | p99 | max | warnings | warn p50 | warn p99 "
           "| samples acked | rows stored |")
@@ -198,7 +200,7 @@ def main() -> None:
         truth_model(raw.select_experiment(1)).save(model)
         for phones in (int(n) for n in args.phones.split(",")):
             load = os.getloadavg()[0]
-            r = run(phones, args.seconds, args.batch, rows, rate, model)
+            r = run(phones, args.seconds, args.batch, rows, rate, model, args.sync)
             print(f"| {r['phones']} | {load:.1f} | {r['batches']} | {r['acked']} | {r['refused']} | {r['p50']:.1f} | "
                   f"{r['p99']:.1f} | {r['max']:.0f} | {r['warnings']} | {r['warn_p50']:.1f} | {r['warn_p99']:.1f} | "
                   f"{r['acked_samples']} | {r['stored']} |", flush=True)

@@ -263,12 +263,14 @@ def serve(
                                               "rides once, then cached)"),
     speed: float = typer.Option(1.0, "--speed", min=0.1, help="replay/simulate at this many times real time"),
     seed: int = typer.Option(0, "--seed", help="seed of --simulate"),
+    sync: str = typer.Option("full", "--sync", help="SQLite durability of an acknowledged sample: full (survives "
+                             "a power loss) | normal (survives the server being killed; faster)"),
 ) -> None:
     """The live ride assistant: phone page (/), rider view (/rider), operator view (/operator)."""
     from spotfree.ride.server import run_server
 
     run_server(host=host, port=port, database=database, https=https, replay=replay, simulate=simulate,
-               model_path=model_path, speed=speed, seed=seed, say=err.print)
+               model_path=model_path, speed=speed, seed=seed, say=err.print, synchronous=sync)
 
 
 @hand_app.command("simulate")

@@ -29,21 +29,25 @@ def _rider_rows(replay: str | None, simulate: str | None, seed: int):
     return recording_rows(simulate_scenario(simulate, repeats=1, seed=seed)), f"simulated {simulate}"
 
 
-def build_service(database: str, model_path: Path | None, say: Callable[[str], None]) -> RideService:
-    """The service over ``database`` with the model at ``model_path`` (the cached default model when None)."""
+def build_service(database: str, model_path: Path | None, say: Callable[[str], None],
+                  synchronous: str = "full") -> RideService:
+    """The service over ``database`` with the model at ``model_path`` (the cached default model when None);
+    ``synchronous``: the SQLite durability of :class:`~spotfree.ride.store.RideStore`."""
     from spotfree.ride.default_model import default_model
 
     model = DictionaryModel.load(model_path) if model_path else default_model(say)
-    return RideService(model, RideStore(database), model_name=model_path.stem if model_path else "default")
+    return RideService(model, RideStore(database, synchronous=synchronous),
+                       model_name=model_path.stem if model_path else "default")
 
 
 def run_server(host: str, port: int, database: str, https: bool, replay: str | None, simulate: str | None,
-               model_path: Path | None, speed: float, seed: int, say: Callable[[str], None]) -> None:
+               model_path: Path | None, speed: float, seed: int, say: Callable[[str], None],
+               synchronous: str = "full") -> None:
     """Serve until interrupted (see the module docstring)."""
     import uvicorn
 
     rows = _rider_rows(replay, simulate, seed) if (replay or simulate) else None
-    service = build_service(database, model_path, say)
+    service = build_service(database, model_path, say, synchronous)
     app = create_app(service)
     if rows is not None:
         from spotfree.ride.sources import ride_live
