@@ -45,6 +45,7 @@ import numpy as np
 from sklearn.cluster import KMeans
 
 from spotfree.classify.crc import CRCClassifier
+from spotfree.classify.neighbours import NearestColumnsClassifier
 from spotfree.cluster.osc import OrderedSubspaceClustering
 from spotfree.errors import InputError
 from spotfree.io.recording import Recording
@@ -330,20 +331,16 @@ def _purify(windows, names_per_window, config, say) -> tuple[list[np.ndarray], l
 
 def _run_margins(pooled, atoms, names, run, k: int = 5) -> np.ndarray:
     """Margin of each window ``y`` of ``run`` against the ``atoms``: with ``d_c`` the mean distance from ``y`` to its
-    ``k`` nearest atoms of class ``c``, ``(min_{other} d_c - d_own) / (min_{other} d_c + d_own)`` in [-1, 1],
-    positive when the window's own name lies nearest; ``-1`` when its name is not among the atoms' names."""
-    own_name = names[run[0]]
-    if own_name not in set(names[atoms]):
+    ``k`` nearest atoms of class ``c`` (:class:`~spotfree.classify.neighbours.NearestColumnsClassifier`),
+    ``(min_{other} d_c - d_own) / (min_{other} d_c + d_own)`` in [-1, 1], positive when the window's own name lies
+    nearest; ``-1`` when its name is not among the atoms' names."""
+    clf = NearestColumnsClassifier(n_neighbors=k).fit(pooled[:, atoms].T, names[atoms])
+    own = np.flatnonzero(clf.classes_ == names[run[0]])
+    if len(own) == 0:
         return np.full(len(run), -1.0)
-    y = pooled[:, run].T
-    distance = {}
-    for c in np.unique(names[atoms]):
-        A = pooled[:, atoms[names[atoms] == c]].T
-        d = np.sqrt(np.maximum(((y[:, None, :] - A[None, :, :]) ** 2).sum(axis=2), 0.0))
-        distance[c] = np.sort(d, axis=1)[:, :min(k, d.shape[1])].mean(axis=1)
-    other = np.min([d for c, d in distance.items() if c != own_name], axis=0)
-    own = distance[own_name]
-    return (other - own) / np.maximum(other + own, 1e-12)
+    distance = clf.decision_function(pooled[:, run].T)
+    other = np.delete(distance, own[0], axis=1).min(axis=1)
+    return (other - distance[:, own[0]]) / np.maximum(other + distance[:, own[0]], 1e-12)
 
 
 def _cap(columns, column_class, column_source, column_margin, n_classes, max_columns):
