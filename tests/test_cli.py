@@ -107,3 +107,10 @@ def test_features_on_bad_logs_exits_2_with_one_line_naming_file_and_column(name,
     lines = [line for line in result.output.splitlines() if line.strip()]
     assert len(lines) == 1 and name in lines[0] and expected in lines[0], result.output
     assert existing.read_text() == "kept\n"
+
+
+def test_serve_refuses_an_unknown_sync_mode_before_starting(tmp_path):
+    result = runner.invoke(app, ["serve", "--sync", "off", "--database", str(tmp_path / "r.db")])
+    assert result.exit_code == 2
+    assert "--sync off: use full or normal" in result.output
+    assert list(tmp_path.iterdir()) == []

@@ -269,6 +269,9 @@ def serve(
     """The live ride assistant: phone page (/), rider view (/rider), operator view (/operator)."""
     from spotfree.ride.server import run_server
 
+    if sync not in ("full", "normal"):
+        raise InputError(f"--sync {sync}: use full or normal")
+
     run_server(host=host, port=port, database=database, https=https, replay=replay, simulate=simulate,
                model_path=model_path, speed=speed, seed=seed, say=err.print, synchronous=sync)
 
