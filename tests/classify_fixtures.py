@@ -58,3 +58,19 @@ def with_gap(rec: Recording, start: int, stop: int) -> Recording:
     for values in channels.values():
         values[start:stop] = np.nan
     return rec.with_channels(channels)
+
+
+def amplitude_data(seed: int, d: int = 40, atoms: int = 60, windows: int = 50):
+    """Two classes of windows of one shape, a soft one (amplitude about 1) and a hard one (about 3), with noise;
+    and windows of another shape, far from both."""
+    rng = np.random.default_rng(seed)
+    shape = np.sin(np.linspace(0, np.pi, d))
+
+    def draw(amplitude, n):
+        return np.outer(amplitude * rng.uniform(0.8, 1.2, n), shape) + 0.05 * rng.normal(size=(n, d))
+
+    X = np.vstack([draw(1.0, atoms), draw(3.0, atoms)])
+    y = np.repeat(["soft", "hard"], atoms)
+    test = np.vstack([draw(1.0, windows), draw(3.0, windows)])
+    outside = 2.0 * np.cos(np.linspace(0, 3 * np.pi, d)) + 0.05 * rng.normal(size=(windows, d))
+    return X, y, test, np.repeat(["soft", "hard"], windows), outside

@@ -1,4 +1,6 @@
-"""The residual classifiers together: CRC_RLS, SRC and B_SRC on union-of-subspaces data, rejection, bad input."""
+"""The residual classifiers together: CRC_RLS, SRC and B_SRC on union-of-subspaces data, rejection, bad input
+(every method of METHODS, kernel CRC_RLS and the nearest-columns rule included, for the estimator checks and bad
+input)."""
 
 import numpy as np
 import pytest
@@ -18,7 +20,8 @@ PREDICT_TIME_ITERATIONS = {
     "not iterate, so there is no n_iter_",
 }
 EXPECTED_FAILURES = {"crc": RESIDUAL_CONVENTION, "src": RESIDUAL_CONVENTION | PREDICT_TIME_ITERATIONS,
-                     "bsrc": RESIDUAL_CONVENTION | PREDICT_TIME_ITERATIONS, "nearest": RESIDUAL_CONVENTION}
+                     "bsrc": RESIDUAL_CONVENTION | PREDICT_TIME_ITERATIONS, "nearest": RESIDUAL_CONVENTION,
+                     "kcrc": RESIDUAL_CONVENTION}
 CLASSES = ("cruising", "normal-braking", "sudden-braking")
 SUBSPACE_METHODS = ["bsrc", "crc", "src"]
 """The residual classifiers that model a class as a subspace (the nearest-columns rule measures distance instead:

@@ -46,6 +46,8 @@ def evaluate(output: str | Path, seed: int = 0, quick: bool = False, progress: P
     model = trained.result.model
     say("classifying the tests with CRC_RLS (causal and centred windows)")
     crc = crc_runs(model, data)
+    say("classifying the tests with kernel CRC_RLS (causal and centred windows)")
+    kcrc = crc_runs(model, data, "kcrc")
     say("CRC_RLS vs SRC vs B_SRC on a subsample of windows")
     methods = method_runs(model, data, protocol.method_windows)
     say("peers: MiniRocket, 1-NN, ClaSP")
@@ -54,7 +56,7 @@ def evaluate(output: str | Path, seed: int = 0, quick: bool = False, progress: P
     figures = {f"results: {name}": f"results-{name}.png" for name in SCENARIOS}
     ev = Evaluation(
         protocol=protocol, data=data, trained=trained, purity=dictionary_purity(trained.result, trained.experiments),
-        crc=crc, methods=methods, peers=peers, seconds=seconds,
+        crc=crc, kcrc=kcrc, methods=methods, peers=peers, seconds=seconds,
         command=f"spotfree evaluate -o {output} --seed {seed}" + (" --quick" if quick else ""),
         machine=machine_summary(), date=datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"), figures=figures,
     )

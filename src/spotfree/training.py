@@ -28,8 +28,11 @@ Output: a :class:`~spotfree.model.DictionaryModel` whose columns are windows kep
    the kept windows outside it; :func:`_run_margins`, mean distance to the 5 nearest windows of each name, which
    keeps amplitude where a linear representation would scale it away). The checks of steps 4 and 5 give each class
    the same number of windows, chosen evenly over time (:func:`_balanced`): with hundreds of background atoms in a
-   window space of a few dozen dimensions, the background would represent anything. At most ``max_columns`` per
-   class are kept: those with the largest margins.
+   window space of a few dozen dimensions, the background would represent anything. A column must have a margin of
+   at least ``min_margin``; of those, at most ``max_columns`` per class are kept, evenly spread over time, so that
+   the dictionary covers all of a class (steady cruising as well as acceleration) instead of only its windows
+   farthest from the other classes. Measured (``benchmarks/evaluation_seeds.py``, BENCHMARKS.md): keeping the
+   largest margins left steady cruising out of the dictionary on two of five seeds.
 
 ``recipe="paper"`` is the paper's procedure taken literally, kept to measure the gain: each recording alone, unit-
 norm windows, split in two, the larger cluster named the background and the smaller the recording's most specific
@@ -83,6 +86,7 @@ class TrainingConfig:
     clustering: str = "kmeans"
     overrides: dict[int, str] = field(default_factory=dict)
     max_columns: int = 100
+    min_margin: float = 0.15
     margin: int | None = None
     seed: int = 0
 
@@ -133,8 +137,11 @@ def train(experiments: list[TrainingExperiment], config: TrainingConfig | None =
             column_class.append(classes.index(per[k]))
             column_source.append((r, int(w.ends[k])))
             column_margin.append(margin[k])
-    columns, column_class, column_source = _cap(np.array(columns).T, np.array(column_class), column_source,
-                                                np.array(column_margin), len(classes), config.max_columns)
+    columns, column_class, column_source, capped = _cap(np.array(columns).T, np.array(column_class), column_source,
+                                                        np.array(column_margin), len(classes), config.max_columns,
+                                                        config.min_margin)
+    warnings += [f"class '{classes[i]}': no column reached the margin {config.min_margin:g}; its {n} columns are "
+                 "less confident" for i, n in capped]
     model = DictionaryModel(
         classes=classes,
         channels=list(config.channels),
@@ -150,7 +157,8 @@ def train(experiments: list[TrainingExperiment], config: TrainingConfig | None =
         parameters={"recipe": config.recipe, "extra_clusters": config.extra_clusters, "seed": config.seed,
                     "clustering": "osc" if config.recipe == "paper" else config.clustering,
                     "affine": config.affine,
-                    "train_step": config.train_step, "max_columns": config.max_columns},
+                    "train_step": config.train_step, "max_columns": config.max_columns,
+                    "min_margin": config.min_margin},
         summary={
             "clusters": [vars(n) for n in names],
             "columns_per_class": {c: int((column_class == i).sum()) for i, c in enumerate(classes)},
@@ -295,7 +303,7 @@ def _paper_recipe(windows, declared, config, say):
 
 def _purify(windows, names_per_window, config, say) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """Keep windows away from a change of name and consistent with the rest of the dictionary; return the kept
-    masks and every window's margin (:func:`_run_margins`; 0 where no other name exists to test against)."""
+    masks and every window's margin (:func:`_run_margins`; 1 where no other name exists to test against)."""
     margin = config.margin if config.margin is not None else max(1, config.window // (2 * config.train_step))
     kept = []
     for per in names_per_window:
@@ -324,6 +332,7 @@ def _purify(windows, names_per_window, config, say) -> tuple[list[np.ndarray], l
             margins[run] = _run_margins(pooled, others, names, run)
             tested[run] = True
     keep &= ~tested | (margins > 0)
+    margins[~tested] = 1.0
     split = np.cumsum([0] + [w.matrix.shape[1] for w in windows])
     return ([keep[split[r]:split[r + 1]] for r in range(len(windows))],
             [margins[split[r]:split[r + 1]] for r in range(len(windows))])
@@ -343,18 +352,26 @@ def _run_margins(pooled, atoms, names, run, k: int = 5) -> np.ndarray:
     return (other - distance[:, own[0]]) / np.maximum(other + distance[:, own[0]], 1e-12)
 
 
-def _cap(columns, column_class, column_source, column_margin, n_classes, max_columns):
-    """At most ``max_columns`` columns per class: those with the largest margins (the most confident)."""
-    chosen = []
+def _cap(columns, column_class, column_source, column_margin, n_classes, max_columns, min_margin):
+    """Per class, the columns with a margin of at least ``min_margin`` (all of the class's columns when none has),
+    at most ``max_columns`` of them evenly spread over the order they were found in (recording, then time). Also
+    returns ``(class, columns)`` for the classes that fell back to their less confident columns."""
+    chosen, fallback = [], []
     for i in range(n_classes):
         index = np.flatnonzero(column_class == i)
+        confident = index[column_margin[index] >= min_margin]
+        if len(confident):
+            index = confident
+        elif len(index):
+            fallback.append(i)
         if len(index) > max_columns:
-            index = np.sort(index[np.argsort(-column_margin[index], kind="stable")[:max_columns]])
+            index = index[np.linspace(0, len(index) - 1, max_columns).round().astype(int)]
         chosen.append(index)
     chosen = np.sort(np.concatenate(chosen)) if chosen else np.empty(0, dtype=int)
     if columns.size == 0:
         raise InputError("training kept no window; the recordings may be too short or the classes inseparable")
-    return columns[:, chosen], column_class[chosen], [column_source[k] for k in chosen]
+    return (columns[:, chosen], column_class[chosen], [column_source[k] for k in chosen],
+            [(i, int((column_class[chosen] == i).sum())) for i in fallback])
 
 
 def dictionary_purity(result: TrainingResult, experiments: list[TrainingExperiment]) -> dict[str, float]:

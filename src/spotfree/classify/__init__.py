@@ -1,5 +1,5 @@
-"""Classifiers over a dictionary of class representatives: CRC_RLS (and, for comparison, SRC and B_SRC, and the
-amplitude-aware nearest-columns rule, which is not in the paper).
+"""Classifiers over a dictionary of class representatives: CRC_RLS (and, for comparison, SRC and B_SRC), and two
+amplitude-aware rules that are not in the paper: kernel CRC_RLS and the nearest-columns rule.
 
 All share :class:`~spotfree.classify.base.ResidualClassifier`: ``fit(atoms, labels)``, ``decision_function``
 (class residuals, smaller is better), ``predict``, ``predict_one`` (one window, for streaming) and the rejection
@@ -10,11 +10,12 @@ classes; ``make_classifier(method, **params)`` builds one by name.
 from spotfree.classify.base import UNKNOWN, ResidualClassifier
 from spotfree.classify.bsrc import BlockSparseClassifier
 from spotfree.classify.crc import CRCClassifier
+from spotfree.classify.kcrc import KernelCRCClassifier
 from spotfree.classify.neighbours import NearestColumnsClassifier
 from spotfree.classify.src import SRCClassifier
 from spotfree.errors import InputError
 
-METHODS = {"crc": CRCClassifier, "src": SRCClassifier, "bsrc": BlockSparseClassifier,
+METHODS = {"crc": CRCClassifier, "kcrc": KernelCRCClassifier, "src": SRCClassifier, "bsrc": BlockSparseClassifier,
            "nearest": NearestColumnsClassifier}
 
 
@@ -29,5 +30,5 @@ def make_classifier(method: str, **params):
     return cls(**params)
 
 
-__all__ = ["METHODS", "UNKNOWN", "BlockSparseClassifier", "CRCClassifier", "NearestColumnsClassifier",
+__all__ = ["METHODS", "UNKNOWN", "BlockSparseClassifier", "CRCClassifier", "KernelCRCClassifier", "NearestColumnsClassifier",
            "ResidualClassifier", "SRCClassifier", "make_classifier"]

@@ -72,7 +72,7 @@ class ResidualClassifier(ClassifierMixin, BaseEstimator):
             return labels
         if labels.dtype.kind not in "US":
             labels = labels.astype(object)
-        return np.where(_ratio(residuals.min(axis=1), np.linalg.norm(X, axis=1)) > self.reject, UNKNOWN, labels)
+        return np.where(_ratio(residuals.min(axis=1), self._window_norms(X)) > self.reject, UNKNOWN, labels)
 
     def predict_one(self, y):
         """Class of one window ``y`` ``(d,)``, for streaming."""
@@ -81,7 +81,7 @@ class ResidualClassifier(ClassifierMixin, BaseEstimator):
     def rejection_score(self, X) -> np.ndarray:
         """``min_i r_i(y) / ||y||`` per window (``inf`` for an all-zero window)."""
         X = self._check_windows(X)
-        return _ratio(self._residuals(X).min(axis=1), np.linalg.norm(X, axis=1))
+        return _ratio(self._residuals(X).min(axis=1), self._window_norms(X))
 
     def _check_windows(self, X) -> np.ndarray:
         check_is_fitted(self, "classes_")
@@ -100,6 +100,10 @@ class ResidualClassifier(ClassifierMixin, BaseEstimator):
     def _residuals(self, X: np.ndarray) -> np.ndarray:
         """Class residuals of validated windows ``X`` ``(n, d)``."""
         raise NotImplementedError
+
+    def _window_norms(self, X: np.ndarray) -> np.ndarray:
+        """``||y||`` of each window in the space the residuals are measured in (the rejection ratio's divisor)."""
+        return np.linalg.norm(X, axis=1)
 
 
 def unit_atoms(A: np.ndarray) -> np.ndarray:

@@ -1,7 +1,8 @@
 """The runs of an evaluation, each timed by wall clock (``time.perf_counter``, seconds) on the test rides.
 
 * Spotting-free CRC_RLS on every test window, with causal and with centred windows
-  (:mod:`spotfree.classify.batch`; :data:`HEADLINE` is the alignment a live ride assistant can use).
+  (:mod:`spotfree.classify.batch`; :data:`HEADLINE` is the alignment a live ride assistant can use); the same for
+  kernel CRC_RLS (:mod:`spotfree.classify.kcrc`, not in the paper) on the same dictionary.
 * CRC_RLS vs SRC vs B_SRC on one subsample of test windows: the model's stride raised to ``k`` so that each
   scenario gives about ``Protocol.method_windows`` windows, the same windows for the three methods; only the
   samples a window decides (every ``k``-th labelled sample, not the ones its label is held over) are scored.
@@ -28,7 +29,8 @@ from spotfree.peers.base import from_aeon
 ALIGNMENTS = ("causal", "centred")
 HEADLINE = "causal"
 """The alignment of the headline figures: the window ending at a sample labels it, as on the phone."""
-METHODS = {"crc": "CRC_RLS", "src": "SRC", "bsrc": "B_SRC", "nearest": "nearest columns (not in the paper)"}
+METHODS = {"crc": "CRC_RLS", "kcrc": "kernel CRC_RLS (not in the paper)", "src": "SRC", "bsrc": "B_SRC",
+           "nearest": "nearest columns (not in the paper)"}
 """Classifier methods compared (:data:`spotfree.classify.METHODS` names) and their names in the paper."""
 
 
@@ -67,16 +69,17 @@ class MethodRuns:
         return sum(r.decisions for r in self.runs.values())
 
 
-def crc_runs(model: DictionaryModel, data: dict[str, ScenarioData]) -> dict[str, MethodRuns]:
-    """Spotting-free CRC_RLS labels of every test sample, per alignment (:data:`ALIGNMENTS`)."""
+def crc_runs(model: DictionaryModel, data: dict[str, ScenarioData], method: str = "crc") -> dict[str, MethodRuns]:
+    """Labels of every test sample by ``method`` (``"crc"`` or ``"kcrc"``), per alignment (:data:`ALIGNMENTS`)."""
     out = {}
     for alignment in ALIGNMENTS:
         start = time.perf_counter()
-        clf = dictionary_classifier(model, "crc")
-        runs = MethodRuns(f"CRC_RLS ({alignment})", time.perf_counter() - start)
+        clf = dictionary_classifier(model, method)
+        runs = MethodRuns(f"{METHODS[method]} ({alignment})", time.perf_counter() - start)
         for name, scenario in data.items():
             start = time.perf_counter()
-            labels = classify_recording(model, scenario.test, "crc", centred=alignment == "centred", classifier=clf)
+            labels = classify_recording(model, scenario.test, method, centred=alignment == "centred",
+                                        classifier=clf)
             runs.runs[name] = Run(labels, time.perf_counter() - start, int(labels.labelled().sum()))
         out[alignment] = runs
     return out
