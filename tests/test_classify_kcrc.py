@@ -1,5 +1,5 @@
-"""Kernel CRC_RLS: residuals against an explicit feature map, amplitude that linear CRC_RLS cannot see, streaming
-equal to batch, rejection and bad parameters."""
+"""Kernel CRC_RLS: exact kernel CRC with every atom a landmark, landmarks per class, amplitude that linear CRC_RLS
+cannot see, streaming equal to batch, rejection and bad parameters."""
 
 import numpy as np
 import pytest
@@ -11,21 +11,39 @@ from spotfree.errors import InputError
 from classify_fixtures import amplitude_data
 
 
-def test_residuals_equal_ridge_regression_in_an_explicit_feature_space():
+def test_every_atom_a_landmark_is_exact_kernel_crc():
     rng = np.random.default_rng(0)
     atoms, windows = rng.normal(size=(12, 5)), rng.normal(size=(4, 5))
     labels = np.repeat(["a", "b", "c"], 4)
-    clf = KernelCRCClassifier(gamma_scale=0.5, alpha=0.1).fit(atoms, labels)
+    clf = KernelCRCClassifier(gamma_scale=0.5, landmarks=None, alpha=0.1).fit(atoms, labels)
     gamma = 0.5 / np.median(pdist(atoms, "sqeuclidean"))
-    # features in which inner products are the kernel, for atoms and windows together: K = V L V^T, phi = V L^1/2
+    phi = clf._features(atoms)
+    np.testing.assert_allclose(phi @ phi.T, np.exp(-gamma * cdist(atoms, atoms, "sqeuclidean")), atol=1e-9)
+    # exact kernel CRC_RLS in features where inner products are the kernel for atoms and windows together
     points = np.vstack([atoms, windows])
     values, vectors = np.linalg.eigh(np.exp(-gamma * cdist(points, points, "sqeuclidean")))
-    phi = vectors * np.sqrt(np.clip(values, 0, None))
-    Phi_A, Phi_Y = phi[:12].T, phi[12:].T
+    exact = vectors * np.sqrt(np.clip(values, 0, None))
+    Phi_A, Phi_Y = exact[:12].T, exact[12:].T
+    lam = 0.1 * np.trace(Phi_A.T @ Phi_A) / 12
+    ours = clf.decision_function(windows) ** 2
     for j in range(4):
-        x = np.linalg.solve(Phi_A.T @ Phi_A + 0.1 * np.eye(12), Phi_A.T @ Phi_Y[:, j])
-        expected = [np.linalg.norm(Phi_Y[:, j] - Phi_A[:, labels == c] @ x[labels == c]) for c in "abc"]
-        np.testing.assert_allclose(clf.decision_function(windows[j:j + 1])[0], expected, atol=1e-6)
+        x = np.linalg.solve(Phi_A.T @ Phi_A + lam * np.eye(12), Phi_A.T @ Phi_Y[:, j])
+        expected = np.array([np.linalg.norm(Phi_Y[:, j] - Phi_A[:, labels == c] @ x[labels == c]) for c in "abc"])
+        # the same up to the part of phi(y) outside the atoms' span, common to every class
+        difference = expected ** 2 - ours[j]
+        np.testing.assert_allclose(difference, difference[0], atol=1e-8)
+        assert difference[0] >= -1e-9
+
+
+def test_landmarks_cover_every_class_and_label_like_every_atom():
+    X, y, test, truth, _ = amplitude_data(4, atoms=80)
+    X, y = np.vstack([X, X[:3] * 2.0]), np.r_[y, ["rare"] * 3]
+    few = KernelCRCClassifier(landmarks=8).fit(X, y)
+    assert len(few.landmarks_) <= 10
+    # the rare class holds 3 of 163 atoms: its one landmark is their mean
+    assert np.min(np.linalg.norm(few.landmarks_ - X[-3:].mean(axis=0), axis=1)) < 1e-9
+    every = KernelCRCClassifier(landmarks=None).fit(X, y)
+    assert np.mean(few.predict(test) == every.predict(test)) > 0.95
 
 
 def test_amplitude_separates_classes_that_crc_confuses():
@@ -36,9 +54,10 @@ def test_amplitude_separates_classes_that_crc_confuses():
     assert np.mean(crc == truth) < 0.9  # one shape at two amplitudes is one subspace
 
 
-def test_predict_one_equals_predict():
+@pytest.mark.parametrize("landmarks", [None, 16])
+def test_predict_one_equals_predict(landmarks):
     X, y, test, _, outside = amplitude_data(2)
-    clf = KernelCRCClassifier(reject=0.9).fit(X, y)
+    clf = KernelCRCClassifier(landmarks=landmarks, reject=0.5).fit(X, y)
     windows = np.vstack([test, outside])
     assert [clf.predict_one(w) for w in windows] == list(clf.predict(windows))
     with pytest.raises(InputError, match="NaN or infinity"):
@@ -49,14 +68,15 @@ def test_predict_one_equals_predict():
 
 def test_windows_far_from_every_atom_are_rejected():
     X, y, test, _, outside = amplitude_data(3)
-    clf = KernelCRCClassifier(reject=0.9).fit(X, y)
+    clf = KernelCRCClassifier(reject=0.5).fit(X, y)
     assert (clf.predict(outside) == UNKNOWN).all()
     assert (clf.predict(test) != UNKNOWN).all()
-    assert clf.rejection_score(outside).min() > 0.9 > clf.rejection_score(test).max()
+    assert clf.rejection_score(outside).min() > 0.5 > clf.rejection_score(test).max()
 
 
-@pytest.mark.parametrize("params", [{"gamma_scale": 0}, {"gamma_scale": np.nan}, {"alpha": -1.0}, {"alpha": 0}])
+@pytest.mark.parametrize("params", [{"gamma_scale": 0}, {"gamma_scale": np.nan}, {"landmarks": 0},
+                                    {"landmarks": 2.5}, {"landmarks": True}])
 def test_bad_parameters_are_a_clear_error(params):
     X, y, _, _, _ = amplitude_data(0)
-    with pytest.raises(InputError, match="gamma_scale|alpha"):
+    with pytest.raises(InputError, match="gamma_scale|landmarks"):
         KernelCRCClassifier(**params).fit(X, y)

@@ -100,7 +100,7 @@ def test_bad_input_is_a_clear_error(method):
 
 
 def test_unknown_method_names_the_valid_ones():
-    with pytest.raises(InputError, match="'lda' is unknown: use one of bsrc, crc, nearest, src"):
+    with pytest.raises(InputError, match="'lda' is unknown: use one of bsrc, crc, kcrc, nearest, src"):
         make_classifier("lda")
 
 
