@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from spotfree.errors import InputError
-from spotfree.naming import background_class, name_clusters, presence_matrix
+from spotfree.naming import background_class, name_clusters, presence_matrix, rename_habits
 
 NB = ["cruising", "normal-braking"]
 SB = ["cruising", "normal-braking", "sudden-braking"]
@@ -50,3 +50,24 @@ def test_background_must_be_declared_everywhere():
 def test_presence_matrix_counts_windows():
     counts = presence_matrix(np.array([0, 1, 1, 2]), np.array([0, 0, 1, 1]), 3, 2)
     np.testing.assert_array_equal(counts, [[1, 0], [1, 1], [0, 1]])
+
+
+def test_a_riders_habit_enriched_like_a_manoeuvre_goes_to_the_background():
+    rng = np.random.default_rng(0)
+
+    def windows(level, n):
+        return level + 0.2 * rng.normal(size=(n, 8))
+
+    # recording 0 (cruising, normal): cruising at 0 and accelerations at +1.0; recording 1 (cruising, normal,
+    # sudden): cruising at 0, a brisker rider's accelerations at +1.1 (many), and sudden stops at -3
+    parts = [(0, 0, windows(0.0, 60)), (0, 1, windows(1.0, 10)), (1, 0, windows(0.0, 60)), (1, 2, windows(1.1, 40)),
+             (1, 3, windows(-3.0, 10))]
+    pooled = np.vstack([w for _, _, w in parts]).T
+    recording = np.concatenate([np.full(len(w), r) for r, _, w in parts])
+    labels = np.concatenate([np.full(len(w), j) for _, j, w in parts])
+    declared = [["cruising", "normal-braking"], ["cruising", "normal-braking", "sudden-braking"]]
+    names = name_clusters(presence_matrix(labels, recording, 4, 2), declared, "cruising")
+    assert [n.name for n in names] == ["cruising", "normal-braking", "sudden-braking", "sudden-braking"]
+    renamed = rename_habits(pooled, recording, labels, names, declared, "cruising")
+    assert [n.name for n in renamed] == ["cruising", "normal-braking", "cruising", "sudden-braking"]
+    assert "not novel" in renamed[2].rule

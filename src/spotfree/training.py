@@ -17,7 +17,9 @@ Output: a :class:`~spotfree.model.DictionaryModel` whose columns are windows kep
    Subspace Clustering. Measured (``benchmarks/training_purity.py``, BENCHMARKS.md): on these features a braking
    differs from cruising mostly in level, and windows of different constant levels span one subspace (with the
    affine row, two dimensions), so OSC mixes them where k-means does not.
-3. Groups named by evidence across recordings (:mod:`spotfree.naming`); the user may override any name.
+3. Groups named by evidence across recordings (:mod:`spotfree.naming`): enrichment, then novelty (a group named a
+   class must lie away from the recordings without that class, or it is one rider's habit and goes to the
+   background); the user may override any name.
 4. Nesting: every group named a manoeuvre is checked against the known, less specific classes (background first):
    its windows are classified by CRC against those classes' windows and its own windows outside the run being
    tested; a group that a known class explains takes that name. Groups that stay are split in two by OSC again and
@@ -53,7 +55,7 @@ from spotfree.cluster.osc import OrderedSubspaceClustering
 from spotfree.errors import InputError
 from spotfree.io.recording import Recording
 from spotfree.model import DictionaryModel
-from spotfree.naming import ClusterName, background_class, name_clusters, presence_matrix
+from spotfree.naming import ClusterName, background_class, name_clusters, presence_matrix, rename_habits
 from spotfree.windows import ChannelScaling, WindowedRecording, recording_windows, with_affine_row
 
 RECIPES = ("evidence", "paper")
@@ -206,6 +208,7 @@ def _evidence_recipe(windows, declared, config, say):
     labels = _cluster(pooled, n_classes + config.extra_clusters, config.seed, config.clustering)
     counts = presence_matrix(labels, recording, labels.max() + 1, len(windows))
     names = name_clusters(counts, declared, background)
+    names = rename_habits(pooled, recording, labels, names, declared, background)
     for cluster, name in config.overrides.items():
         if not 0 <= cluster < len(names):
             raise InputError(f"--name {cluster}={name}: there are only clusters 0..{len(names) - 1}")
