@@ -9,8 +9,10 @@ for it: those declaring ``X`` where ``X`` is the most specific declared class (d
    (:data:`ENRICHMENT`); a few windows elsewhere (a near-sudden normal stop in the normal-braking ride, say) do
    not count against a name. Its candidates are the non-background classes declared in every recording where it is
    substantially present.
-2. **Enrichment.** For a candidate ``X``, ``E_X = mean_{home(X)} S[j, r] / mean_{other r} S[j, r]`` (infinite when
-   the cluster occurs only at home: the "present only where ``X`` is declared" case). The cluster takes the candidate
+2. **Enrichment.** For a candidate ``X``, ``E_X = mean_{home(X)} S[j, r] / mean_{outside} S[j, r]`` (infinite when
+   the cluster occurs only at home: the "present only where ``X`` is declared" case). Outside are the recordings
+   that do not declare ``X``; when every recording declares it, those outside its home (where ``X`` occurs but is
+   not the most specific class, so it is expected to take less of the time). The cluster takes the candidate
    with the largest ``E_X`` if ``E_X >= E_min``; confidence ``1 - 1 / E_X``.
 3. **Background.** Otherwise the cluster is the background class (the class declared in every recording, the first
    such in declaration order unless the caller names it): a turn, a bump or a change of speed occurs in every ride
@@ -88,6 +90,7 @@ def name_clusters(
         c: [r for r, d in enumerate(declared) if c in d and n_declaring[c] == min(n_declaring[k] for k in d)]
         for c in n_declaring
     }
+    lacking = {c: [r for r, d in enumerate(declared) if c not in d] for c in n_declaring}
     names = []
     for j in range(n_clusters):
         row = counts[j]
@@ -100,7 +103,7 @@ def name_clusters(
             names.append(ClusterName(j, background, "present in recordings that share no declared class", 0.5,
                                      row.tolist()))
             continue
-        ratios = {c: _enrichment(share[j], home[c]) for c in sorted(common - {background}) if home[c]}
+        ratios = {c: _enrichment(share[j], home[c], lacking[c]) for c in sorted(common - {background}) if home[c]}
         best = max(ratios, key=lambda c: (ratios[c], -n_declaring[c]), default=None)
         if best is not None and ratios[best] >= enrichment:
             ratio = ratios[best]
@@ -115,9 +118,10 @@ def name_clusters(
     return names
 
 
-def _enrichment(share: np.ndarray, inside: list[int]) -> float:
-    """``mean share[inside] / mean share[outside]`` (infinite when the outside share is zero, 0 with no outside)."""
-    outside = [r for r in range(len(share)) if r not in inside]
+def _enrichment(share: np.ndarray, inside: list[int], lacking: list[int]) -> float:
+    """``mean share[inside] / mean share[outside]``: outside are the recordings ``lacking`` the class, or when every
+    recording declares it, those not ``inside`` (infinite when the outside share is zero, 0 with no outside)."""
+    outside = lacking or [r for r in range(len(share)) if r not in inside]
     if not outside:
         return 0.0
     num, den = float(share[inside].mean()), float(share[outside].mean())
