@@ -68,4 +68,6 @@ def run_server(host: str, port: int, database: str, https: bool, replay: str | N
         tls = {"ssl_certfile": str(cert), "ssl_keyfile": str(key)}
     scheme = "https" if https else "http"
     say(f"spotfree serve: {scheme}://{host}:{port}/ (phone), /rider, /operator; rides recorded in {database}")
-    uvicorn.run(app, host=host, port=port, log_level="warning", **tls)
+    # no per-message compression: a batch or an acknowledgement is under a few kB, and deflating each one cost
+    # an eighth of the server's CPU under load (BENCHMARKS.md)
+    uvicorn.run(app, host=host, port=port, log_level="warning", ws_per_message_deflate=False, **tls)

@@ -23,6 +23,7 @@ import math
 import threading
 import time as clock
 from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import Future
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -181,10 +182,26 @@ class RideService:
     def ingest(self, token: str, ride_id: str, samples: Mapping[str, Sequence[float]],
                check_rate: bool = True) -> dict:
         """Take one batch (columns of :data:`SAMPLE_COLUMNS`, see the module docstring); returns the
-        acknowledgement: ``count``, ``labels`` (one per sample), ``state`` (the assistant's figures after the
-        last sample: :meth:`~spotfree.ride.assistant.Status.figures`), ``warnings`` (raised in this batch:
-        ``kind``, ``onset``, ``time`` s) and ``events`` (ended in this batch: ``kind``, ``start``, ``end`` s,
-        ``detail``). ``check_rate=False`` skips the rate limit (for in-process sources only)."""
+        acknowledgement once the batch is committed: ``count``, ``labels`` (one per sample), ``state`` (the
+        assistant's figures after the last sample: :meth:`~spotfree.ride.assistant.Status.figures`),
+        ``warnings`` (raised in this batch: ``kind``, ``onset``, ``time`` s) and ``events`` (ended in this batch:
+        ``kind``, ``start``, ``end`` s, ``detail``). ``check_rate=False`` skips the rate limit (for in-process
+        sources only)."""
+        ack, committed, message = self._take(token, ride_id, samples, check_rate)
+        committed.result()
+        return self._acknowledge(ack, message, ride_id)
+
+    async def ingest_async(self, token: str, ride_id: str, samples: Mapping[str, Sequence[float]]) -> dict:
+        """:meth:`ingest` on the event loop: the batch is classified at once, and the commit is awaited without
+        holding a thread, so that many devices' batches share one commit (:mod:`spotfree.ride.commit`)."""
+        ack, committed, message = self._take(token, ride_id, samples, True)
+        await asyncio.wrap_future(committed)
+        return self._acknowledge(ack, message, ride_id)
+
+    def _take(self, token: str, ride_id: str, samples: Mapping[str, Sequence[float]],
+              check_rate: bool) -> tuple[dict, Future, dict | None]:
+        """Check, classify and assist one batch, and submit it to the store; ``(ack, committed, message for the
+        views or None when nobody watches)``. Under the ride's lock, so its batches reach the store in order."""
         ride = self._own(token, ride_id)
         with ride.lock:
             table = validation.sample_batch(samples, ride.last_time, f"ride {ride_id}")
@@ -194,27 +211,31 @@ class RideService:
             feats = np.empty((n, len(FEATURE_COLUMNS)))
             labels: list[str | None] = []
             warnings = []
-            for k, row in enumerate(table):
-                t, acc, gyr, (lat, lon, speed) = row[0], row[1:4], row[4:7], row[7:10]
-                feats[k], label = ride.live.update(t, acc, gyr, speed)
+            for k, (t, ax, ay, az, gx, gy, gz, lat, lon, speed) in enumerate(table.tolist()):
+                feats[k], label = ride.live.update(t, (ax, ay, az), (gx, gy, gz), speed)
                 labels.append(label)
                 status = ride.assistant.update(t, label, lat, lon, speed)
                 if status.warning is not None:
                     warnings.append(vars(status.warning))
-            columns = {name: table[:, j] for j, name in enumerate(SAMPLE_COLUMNS)}
-            self.store.append_samples(token, ride_id, columns, features=dict(zip(FEATURE_COLUMNS, feats.T)),
-                                      labels={self.model_name: labels})
             events = ride.assistant.pop_events()
-            for event in events:
-                self.store.add_event(token, ride_id, event)
+            committed = self.store.submit_samples(token, ride_id, table, features=feats,
+                                                  labels={self.model_name: labels}, events=events)
             ride.last_time = float(table[-1, 0])
             state = ride.assistant.state()
         ended = [vars(e) for e in events]
-        plot = {name: _json_floats(feats[:, FEATURE_COLUMNS.index(name)]) for name in PLOT_CHANNELS}
-        self._publish({"type": "samples", "ride_id": ride_id, "time": _json_floats(table[:, 0]),
-                       "lat": _json_floats(table[:, 7]), "lon": _json_floats(table[:, 8]), **plot,
-                       "labels": labels, "state": state, "warnings": warnings, "events": ended}, ride_id)
-        return {"count": n, "labels": labels, "state": state, "warnings": warnings, "events": ended}
+        ack = {"count": n, "labels": labels, "state": state, "warnings": warnings, "events": ended}
+        message = None
+        if self._watchers:
+            plot = {name: _json_floats(feats[:, FEATURE_COLUMNS.index(name)]) for name in PLOT_CHANNELS}
+            message = {"type": "samples", "ride_id": ride_id, "time": _json_floats(table[:, 0]),
+                       "lat": _json_floats(table[:, 7]), "lon": _json_floats(table[:, 8]), **plot, **ack}
+        return ack, committed, message
+
+    def _acknowledge(self, ack: dict, message: dict | None, ride_id: str) -> dict:
+        """``ack`` after its batch committed, published to the views first."""
+        if message is not None:
+            self._publish(message, ride_id)
+        return ack
 
     def _own(self, token: str, ride_id: str) -> _OpenRide:
         with self._lock:
