@@ -62,10 +62,11 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def _start_server(folder: Path, model: Path, sync: str) -> tuple[subprocess.Popen, str]:
+def _start_server(folder: Path, model: Path, sync: str, workers: int) -> tuple[subprocess.Popen, str]:
     port = _free_port()
     server = subprocess.Popen([sys.executable, "-m", "spotfree.cli", "serve", "--port", str(port), "--database",
-                               str(folder / "rides.db"), "--model", str(model), "--sync", sync],
+                               str(folder / "rides.db"), "--model", str(model), "--sync", sync,
+                               "--workers", str(workers)],
                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     url = f"http://127.0.0.1:{port}"
     deadline = time.monotonic() + 60
@@ -173,9 +174,11 @@ async def _devices(url: str, phones: int, rows: np.ndarray) -> list[str]:
 
 
 def _cpu_seconds(pid: int) -> float:
-    """User + system CPU seconds of a process so far (``/proc/PID/stat``)."""
+    """User + system CPU seconds so far of a process and its child processes (the server's ride workers)."""
+    children = [int(c) for task in Path(f"/proc/{pid}/task").iterdir()
+                for c in (task / "children").read_text().split()]
     fields = Path(f"/proc/{pid}/stat").read_text().rpartition(")")[2].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK") + sum(_cpu_seconds(c) for c in children)
 
 
 def _stream(url: str, server_pid: int, tokens: list[str], seconds: float, batch: float, rows: np.ndarray,
@@ -210,9 +213,9 @@ def _stream(url: str, server_pid: int, tokens: list[str], seconds: float, batch:
 
 
 def run(phones: int, seconds: float, batch: float, rows: np.ndarray, rate: float, model: Path,
-        sync: str = "full", clients: int = 1) -> dict:
+        sync: str = "full", clients: int = 1, workers: int = 0) -> dict:
     with tempfile.TemporaryDirectory() as folder:
-        server, url = _start_server(Path(folder), model, sync)
+        server, url = _start_server(Path(folder), model, sync, workers)
         try:
             tokens = asyncio.run(_devices(url, phones, rows))
             crowd, server_cpu, client_cpu, wall = _stream(url, server.pid, tokens, seconds, batch, rows, rate,
@@ -241,6 +244,7 @@ def main() -> None:
     parser.add_argument("--batch", type=float, default=0.25, help="s of samples per batch (the page sends 0.25)")
     parser.add_argument("--sync", default="full", choices=("full", "normal"), help="spotfree serve --sync")
     parser.add_argument("--clients", type=int, default=2, help="client processes the phones are spread over")
+    parser.add_argument("--workers", type=int, default=0, help="spotfree serve --workers (ride worker processes)")
     args = parser.parse_args()
     raw = rides(seed=1, repeats=2)
     rows = recording_rows(raw.select_experiment(2))
@@ -248,7 +252,7 @@ def main() -> None:
     print(f"# serve_load: {platform.node()} {platform.machine()}, {os.cpu_count()} cores, Python "
           f"{platform.python_version()}, {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC")
     print(f"# {args.seconds:g} s per N, {rate:g} Hz, batches of {args.batch:g} s, SQLite synchronous={args.sync.upper()}, "
-          f"phones in {args.clients} client process(es); latency in ms from sending a batch to its acknowledgement; "
+          f"spotfree serve --workers {args.workers}, phones in {args.clients} client process(es); latency in ms from sending a batch to its acknowledgement; "
           "server and client CPU in cores (CPU s per s of streaming); load avg: 1-minute, after the run")
     print("| phones | load avg | server CPU | server ms/batch | client CPU | batches sent | acked | refused | p50 | p99 | max | warnings "
           "| warn p50 | warn p99 | samples acked | rows stored |")
@@ -258,7 +262,7 @@ def main() -> None:
         model = Path(folder) / "model.npz"
         truth_model(raw.select_experiment(1)).save(model)
         for phones in (int(n) for n in args.phones.split(",")):
-            r = run(phones, args.seconds, args.batch, rows, rate, model, args.sync, args.clients)
+            r = run(phones, args.seconds, args.batch, rows, rate, model, args.sync, args.clients, args.workers)
             print(f"| {r['phones']} | {os.getloadavg()[0]:.1f} | {r['server_cores']:.2f} | {r['server_ms']:.2f} | {r['client_cores']:.2f} "
                   f"| {r['batches']} | {r['acked']} | {r['refused']} | {r['p50']:.1f} | {r['p99']:.1f} "
                   f"| {r['max']:.0f} | {r['warnings']} | {r['warn_p50']:.1f} | {r['warn_p99']:.1f} "
