@@ -44,12 +44,16 @@ MAX_TEXT = 100
 
 def sample_batch(samples: Mapping[str, Sequence[float]] | np.ndarray, last_time: float | None,
                  where: str) -> np.ndarray:
-    """The batch as an ``(n, len(SAMPLE_COLUMNS))`` float array in :data:`SAMPLE_COLUMNS` order.
+    """The batch as a read-only :class:`CheckedSamples` array ``(n, len(SAMPLE_COLUMNS))`` in
+    :data:`SAMPLE_COLUMNS` order.
 
     ``samples`` maps column names to equal-length sequences (``None`` reads as NaN; ``lat lon speed`` may be
-    left out: no fix), or is such an array already (a batch this function returned, checked again). ``last_time``
-    is the last time stored for the ride (None when it has none yet).
+    left out: no fix), or is such an array (a :class:`CheckedSamples` has passed every check but the time order,
+    which is checked again). ``last_time`` is the last time stored for the ride (None when it has none yet).
     """
+    if isinstance(samples, CheckedSamples) and samples.ndim == 2:
+        check_times(samples[:, 0], last_time, where)
+        return samples
     if isinstance(samples, np.ndarray):
         if samples.ndim != 2 or samples.shape[1] != len(SAMPLE_COLUMNS) or not 1 <= len(samples) <= MAX_BATCH:
             raise InputError(f"{where}: a sample array must have 1 to {MAX_BATCH} rows of {len(SAMPLE_COLUMNS)} "
@@ -59,14 +63,24 @@ def sample_batch(samples: Mapping[str, Sequence[float]] | np.ndarray, last_time:
         table = _sample_table(samples, where)
     check_times(table[:, 0], last_time, where)
     if _within_limits(table):
-        return table
+        return _checked(table)
     for names, bound, unit in ((ACC_CHANNELS, MAX_ACCELERATION, "m/s^2"), (GYRO_CHANNELS, MAX_ROTATION, "rad/s")):
         for name in names:
             column = table[:, SAMPLE_COLUMNS.index(name)]
             bad = ~np.isfinite(column) | (np.abs(column) > bound)
             _refuse(bad, column, where, name, f"send finite values within +-{bound:.4g} {unit}")
     _check_gps(table, where)
-    return table
+    return _checked(table)
+
+
+class CheckedSamples(np.ndarray):
+    """A read-only batch that :func:`sample_batch` returned: its values need no second check."""
+
+
+def _checked(table: np.ndarray) -> CheckedSamples:
+    checked = table.view(CheckedSamples)
+    checked.flags.writeable = False
+    return checked
 
 
 _LOWER = np.array([0.0, *[-MAX_ACCELERATION] * 3, *[-MAX_ROTATION] * 3, -90.0, -180.0, 0.0])
