@@ -24,11 +24,11 @@ class WindowRecorder:
         return "seen"
 
 
-def batch_windows(model, feats):
-    """The batch path's windows of ``feats`` for ``model`` (causal, every ``step``), one per row."""
-    windows = recording_windows(feats, tuple(model.channels), model.window, model.step,
-                                ChannelScaling(tuple(model.channels), model.scale), model.normalisation)
-    return with_affine_row(windows.matrix, model_affine(model)).T
+def batch_windows(dictionary, feats):
+    """The batch path's windows of ``feats`` for the model ``dictionary`` (causal, every ``step``), one per row."""
+    windows = recording_windows(feats, tuple(dictionary.channels), dictionary.window, dictionary.step,
+                                ChannelScaling(tuple(dictionary.channels), dictionary.scale), dictionary.normalisation)
+    return with_affine_row(windows.matrix, model_affine(dictionary)).T
 
 
 @pytest.mark.parametrize("normalisation, step, affine", [("scale", 1, 6.0), ("unit", 3, 0.0)])

@@ -35,16 +35,17 @@ from spotfree.errors import InputError
 from spotfree.signal.complementary import (
     PAPER_KI, PAPER_KP, pi_complementary, pi_complementary_design, stream_coefficients,
 )
+from spotfree.signal.frame import GRAVITY, accel_roll_pitch
 from spotfree.signal.recursions import (
     GRAVITY_PI_PARAMETERS, GRAVITY_PI_STATE, PAPER_PARAMETERS, PAPER_STATE, gravity_pi_run, gravity_pi_update,
     paper_attitude_update,
 )
-from spotfree.signal.frame import GRAVITY, accel_roll_pitch
 
 ORIENTATIONS = ("default", "paper", "vqf")
 """Valid names of the orientation backends."""
 
 TWO_PI = 2.0 * math.pi
+
 
 def _wrap(angle):
     """Angle(s) wrapped to [-pi, pi)."""
@@ -52,7 +53,8 @@ def _wrap(angle):
 
 
 class PaperAttitude:
-    """The paper's filter: eq. (1) on the accelerometer, eq. (3) per angle with body rates ``gyr[0:2]``."""
+    """The paper's filter: eq. (1) on the accelerometer, eq. (3) per angle with body rates ``gyr[0:2]``; batch by
+    ``scipy.signal.lfilter``, streaming compiled (:func:`~spotfree.signal.recursions.paper_attitude_step`)."""
 
     def __init__(self, rate: float, kp: float = PAPER_KP, ki: float = PAPER_KI):
         self.rate = rate
@@ -63,7 +65,7 @@ class PaperAttitude:
 
     @property
     def parameters_(self) -> np.void:
-        """The :data:`PAPER_PARAMETERS` record."""
+        """The :data:`~spotfree.signal.recursions.PAPER_PARAMETERS` record."""
         return self._parameters[0]
 
     def reset(self) -> None:
@@ -87,8 +89,8 @@ class PaperAttitude:
 
 
 def paper_parameters(design) -> np.ndarray:
-    """The :data:`PAPER_PARAMETERS` of a :class:`~spotfree.signal.complementary.PIDesign`, one record in an array
-    (numba takes a one-element array faster than a record)."""
+    """The :data:`~spotfree.signal.recursions.PAPER_PARAMETERS` of a :class:`~spotfree.signal.complementary.PIDesign`,
+    one record in an array (numba takes a one-element array faster than a record)."""
     coefficients, zi = stream_coefficients(design)
     return np.array([(coefficients, zi)], dtype=PAPER_PARAMETERS)
 
@@ -122,6 +124,8 @@ class GravityPI:
     Defaults: ``kp, ki, acc_scale, rate_scale, max_error`` were tuned on the four BROAD trials at 20.4 Hz
     (``benchmarks/tune_orientation.py``); the rest constants are physical (phone gyro noise and bias
     are well below 2 deg/s, 0.5 m/s^2 passes handlebar vibration) and were not tuned.
+
+    :meth:`update` and :meth:`run` run the same compiled step (:func:`~spotfree.signal.recursions.gravity_pi_step`).
     """
 
     def __init__(
@@ -158,7 +162,7 @@ class GravityPI:
 
     @property
     def parameters_(self) -> np.void:
-        """The :data:`GRAVITY_PI_PARAMETERS` record, as read at the last :meth:`reset`."""
+        """The :data:`~spotfree.signal.recursions.GRAVITY_PI_PARAMETERS` record, as read at the last :meth:`reset`."""
         return self._parameters[0]
 
     @property
@@ -169,7 +173,7 @@ class GravityPI:
     def update(self, acc, gyr) -> tuple[float, float]:
         """Roll and pitch (rad) after one sample; ``acc`` (m/s^2) and ``gyr`` (rad/s) body-frame 3-vectors."""
         out = gravity_pi_update(self._parameters, self._state, self._start, float(acc[0]), float(acc[1]),
-                              float(acc[2]), float(gyr[0]), float(gyr[1]), float(gyr[2]))
+                                float(acc[2]), float(gyr[0]), float(gyr[1]), float(gyr[2]))
         self._start = False
         return out
 

@@ -60,15 +60,16 @@ class SpeedAidedParameters:
 
 
 def speed_aided_parameters(rate: float, parameters: SpeedAidedParameters | None = None) -> np.ndarray:
-    """The :data:`SPEED_AIDED_PARAMETERS` for ``rate`` (Hz) and ``parameters`` (defaults when None), one record in an
-    array (numba takes a one-element array faster than a record)."""
+    """The :data:`~spotfree.signal.recursions.SPEED_AIDED_PARAMETERS` for ``rate`` (Hz) and ``parameters`` (defaults
+    when None), one record in an array (numba takes a one-element array faster than a record)."""
     values = vars(parameters or SpeedAidedParameters())
     return np.array([(float(rate), *(float(values[name]) for name in SPEED_AIDED_PARAMETERS.names[1:]))],
                     dtype=SPEED_AIDED_PARAMETERS)
 
 
 class SpeedAidedPitch:
-    """The filter of the module docstring, one sample at a time (compiled: :func:`speed_aided_step`)."""
+    """The filter of the module docstring, one sample at a time (compiled:
+    :func:`~spotfree.signal.recursions.speed_aided_step`)."""
 
     def __init__(self, rate: float, parameters: SpeedAidedParameters | None = None):
         self.rate = float(rate)
@@ -94,7 +95,8 @@ def speed_aided_acceleration(acc: np.ndarray, gyr: np.ndarray, roll: np.ndarray,
                              speed: np.ndarray | None, rate: float,
                              parameters: SpeedAidedParameters | None = None) -> np.ndarray:
     """``(n, 2)`` columns ``a_t`` (m/s^2) and ``theta`` (rad) of one gap-free segment; ``speed`` (m/s) NaN between
-    fixes, or ``None`` without GPS. Runs :func:`speed_aided_step` sample by sample, so batch equals streaming."""
+    fixes, or ``None`` without GPS. Runs :func:`~spotfree.signal.recursions.speed_aided_step` sample by sample, so
+    batch equals streaming."""
     n = len(acc)
     speed = np.full(n, np.nan) if speed is None else np.asarray(speed, dtype=float)
     out = np.empty((n, 2))
