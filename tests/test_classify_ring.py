@@ -8,6 +8,7 @@ from spotfree.classify.base import UNKNOWN
 from spotfree.classify.batch import classify_recording, dictionary_classifier, model_affine
 from spotfree.classify.ring import ModelRing
 from spotfree.classify.stream import PRODUCED, RideClassifier
+from spotfree.errors import InputError
 from spotfree.signal.features import ride_features
 from spotfree.windows import ChannelScaling, recording_windows, with_affine_row
 
@@ -69,3 +70,12 @@ def test_a_classifier_without_a_compiled_path_gets_the_same_windows_and_labels(m
     acc, gyr, speed = ride.array(["ax", "ay", "az"]), ride.array(["gx", "gy", "gz"]), ride.channels["speed"]
     labels = np.array([stream.update(a, w, t, v) or "" for a, w, t, v in zip(acc, gyr, ride.time, speed)])
     np.testing.assert_array_equal(labels, classify_recording(model, ride, method="nearest").label)
+
+
+def test_picks_that_do_not_match_the_model_are_refused(model):
+    with pytest.raises(InputError, match="one index below 13 per channel"):
+        ModelRing([model], [np.array([0])], 13, [dictionary_classifier(model)])
+    with pytest.raises(InputError, match="one index below 13 per channel"):
+        ModelRing([model], [np.array([0, 13])], 13, [dictionary_classifier(model)])
+    with pytest.raises(InputError, match="one channel pick and one classifier per model"):
+        ModelRing([model], [np.array([0, 1])], 13, [])

@@ -135,6 +135,14 @@ class ModelRing:
                  classifiers: Sequence, smoothing: int | None = None):
         from spotfree.classify.crc import CRCClassifier  # here: crc imports crc_window from this module
 
+        if not len(models) == len(picks) == len(classifiers) > 0:
+            raise InputError(f"ModelRing needs one channel pick and one classifier per model, got {len(models)} "
+                             f"models, {len(picks)} picks, {len(classifiers)} classifiers")
+        for model, pick in zip(models, picks):
+            if len(pick) != len(model.channels) or len(model.scale) != len(model.channels) or (
+                    len(pick) and not 0 <= min(pick) <= max(pick) < width):
+                raise InputError(f"ModelRing: a model of channels {','.join(model.channels)} needs one scale and "
+                                 f"one index below {width} per channel, got picks {list(pick)}")
         self.width = width
         self.models_ = np.zeros(len(models), MODEL)
         operators, y = [], 0
