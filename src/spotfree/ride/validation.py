@@ -126,16 +126,18 @@ def _sample_table(samples: Mapping[str, Sequence[float]], where: str) -> np.ndar
 
 def check_times(t: np.ndarray, last_time: float | None, where: str) -> None:
     """Finite, non-negative, strictly increasing times after ``last_time``, at a mean rate of at most MAX_RATE."""
-    steps = np.diff(t)
-    if not (math.isfinite(t[0]) and t[0] >= 0 and math.isfinite(t[-1]) and bool((steps > 0).all())):
+    times = t.tolist()  # a phone's batch is a few samples: plain floats beat array calls
+    if not (math.isfinite(times[0]) and times[0] >= 0 and math.isfinite(times[-1])
+            and all(b > a for a, b in zip(times, times[1:]))):
+        steps = np.diff(t)
         _refuse(~np.isfinite(t) | (t < 0), t, where, "time", "send finite seconds since the ride started")
         _refuse(np.r_[False, ~(steps > 0)], t, where, "time", "times must increase strictly within a batch")
-    if last_time is not None and t[0] <= last_time:
-        raise InputError(f"{where}: field 'time', row 1: {float(t[0])!r} s is not after the last stored time "
+    if last_time is not None and times[0] <= last_time:
+        raise InputError(f"{where}: field 'time', row 1: {times[0]!r} s is not after the last stored time "
                          f"{float(last_time)!r} s; send only new samples, in order")
-    if len(t) > 1 and (len(t) - 1) / (t[-1] - t[0]) > MAX_RATE:
-        raise InputError(f"{where}: field 'time': {len(t)} samples in {t[-1] - t[0]:.6g} s is faster than "
-                         f"{MAX_RATE:g} Hz; send times in seconds")
+    if len(times) > 1 and (len(times) - 1) / (times[-1] - times[0]) > MAX_RATE:
+        raise InputError(f"{where}: field 'time': {len(times)} samples in {times[-1] - times[0]:.6g} s is faster "
+                         f"than {MAX_RATE:g} Hz; send times in seconds")
 
 
 def feature_batch(features: Mapping[str, Sequence[float]] | np.ndarray, n: int, where: str) -> np.ndarray:
