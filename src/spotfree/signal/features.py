@@ -144,6 +144,7 @@ def ride_features(rec: Recording, orientation: str = "default", zero_phase: bool
 _ATTITUDE_KINDS = {"default": 0, "paper": 1}
 """Attitude filters the compiled step runs itself; any other (``vqf``) hands it roll and pitch (kind 2)."""
 
+
 def feature_parameters(rate: float, orientation: str = "default") -> np.ndarray:
     """The :data:`~spotfree.signal.recursions.FEATURE_PARAMETERS` of the causal ride features at ``rate`` Hz with
     ``orientation``, one record in an array (numba takes a one-element array faster than a record)."""
@@ -201,7 +202,7 @@ class FeatureStream:
             m = self.parameters_[0]["mount"]
             roll, pitch = self._attitude.update(m @ (a0, a1, a2), m @ (w0, w1, w2))
         ride_features_update(self.parameters_, self.state_, self._start, a0, a1, a2, w0, w1, w2, speed, roll,
-                              pitch, out)
+                             pitch, out)
         self._start = False
 
 
