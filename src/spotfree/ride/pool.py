@@ -3,8 +3,9 @@ batches and commits them; the web server's process only parses, routes and answe
 
 :class:`RideServicePool` is a :class:`~spotfree.ride.service.RideService` (same methods, same refusals, same
 acknowledgements, the views fed in the server's process) whose rides are opened in ``processes`` worker processes,
-each with its own :class:`~spotfree.ride.service.RideService` and its own connection to the same store (SQLite in
-WAL mode takes one writer at a time, each worker's group commit waits its turn; PostgreSQL takes them together).
+each with its own :class:`~spotfree.ride.service.RideService` and its own connection to the same store. SQLite
+takes one writer at a time: the workers' group commits take turns on one lock (a blocking wait, where SQLite's own
+busy handler would poll with sleeps of up to 100 ms); PostgreSQL takes them together.
 A new ride goes to the worker with the fewest open rides and stays there; every later call on it is sent to that
 worker over a pipe, and the answer comes back once the worker has committed (an acknowledged sample is in the
 store, as in one process). Python runs one thread at a time per process, so this is how the service uses more
@@ -24,8 +25,10 @@ from concurrent.futures import Future
 from spotfree.errors import SpotfreeError
 from spotfree.model import DictionaryModel
 from spotfree.ride.assistant import RideAssistant
+from spotfree.ride.live import LiveRide
 from spotfree.ride.service import RideService
 from spotfree.ride.store import AccessError, RideStore
+from spotfree.signal.frame import GRAVITY
 
 
 class WorkerError(SpotfreeError):
@@ -45,7 +48,8 @@ class RideServicePool(RideService):
         if processes < 1:
             raise ValueError(f"processes={processes}: give at least 1 worker process")
         context = multiprocessing.get_context("spawn")
-        self._workers = [_Worker(context, k, (model, store.location, store.synchronous, model_name,
+        lock = context.Lock()  # the workers take turns at the SQLite file's write lock
+        self._workers = [_Worker(context, k, (model, store.location, store.synchronous, lock, model_name,
                                               assistant)) for k in range(processes)]
         for worker in self._workers:
             worker.ready()
@@ -174,9 +178,17 @@ class _Worker:
             future.set_exception(WorkerError(str(self._stopped)))
 
 
+def _warm_up(service: RideService) -> None:  # pragma: no cover - runs in the worker process
+    """Run a resting phone through a throw-away ride pipeline, so that the compiled kernels are loaded before the
+    worker says it is ready (else the first batches of its first rides wait for them)."""
+    live = LiveRide(service.model, service.classifier)
+    for k in range(2 * service.model.window):
+        live.update(k / service.model.rate, (0.0, GRAVITY, 0.0), (0.0, 0.0, 0.0))
+
+
 def _serve(pipe, service_args: tuple) -> None:  # pragma: no cover - runs in the worker process
     """A worker process: one :class:`RideService` answering the calls of :class:`_Worker` until told to stop."""
-    model, location, synchronous, model_name, assistant = service_args
+    model, location, synchronous, lock, model_name, assistant = service_args
     lock = threading.Lock()
 
     def answer(call_id: int, ok: bool, value) -> None:
@@ -187,8 +199,9 @@ def _serve(pipe, service_args: tuple) -> None:  # pragma: no cover - runs in the
                 pipe.send((call_id, False, WorkerError(f"{type(value).__name__}: {value} ({exc})")))
 
     try:
-        store = RideStore(location, synchronous=synchronous)
+        store = RideStore(location, synchronous=synchronous, lock=lock)
         service = RideService(model, store, model_name, assistant)
+        _warm_up(service)
     except Exception as exc:
         answer(-1, False, exc)
         return

@@ -32,6 +32,7 @@ One store object may be shared between threads: its calls are serialised on one 
 
 from __future__ import annotations
 
+import contextlib
 import sqlite3
 import threading
 import time as clock
@@ -94,9 +95,13 @@ class RideStore:
     synchronous : str
         SQLite only: ``"full"`` (default: a commit survives a power loss) or ``"normal"`` (a commit survives the
         process being killed, not the machine going down).
+    lock : lock, optional
+        Held around each write transaction, e.g. a ``multiprocessing.Lock`` shared by processes that write one
+        SQLite file: they then queue on it instead of polling SQLite's busy lock (which sleeps 1, 2, 5, 10 ... ms
+        between tries).
     """
 
-    def __init__(self, location: str | Path, synchronous: str = "full"):
+    def __init__(self, location: str | Path, synchronous: str = "full", lock=None):
         self.location = str(location)
         if synchronous not in ("full", "normal"):
             raise InputError(f"synchronous={synchronous!r}: use 'full' or 'normal'")
@@ -108,6 +113,7 @@ class RideStore:
         else:
             self._db = SQLiteConnection(self.location, synchronous)
         self._lock = threading.RLock()
+        self._process_lock = lock if lock is not None else contextlib.nullcontext()
         self._writer = GroupCommit(self._transaction)
         with self._transaction() as db:
             for statement in SCHEMA:
@@ -323,7 +329,7 @@ class RideStore:
 
     @contextmanager
     def _transaction(self) -> Iterator:
-        with self._lock, self._db.transaction() as cursor:
+        with self._lock, self._process_lock, self._db.transaction() as cursor:
             yield cursor
 
     def _query(self, sql: str, params: tuple = ()) -> list[tuple]:
