@@ -2,34 +2,48 @@
 
 Models: trained spotting-free by :func:`spotfree.training.train` on development seed 100: braking (default
 configuration, experiment 1 of a normal-braking and of a sudden-braking ride), lateral and road
-(:data:`spotfree.evaluation.lateral_road.MODELS`, experiments 1-4 of their files and of the other scenario's).
+(:data:`spotfree.evaluation.lateral_road.MODELS`, experiments 1-4 of their files and of the other scenario's); or
+loaded from ``--models DIR`` (``braking.npz``, ``lateral.npz``, ``road.npz``, written there when missing).
 Data: two simulated lateral rides (seed 7), raw device-frame IMU at 20 Hz with GPS speed on the fixes.
 
 Rows (single calls timed with ``time.perf_counter_ns`` after a warm-up pass; the passes are interleaved so that all
 rows see the same machine load):
 
-* ``MultiModelStream.update``: one raw sample in, three labels out (one feature pass, three ring buffers and CRCs);
+* ``MultiModelStream.update``: one raw sample in, three labels out (one feature pass, the windows of three models);
 * ``RideClassifier.update`` per model: each model alone, end to end (its own feature pass);
-* ``FeatureStream.update``: the ride features alone (13 channels), the floor under every row.
+* ``FeatureStream.update``: the ride features alone (13 channels), the floor under every row;
+* where the code has them, the two compiled calls inside ``MultiModelStream.update``: ``FeatureStream.step`` (the
+  features into a preallocated vector) and ``ModelRing.push`` (three windows and CRCs on precomputed features).
 
 The three models' stream labels are checked against :func:`spotfree.classify.multi.classify_models`.
+``--baseline REV`` runs the same rows on the same models and rides with spotfree as it was at git revision ``REV``
+(:mod:`baseline`), just before this run's own rows, and prints the ratios. ``--profile`` adds the functions that
+take the most time inside ``MultiModelStream.update`` (cProfile, one pass; the profiler's own cost inflates every
+figure, the shares are what it is for).
 
-Run: ``python benchmarks/multi_model_speed.py [--passes 3]``.
+Run: ``python benchmarks/multi_model_speed.py [--passes 3] [--models DIR] [--baseline REV] [--profile]``.
 """
 
 from __future__ import annotations
 
 import argparse
+import cProfile
 import datetime
+import io
+import json
 import os
 import platform
+import pstats
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 
 from spotfree.classify.multi import MultiModelStream, classify_models
 from spotfree.classify.stream import RideClassifier
 from spotfree.evaluation.lateral_road import MODELS, split
+from spotfree.model import DictionaryModel
 from spotfree.signal.features import FeatureStream, ride_features
 from spotfree.sim.scenarios import CLASSES, simulate_scenario
 from spotfree.training import TrainingConfig, TrainingExperiment, train
@@ -37,6 +51,7 @@ from spotfree.training import TrainingConfig, TrainingExperiment, train
 GOAL_US = 50.0
 """Median per raw sample, end to end, all three models (issue 7)."""
 SEED = 100
+NAMES = ("braking", "lateral", "road")
 
 
 def trained_models() -> dict:
@@ -49,6 +64,15 @@ def trained_models() -> dict:
     return models
 
 
+def load_or_train(folder: Path) -> dict:
+    """The models saved in ``folder``, trained and saved there first when any is missing."""
+    paths = {name: folder / f"{name}.npz" for name in NAMES}
+    if not all(p.exists() for p in paths.values()):
+        for name, model in trained_models().items():
+            model.save(paths[name])
+    return {name: DictionaryModel.load(p) for name, p in paths.items()}
+
+
 def timed(step, samples) -> np.ndarray:
     """Microseconds of each ``step(*sample)`` call."""
     out = np.empty(len(samples))
@@ -59,52 +83,123 @@ def timed(step, samples) -> np.ndarray:
     return out
 
 
+def measure(models: dict, samples: list, passes: int) -> dict[str, np.ndarray]:
+    """Microseconds per call of every row of the module docstring, ``passes`` interleaved passes."""
+    multi = MultiModelStream(models)
+    features = FeatureStream(20.0, derived=True)
+    rows = [("MultiModelStream.update (3 models, end to end)", multi.update, multi.reset, samples)]
+    for name, model in models.items():
+        alone = RideClassifier(model)
+        rows.append((f"RideClassifier.update {name} alone (end to end)", alone.update, alone.reset, samples))
+    rows.append(("FeatureStream.update (features alone)", lambda a, w, t, s: features.update(a, w, s),
+                 features.reset, samples))
+    ring = getattr(multi, "_ring", None)
+    if ring is not None:  # the two compiled calls inside MultiModelStream.update, where the code has them
+        floats = [(*a.tolist(), *w.tolist(), float(s)) for a, w, _, s in samples]
+        out = np.zeros(13)
+        vectors = []
+        for row in floats:
+            features.step(*row, out)
+            vectors.append((out.copy(),))
+        rows.append(("FeatureStream.step (compiled features, no copy)", lambda *row: features.step(*row, out),
+                     features.reset, floats))
+        rows.append(("ModelRing.push (3 windows + CRCs)", ring.push, ring.reset, vectors))
+    for _, step, reset, inputs in rows:  # warm-up: compiled kernels loaded
+        reset()
+        timed(step, inputs[:50])
+    times: dict[str, list[np.ndarray]] = {label: [] for label, *_ in rows}
+    for _ in range(passes):
+        for label, step, reset, inputs in rows:
+            reset()
+            times[label].append(timed(step, inputs))
+    return {label: np.concatenate(parts) for label, parts in times.items()}
+
+
+def profile(models: dict, samples: list, top: int = 12) -> str:
+    """The ``top`` functions by own time inside ``MultiModelStream.update`` over one pass (cProfile)."""
+    multi = MultiModelStream(models)
+    for sample in samples[:50]:
+        multi.update(*sample)
+    multi.reset()
+    profiler = cProfile.Profile()
+    profiler.enable()
+    for sample in samples:
+        multi.update(*sample)
+    profiler.disable()
+    text = io.StringIO()
+    pstats.Stats(profiler, stream=text).sort_stats("tottime").print_stats(top)
+    return "\n".join(line for line in text.getvalue().splitlines() if line.strip())
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--passes", type=int, default=3)
+    parser.add_argument("--models", type=Path, help="folder of braking.npz, lateral.npz, road.npz (written if missing)")
+    parser.add_argument("--baseline", help="git revision whose spotfree runs the same rows first, for ratios")
+    parser.add_argument("--profile", action="store_true", help="cProfile of MultiModelStream.update, one pass")
+    parser.add_argument("--json", action="store_true", help="print only the figures, as JSON (used by --baseline)")
     args = parser.parse_args()
-    start = time.perf_counter()
-    models = trained_models()
-    trained_s = time.perf_counter() - start
-    rides = simulate_scenario("lateral", repeats=2, seed=7)
-    samples = list(zip(rides.array(["ax", "ay", "az"]), rides.array(["gx", "gy", "gz"]), rides.time,
-                       rides.channels["speed"]))
-    print(f"# multi_model_speed {datetime.date.today()}: {platform.processor() or platform.machine()}, "
-          f"{os.cpu_count()} cores (shared), load average {os.getloadavg()[0]:.1f}; Python {platform.python_version()},"
-          f" numpy {np.__version__}; OPENBLAS_CORETYPE {os.environ.get('OPENBLAS_CORETYPE', 'not set')}")
+    with tempfile.TemporaryDirectory() as scratch:
+        start = time.perf_counter()
+        models = load_or_train(args.models or Path(scratch))
+        trained_s = time.perf_counter() - start
+        rides = simulate_scenario("lateral", repeats=2, seed=7)
+        samples = list(zip(rides.array(["ax", "ay", "az"]), rides.array(["gx", "gy", "gz"]), rides.time,
+                           rides.channels["speed"]))
+        if args.json:
+            rows = measure(models, samples, args.passes)
+            figures = {label: [len(us), *np.percentile(us, [50, 90, 99]).tolist()] for label, us in rows.items()}
+            print(json.dumps({"load": os.getloadavg()[0], "rows": figures,
+                              "profile": profile(models, samples) if args.profile else ""}))
+            return
+        old = None
+        if args.baseline:
+            from baseline import run_at_revision
+
+            flags = ["--json", "--passes", str(args.passes), "--models", str(args.models or Path(scratch))]
+            old = run_at_revision(args.baseline, __file__, flags + (["--profile"] if args.profile else []))
+        load = os.getloadavg()[0]
+        rows = measure(models, samples, args.passes)
+        report(args, models, samples, rows, load, trained_s, old)
+        if args.profile:
+            if old is not None:
+                print(f"\ncProfile of MultiModelStream.update at {args.baseline} (one pass):\n\n{old['profile']}")
+            print(f"\ncProfile of MultiModelStream.update, this tree (one pass):\n\n{profile(models, samples)}")
+
+
+def report(args, models: dict, samples: list, rows: dict, load: float, trained_s: float, old: dict | None) -> None:
+    """Print the header, the table (with the baseline's figures and ratios when given) and the conclusions."""
+    print(f"# multi_model_speed {datetime.datetime.now():%Y-%m-%d %H:%M}: {platform.processor() or platform.machine()}"
+          f", {os.cpu_count()} cores (shared), load average {load:.1f}; Python {platform.python_version()}, numpy "
+          f"{np.__version__}; OPENBLAS_CORETYPE {os.environ.get('OPENBLAS_CORETYPE', 'not set')}")
     for name, m in models.items():
         print(f"model {name}: channels {','.join(m.channels)}, window {m.window}, {m.dictionary.shape[1]} columns, "
               f"classes {', '.join(map(str, m.classes))}")
-    print(f"rides: {len(samples)} samples at 20 Hz; training the three models took {trained_s:.0f} s")
+    print(f"rides: {len(samples)} samples at 20 Hz; models ready in {trained_s:.0f} s")
+    if old is not None:
+        print(f"baseline: spotfree at {args.baseline}, measured just before, load average {old['load']:.1f}")
 
-    table = classify_models(models, rides)
+    table = classify_models(models, simulate_scenario("lateral", repeats=2, seed=7))
     multi = MultiModelStream(models)
     got = [multi.update(*s) for s in samples]
     differ = sum(int(np.sum(np.array(["" if g[k] is None else g[k] for g in got]) != table[name].to_numpy()))
                  for k, name in enumerate(multi.names))
 
-    rows: dict[str, list[np.ndarray]] = {}
-    singles = {name: RideClassifier(m) for name, m in models.items()}
-    features = FeatureStream(20.0, derived=True)
-    for _ in range(args.passes):
-        multi.reset()
-        rows.setdefault("MultiModelStream.update (3 models, end to end)", []).append(
-            timed(lambda a, w, t, s: multi.update(a, w, t, s), samples))
-        for name, clf in singles.items():
-            clf.reset()
-            rows.setdefault(f"RideClassifier.update {name} alone (end to end)", []).append(
-                timed(lambda a, w, t, s: clf.update(a, w, t, s), samples))
-        features.reset()
-        rows.setdefault("FeatureStream.update (features alone)", []).append(
-            timed(lambda a, w, t, s: features.update(a, w, s), samples))
-    floor = float(np.median(np.concatenate(rows["FeatureStream.update (features alone)"])))
-    print("\n| path | calls | median (us) | p90 (us) | p99 (us) | median / FeatureStream |")
-    print("|---|---:|---:|---:|---:|---:|")
-    for label, parts in rows.items():
-        us = np.concatenate(parts)
+    floor = float(np.median(rows["FeatureStream.update (features alone)"]))
+    head = "| path | calls | median (us) | p90 (us) | p99 (us) | median / FeatureStream |"
+    rule = "|---|---:|---:|---:|---:|---:|"
+    if old is not None:
+        head += f" median at {args.baseline} (us) | p99 at {args.baseline} (us) | median speed-up |"
+        rule += "---:|---:|---:|"
+    print(f"\n{head}\n{rule}")
+    for label, us in rows.items():
         p50, p90, p99 = np.percentile(us, [50, 90, 99])
-        print(f"| {label} | {len(us)} | {p50:.1f} | {p90:.1f} | {p99:.1f} | {p50 / floor:.2f} |")
-    multi_median = float(np.median(np.concatenate(rows["MultiModelStream.update (3 models, end to end)"])))
+        line = f"| {label} | {len(us)} | {p50:.1f} | {p90:.1f} | {p99:.1f} | {p50 / floor:.2f} |"
+        if old is not None:
+            before = old["rows"].get(label)
+            line += (f" {before[1]:.1f} | {before[3]:.1f} | {before[1] / p50:.1f}x |" if before else " | | |")
+        print(line)
+    multi_median = float(np.median(rows["MultiModelStream.update (3 models, end to end)"]))
     print(f"\n- three models end to end: median {multi_median:.1f} us per raw sample "
           f"({'within' if multi_median <= GOAL_US else 'beyond'} the {GOAL_US:.0f} us goal)")
     print(f"- stream labels differing from the batch table (3 models x {len(samples)} samples): {differ}")

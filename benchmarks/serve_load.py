@@ -30,6 +30,7 @@ import argparse
 import asyncio
 import json
 import math
+import multiprocessing
 import os
 import platform
 import signal
@@ -44,6 +45,7 @@ from pathlib import Path
 
 import httpx
 import numpy as np
+import orjson
 from websockets.asyncio.client import connect
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
@@ -60,10 +62,11 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def _start_server(folder: Path, model: Path, sync: str) -> tuple[subprocess.Popen, str]:
+def _start_server(folder: Path, model: Path, sync: str, workers: int) -> tuple[subprocess.Popen, str]:
     port = _free_port()
     server = subprocess.Popen([sys.executable, "-m", "spotfree.cli", "serve", "--port", str(port), "--database",
-                               str(folder / "rides.db"), "--model", str(model), "--sync", sync],
+                               str(folder / "rides.db"), "--model", str(model), "--sync", sync,
+                               "--workers", str(workers)],
                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     url = f"http://127.0.0.1:{port}"
     deadline = time.monotonic() + 60
@@ -80,40 +83,42 @@ def _start_server(folder: Path, model: Path, sync: str) -> tuple[subprocess.Pope
 
 
 class Phone:
-    """One simulated phone: its ride's rows (time from 0), what it sent and what came back."""
+    """One simulated phone: its batches as JSON text (encoded before the run), what it sent and what came back."""
 
-    def __init__(self, token: str, rows: np.ndarray):
-        self.token, self.rows = token, rows
+    def __init__(self, token: str, rows: np.ndarray, per_batch: int, n_batches: int):
+        self.token = token
+        self.messages = [json.dumps({"type": "batch", "seq": k, "samples": {
+            name: [None if math.isnan(v) else float(v) for v in rows[k * per_batch:(k + 1) * per_batch, j]]
+            for j, name in enumerate(SAMPLE_COLUMNS)}}) for k in range(n_batches)]
         self.sent: dict[int, float] = {}
         self.acked = 0
         self.ack_ms: list[float] = []
         self.warn_ms: list[float] = []
         self.refused: list[str] = []
 
-    async def ride(self, url: str, start: float, seconds: float, batch: float, rate: float) -> None:
-        per_batch = round(batch * rate)
-        async with connect(url.replace("http", "ws") + "/ws/ride", max_size=2**22) as ws:
-            await ws.send(json.dumps({"type": "start", "token": self.token, "vehicle": "segway", "rider_id": "load"}))
-            json.loads(await ws.recv())
-            receiver = asyncio.create_task(self._receive(ws))
-            loop = asyncio.get_running_loop()
-            n_batches = int(seconds / batch)
-            for k in range(n_batches):
-                await asyncio.sleep(max(0.0, start + (k + 1) * batch - loop.time()))
-                rows = self.rows[k * per_batch:(k + 1) * per_batch]
-                samples = {name: [None if math.isnan(v) else float(v) for v in rows[:, j]]
-                           for j, name in enumerate(SAMPLE_COLUMNS)}
-                self.sent[k] = time.perf_counter()
-                await ws.send(json.dumps({"type": "batch", "seq": k, "samples": samples}))
-            deadline = time.perf_counter() + 30
-            while len(self.ack_ms) + len(self.refused) < n_batches and time.perf_counter() < deadline:
-                await asyncio.sleep(0.05)
-            receiver.cancel()
+    async def connect(self, url: str):
+        ws = await connect(url.replace("http", "ws") + "/ws/ride", max_size=2**22)
+        await ws.send(json.dumps({"type": "start", "token": self.token, "vehicle": "segway", "rider_id": "load"}))
+        json.loads(await ws.recv())
+        return ws
+
+    async def ride(self, ws, start: float, batch: float) -> None:
+        receiver = asyncio.create_task(self._receive(ws))
+        loop = asyncio.get_running_loop()
+        for k, message in enumerate(self.messages):
+            await asyncio.sleep(max(0.0, start + (k + 1) * batch - loop.time()))
+            self.sent[k] = time.perf_counter()
+            await ws.send(message)
+        deadline = time.perf_counter() + 30
+        while len(self.ack_ms) + len(self.refused) < len(self.messages) and time.perf_counter() < deadline:
+            await asyncio.sleep(0.05)
+        receiver.cancel()
+        await ws.close()
 
     async def _receive(self, ws) -> None:
         async for raw in ws:
             now = time.perf_counter()
-            reply = json.loads(raw)
+            reply = orjson.loads(raw)
             if reply.get("type") == "ack":
                 ms = 1000.0 * (now - self.sent[reply["seq"]])
                 self.ack_ms.append(ms)
@@ -122,6 +127,30 @@ class Phone:
                     self.warn_ms.append(ms)
             elif reply.get("type") == "error":
                 self.refused.append(reply["message"])
+
+    def result(self) -> dict:
+        return {"sent": len(self.sent), "acked": self.acked, "ack_ms": self.ack_ms, "warn_ms": self.warn_ms,
+                "refused": self.refused}
+
+
+async def _crowd(url: str, phones: list[Phone], spread: float, batch: float, barrier) -> float:
+    """Connect every phone and start its ride, wait for the other client processes, then stream; the CPU seconds
+    this process spent streaming."""
+    sockets = [await p.connect(url) for p in phones]
+    await asyncio.to_thread(barrier.wait)
+    cpu = time.process_time()
+    start = asyncio.get_running_loop().time() + 0.5
+    await asyncio.gather(*(p.ride(ws, start + spread * k / len(phones), batch)
+                           for k, (p, ws) in enumerate(zip(phones, sockets))))
+    return time.process_time() - cpu
+
+
+def _client(url: str, jobs: list[tuple[str, np.ndarray]], per_batch: int, n_batches: int, spread: float,
+            batch: float, barrier, results) -> None:
+    """One client process: its share of the phones on one event loop; their results onto ``results``."""
+    phones = [Phone(token, rows, per_batch, n_batches) for token, rows in jobs]
+    cpu = asyncio.run(_crowd(url, phones, spread, batch, barrier))
+    results.put((cpu, [p.result() for p in phones]))
 
 
 async def _warm_up(client: httpx.AsyncClient, rows: np.ndarray) -> None:
@@ -137,44 +166,75 @@ async def _warm_up(client: httpx.AsyncClient, rows: np.ndarray) -> None:
     await client.post(f"/api/rides/{ride['ride_id']}/end", headers=headers)
 
 
-async def _load(url: str, phones: int, seconds: float, batch: float, rows: np.ndarray, rate: float) -> list[Phone]:
+async def _devices(url: str, phones: int, rows: np.ndarray) -> list[str]:
     async with httpx.AsyncClient(base_url=url) as client:
         await _warm_up(client, rows)
-        tokens = [(await client.post("/api/devices", json={"name": f"load-{k}"})).json()["token"]
-                  for k in range(phones)]
+        return [(await client.post("/api/devices", json={"name": f"load-{k}"})).json()["token"]
+                for k in range(phones)]
+
+
+def _cpu_seconds(pid: int) -> float:
+    """User + system CPU seconds so far of a process and its child processes (the server's ride workers)."""
+    children = [int(c) for task in Path(f"/proc/{pid}/task").iterdir()
+                for c in (task / "children").read_text().split()]
+    fields = Path(f"/proc/{pid}/stat").read_text().rpartition(")")[2].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK") + sum(_cpu_seconds(c) for c in children)
+
+
+def _stream(url: str, server_pid: int, tokens: list[str], seconds: float, batch: float, rows: np.ndarray,
+            rate: float, clients: int) -> tuple[list[dict], float, float, float]:
+    """Run the phones in ``clients`` processes; their results, and the CPU seconds of the server and of the
+    clients over the streaming, and its wall-clock seconds."""
     rng = np.random.default_rng(0)
     span = int((seconds + 1) * rate)
-    crowd = []
+    jobs = []
     for token in tokens:
         offset = int(rng.integers(0, len(rows) - span))
         part = rows[offset:offset + span].copy()
         part[:, 0] -= part[0, 0]
-        crowd.append(Phone(token, part))
-    start = asyncio.get_running_loop().time() + 1.0
-    await asyncio.gather(*(p.ride(url, start + batch * k / phones, seconds, batch, rate)
-                           for k, p in enumerate(crowd)))
-    return crowd
+        jobs.append((token, part))
+    context = multiprocessing.get_context("spawn")
+    barrier, results = context.Barrier(clients + 1), context.Queue()
+    per_batch, n_batches = round(batch * rate), int(seconds / batch)
+    workers = [context.Process(target=_client, args=(url, jobs[c::clients], per_batch, n_batches, batch, batch,
+                                                     barrier, results)) for c in range(clients)]
+    for w in workers:
+        w.start()
+    barrier.wait()
+    cpu0, wall0 = _cpu_seconds(server_pid), time.perf_counter()
+    client_cpu, out = 0.0, []
+    for _ in workers:
+        cpu, phones = results.get()
+        client_cpu, out = client_cpu + cpu, out + phones
+    server_cpu, wall = _cpu_seconds(server_pid) - cpu0, time.perf_counter() - wall0
+    for w in workers:
+        w.join()
+    return out, server_cpu, client_cpu, wall
 
 
 def run(phones: int, seconds: float, batch: float, rows: np.ndarray, rate: float, model: Path,
-        sync: str = "full") -> dict:
+        sync: str = "full", clients: int = 1, workers: int = 0) -> dict:
     with tempfile.TemporaryDirectory() as folder:
-        server, url = _start_server(Path(folder), model, sync)
+        server, url = _start_server(Path(folder), model, sync, workers)
         try:
-            crowd = asyncio.run(_load(url, phones, seconds, batch, rows, rate))
+            tokens = asyncio.run(_devices(url, phones, rows))
+            crowd, server_cpu, client_cpu, wall = _stream(url, server.pid, tokens, seconds, batch, rows, rate,
+                                                          clients)
         finally:
             server.send_signal(signal.SIGINT)
             server.wait(30)
         with sqlite3.connect(Path(folder) / "rides.db") as db:
             stored = db.execute("SELECT COUNT(*) FROM samples").fetchone()[0] - 100  # less the warm-up ride
-    ack = np.concatenate([p.ack_ms for p in crowd])
-    warn = np.concatenate([p.warn_ms for p in crowd]) if any(p.warn_ms for p in crowd) else np.array([])
-    sent = sum(len(p.sent) for p in crowd)
-    return {"phones": phones, "batches": sent, "acked": len(ack), "refused": sum(len(p.refused) for p in crowd),
+    ack = np.concatenate([p["ack_ms"] for p in crowd])
+    warn = np.concatenate([p["warn_ms"] for p in crowd])
+    return {"phones": phones, "batches": sum(p["sent"] for p in crowd), "acked": len(ack),
+            "refused": sum(len(p["refused"]) for p in crowd),
             "p50": float(np.percentile(ack, 50)), "p99": float(np.percentile(ack, 99)), "max": float(ack.max()),
             "warnings": len(warn), "warn_p50": float(np.percentile(warn, 50)) if len(warn) else math.nan,
             "warn_p99": float(np.percentile(warn, 99)) if len(warn) else math.nan,
-            "acked_samples": sum(p.acked for p in crowd), "stored": stored}
+            "acked_samples": sum(p["acked"] for p in crowd), "stored": stored,
+            "server_cores": server_cpu / wall, "client_cores": client_cpu / wall,
+            "server_ms": 1000.0 * server_cpu / max(len(ack), 1)}
 
 
 def main() -> None:
@@ -183,6 +243,8 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=15.0)
     parser.add_argument("--batch", type=float, default=0.25, help="s of samples per batch (the page sends 0.25)")
     parser.add_argument("--sync", default="full", choices=("full", "normal"), help="spotfree serve --sync")
+    parser.add_argument("--clients", type=int, default=2, help="client processes the phones are spread over")
+    parser.add_argument("--workers", type=int, default=0, help="spotfree serve --workers (ride worker processes)")
     args = parser.parse_args()
     raw = rides(seed=1, repeats=2)
     rows = recording_rows(raw.select_experiment(2))
@@ -190,20 +252,21 @@ def main() -> None:
     print(f"# serve_load: {platform.node()} {platform.machine()}, {os.cpu_count()} cores, Python "
           f"{platform.python_version()}, {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC")
     print(f"# {args.seconds:g} s per N, {rate:g} Hz, batches of {args.batch:g} s, SQLite synchronous={args.sync.upper()}, "
-          "latency in ms from sending a batch to its acknowledgement")
-    print("| phones | load avg | batches sent | acked | refused | p50 | p99 | max | warnings | warn p50 | warn p99 "
-          "| samples acked | rows stored |")
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+          f"spotfree serve --workers {args.workers}, phones in {args.clients} client process(es); latency in ms from sending a batch to its acknowledgement; "
+          "server and client CPU in cores (CPU s per s of streaming); load avg: 1-minute, after the run")
+    print("| phones | load avg | server CPU | server ms/batch | client CPU | batches sent | acked | refused | p50 | p99 | max | warnings "
+          "| warn p50 | warn p99 | samples acked | rows stored |")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     best = 0
     with tempfile.TemporaryDirectory() as folder:
         model = Path(folder) / "model.npz"
         truth_model(raw.select_experiment(1)).save(model)
         for phones in (int(n) for n in args.phones.split(",")):
-            load = os.getloadavg()[0]
-            r = run(phones, args.seconds, args.batch, rows, rate, model, args.sync)
-            print(f"| {r['phones']} | {load:.1f} | {r['batches']} | {r['acked']} | {r['refused']} | {r['p50']:.1f} | "
-                  f"{r['p99']:.1f} | {r['max']:.0f} | {r['warnings']} | {r['warn_p50']:.1f} | {r['warn_p99']:.1f} | "
-                  f"{r['acked_samples']} | {r['stored']} |", flush=True)
+            r = run(phones, args.seconds, args.batch, rows, rate, model, args.sync, args.clients, args.workers)
+            print(f"| {r['phones']} | {os.getloadavg()[0]:.1f} | {r['server_cores']:.2f} | {r['server_ms']:.2f} | {r['client_cores']:.2f} "
+                  f"| {r['batches']} | {r['acked']} | {r['refused']} | {r['p50']:.1f} | {r['p99']:.1f} "
+                  f"| {r['max']:.0f} | {r['warnings']} | {r['warn_p50']:.1f} | {r['warn_p99']:.1f} "
+                  f"| {r['acked_samples']} | {r['stored']} |", flush=True)
             whole = r["acked"] == r["batches"] and r["stored"] == r["acked_samples"]
             if whole and r["p99"] < LIMIT_MS:
                 best = phones

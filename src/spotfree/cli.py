@@ -266,6 +266,8 @@ def serve(
     seed: int = typer.Option(0, "--seed", help="seed of --simulate"),
     sync: str = typer.Option("full", "--sync", help="SQLite durability of an acknowledged sample: full (survives "
                              "a power loss) | normal (survives the server being killed; faster)"),
+    workers: int = typer.Option(0, "--workers", min=0, help="classify and record rides in this many worker "
+                                "processes (0: in the server's process)"),
 ) -> None:
     """The live ride assistant: phone page (/), rider view (/rider), operator view (/operator)."""
     from spotfree.ride.server import run_server
@@ -274,7 +276,8 @@ def serve(
         raise InputError(f"--sync {sync}: use full or normal")
 
     run_server(host=host, port=port, database=database, https=https, replay=replay, simulate=simulate,
-               model_path=model_path, speed=speed, seed=seed, say=err.print, synchronous=sync)
+               model_path=model_path, speed=speed, seed=seed, say=err.print, synchronous=sync,
+               workers=workers)
 
 
 @hand_app.command("simulate")

@@ -13,7 +13,8 @@ Batch: the ``C`` operators stacked, ``E = [E_1; ...; E_C]`` ``(C d, d)``, turn a
 product ``Z = Y E^T`` (``2 C d^2`` flops per window, BLAS), then the norm of each ``d``-block of each row of ``Z``
 is taken. Chunks keep ``Z`` in cache; threads take whole chunks, each with a single-threaded BLAS (on a shared
 machine this was 4x faster than one multithreaded BLAS call per chunk, BENCHMARKS.md). Streaming (:meth:`CRCClassifier.predict_one`): one compiled
-kernel computes the ``C`` norms of ``E y`` and the argmin for a single window, without numpy's per-call overhead.
+kernel (:func:`~spotfree.classify.ring.crc_window`) computes the ``C`` norms of ``E y`` and the argmin for a single
+window, without numpy's per-call overhead.
 """
 
 from __future__ import annotations
@@ -22,20 +23,17 @@ import os
 from concurrent.futures import ThreadPoolExecutor
 from functools import lru_cache
 
-import numba
 import numpy as np
 from sklearn.utils.validation import check_is_fitted
 from threadpoolctl import ThreadpoolController
 
 from spotfree.classify.base import UNKNOWN, ResidualClassifier
+from spotfree.classify.ring import crc_window
 from spotfree.errors import InputError
 
 DTYPES = ("float64", "float32")
 CHUNK_BYTES = 1 << 20
 """Size of one chunk's product ``Z`` (bytes): it stays in the 2 MiB L2 cache of the reference machine."""
-
-# Reassociation lets the compiler vectorise the sums; no finite-math flags, so NaN checks stay.
-_FAST = {"reassoc", "contract", "nsz", "arcp"}
 
 
 class CRCClassifier(ResidualClassifier):
@@ -110,7 +108,7 @@ class CRCClassifier(ResidualClassifier):
         if y.shape != (operator.shape[1],):
             raise InputError(f"CRCClassifier.predict_one takes one window of shape ({operator.shape[1]},) (window "
                              f"length times channels, as the dictionary was trained), got shape {y.shape}")
-        best, ratio = _one_window(operator, len(self.classes_), y)
+        best, ratio = crc_window(operator, len(self.classes_), y)
         if best < 0:
             raise InputError("CRCClassifier.predict_one: the window holds NaN or infinity; give finite values "
                              "(cut windows inside gap-free stretches)")
@@ -123,27 +121,3 @@ class CRCClassifier(ResidualClassifier):
 def _blas() -> ThreadpoolController:
     """The process's thread pools (found once: the search takes milliseconds)."""
     return ThreadpoolController()
-
-
-@numba.njit(cache=True, nogil=True, fastmath=_FAST)
-def _one_window(operator, n_classes, y):  # pragma: no cover - compiled
-    """Best class of ``y`` under the stacked operator ``(C d, d)`` and ``min_i r_i / ||y||``; ``-1`` if not finite."""
-    d = y.shape[0]
-    norm2 = 0.0
-    for j in range(d):
-        norm2 += y[j] * y[j]
-    if not np.isfinite(norm2):
-        return -1, np.nan
-    best, best_r2 = 0, np.inf
-    for c in range(n_classes):
-        r2 = 0.0
-        for i in range(c * d, (c + 1) * d):
-            row = operator[i]
-            e = 0.0
-            for j in range(d):
-                e += row[j] * y[j]
-            r2 += e * e
-        if r2 < best_r2:
-            best, best_r2 = c, r2
-    ratio = np.sqrt(best_r2 / norm2) if norm2 > 0 else np.inf
-    return best, ratio

@@ -3,9 +3,10 @@
 The ride features (:func:`~spotfree.signal.features.ride_features` with the derived channels, or one
 :class:`~spotfree.signal.features.FeatureStream` when streaming) are computed once for all models, so the models must
 share the rate and the attitude filter. Each model then keeps its own channels, window, step and classifier: in
-batch :func:`~spotfree.classify.batch.classify_recording` on the shared features, in streaming one
-:class:`~spotfree.classify.stream.RideClassifier` per model fed with its channels of the shared feature vector. The
-labels of :class:`MultiModelStream` equal the causal labels of :func:`classify_models` sample for sample.
+batch :func:`~spotfree.classify.batch.classify_recording` on the shared features; in streaming one ring buffer of
+feature vectors serves every model (:class:`~spotfree.classify.ring.ModelRing`), so a sample costs one compiled
+feature step and one compiled call that windows and classifies each due model. The labels of
+:class:`MultiModelStream` equal the causal labels of :func:`classify_models` sample for sample.
 """
 
 from __future__ import annotations
@@ -17,16 +18,15 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
-from spotfree.classify.batch import classify_recording
-from spotfree.classify.stream import MAX_GAP, RideClassifier
+from spotfree.classify.batch import classify_recording, dictionary_classifier
+from spotfree.classify.ring import ModelRing
+from spotfree.classify.smoothing import check_smoothing
+from spotfree.classify.stream import MAX_GAP, PRODUCED
 from spotfree.errors import InputError
 from spotfree.io.checks import write_text
 from spotfree.io.recording import Recording
 from spotfree.model import DictionaryModel
-from spotfree.signal.features import DERIVED_CHANNELS, FEATURE_CHANNELS, FeatureStream, ride_features
-
-PRODUCED = FEATURE_CHANNELS + DERIVED_CHANNELS
-"""The channels of one feature pass, in :meth:`FeatureStream.update` order."""
+from spotfree.signal.features import FeatureStream, imu_floats, ride_features
 
 
 def model_names(paths) -> list[str]:
@@ -101,18 +101,23 @@ class MultiModelStream:
             raise InputError("MultiModelStream runs models of ride features on raw IMU samples; these models were "
                              "trained on other channels")
         classifiers = classifiers or {}
+        unknown = sorted({c for m in models.values() for c in m.channels} - set(PRODUCED))
+        if unknown:
+            raise InputError(f"model channel(s) {', '.join(unknown)} are not ride features ({', '.join(PRODUCED)})")
         self.names = tuple(models)
         self.max_gap = max_gap
         self._features = FeatureStream(first.rate, first.orientation, derived=True)
-        self._models = [RideClassifier(m, method, smoothing, classifier=classifiers.get(n)) for n, m in models.items()]
-        self._picks = [np.array([PRODUCED.index(c) for c in m.channels]) for m in models.values()]
+        self._values = np.zeros(len(PRODUCED))
+        fitted = [dictionary_classifier(m, method) if classifiers.get(n) is None else classifiers[n]
+                  for n, m in models.items()]
+        picks = [np.array([PRODUCED.index(c) for c in m.channels]) for m in models.values()]
+        self._ring = ModelRing(list(models.values()), picks, len(PRODUCED), fitted, check_smoothing(smoothing))
         self._time: float | None = None
 
     def reset(self) -> None:
         """Start a new segment for every model (at a gap or a new ride)."""
         self._features.reset()
-        for model in self._models:
-            model.reset()
+        self._ring.reset()
 
     def update(self, acc, gyr, t: float | None = None, speed: float = math.nan) -> tuple[str | None, ...]:
         """The label of every model (in :attr:`names` order; None before its first full window) at this sample.
@@ -121,15 +126,13 @@ class MultiModelStream:
         out of the screen); ``t`` (s), optional: a step longer than ``max_gap`` or not forward starts a segment;
         ``speed``: GPS speed (m/s) on a fix, NaN otherwise.
         """
-        a0, a1, a2 = float(acc[0]), float(acc[1]), float(acc[2])
-        w0, w1, w2 = float(gyr[0]), float(gyr[1]), float(gyr[2])
-        finite = math.isfinite(a0 + a1 + a2 + w0 + w1 + w2)
+        a0, a1, a2, w0, w1, w2 = imu_floats(acc, gyr)
         if t is not None:
             previous, self._time = self._time, float(t)
             if previous is not None and not 0 < self._time - previous <= self.max_gap:
                 self.reset()
-        if not finite:
+        if not math.isfinite(a0 + a1 + a2 + w0 + w1 + w2):
             self.reset()
-            return (None,) * len(self._models)
-        feats = self._features.update((a0, a1, a2), (w0, w1, w2), speed)
-        return tuple(model.update_features(feats[pick]) for model, pick in zip(self._models, self._picks))
+            return (None,) * len(self.names)
+        self._features.step(a0, a1, a2, w0, w1, w2, float(speed), self._values)
+        return tuple(self._ring.push(self._values))

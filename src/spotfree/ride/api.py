@@ -27,12 +27,13 @@ Refusals: 400 bad input, 401 no or unknown token, 403 a ride of another device, 
 
 from __future__ import annotations
 
-import json
+import inspect
 import math
 from importlib.resources import files
 from pathlib import Path
 
 from fastapi import FastAPI, HTTPException, Request, WebSocket, WebSocketDisconnect
+import orjson
 from fastapi.responses import FileResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 from starlette.concurrency import run_in_threadpool
@@ -58,8 +59,11 @@ def _status(exc: Exception) -> int:
 
 
 async def _call(function, *args, **kwargs):
-    """Run a blocking service call in the thread pool; refusals become HTTP errors (429 with Retry-After)."""
+    """Await a service coroutine, or run a blocking service call in the thread pool; refusals become HTTP errors
+    (429 with Retry-After)."""
     try:
+        if inspect.iscoroutinefunction(function):
+            return await function(*args, **kwargs)
         return await run_in_threadpool(function, *args, **kwargs)
     except (SpotfreeError, ValueError) as exc:
         headers = {"Retry-After": str(math.ceil(exc.retry_after))} if isinstance(exc, RateError) else None
@@ -81,16 +85,20 @@ async def _body(request: Request) -> dict:
     if len(raw) > MAX_BODY:
         raise HTTPException(413, f"body of {len(raw)} bytes; send at most {MAX_BODY}")
     try:
-        body = json.loads(raw or b"{}", parse_constant=_no_constant)
-    except (json.JSONDecodeError, ValueError) as exc:
-        raise HTTPException(400, f"body is not JSON: {exc}") from None
+        body = _json(raw or b"{}")
+    except InputError as exc:
+        raise HTTPException(400, f"body {exc}") from None
     if not isinstance(body, dict):
         raise HTTPException(400, "body must be a JSON object")
     return body
 
 
-def _no_constant(name: str):
-    raise ValueError(f"{name} is not allowed; send finite numbers or null")
+def _json(raw: bytes | str):
+    """Strict JSON (orjson): NaN and Infinity are refused (InputError)."""
+    try:
+        return orjson.loads(raw)
+    except orjson.JSONDecodeError as exc:
+        raise InputError(f"is not JSON ({exc}); send finite numbers or null, no NaN or Infinity") from None
 
 
 def _clean(value):
@@ -136,7 +144,7 @@ def create_app(service: RideService) -> FastAPI:
     @app.post("/api/rides/{ride_id}/samples")
     async def samples(ride_id: str, request: Request):
         body, token = await _body(request), _token(request)
-        return await _call(service.ingest, token, ride_id, body.get("samples"))
+        return await _call(service.ingest_async, token, ride_id, body.get("samples"))
 
     @app.post("/api/rides/{ride_id}/destination")
     async def destination(ride_id: str, request: Request):
@@ -179,7 +187,7 @@ def create_app(service: RideService) -> FastAPI:
         columns = resampler.add(readings)
         if not columns["time"]:
             return {"ride_id": ride_id, "count": 0}
-        ack = await _call(service.ingest, token, ride_id, columns)
+        ack = await _call(service.ingest_async, token, ride_id, columns)
         return {"ride_id": ride_id, **ack}
 
     @app.websocket("/ws/ride")
@@ -192,7 +200,7 @@ def create_app(service: RideService) -> FastAPI:
                 reply = await _ws_message(service, raw, token, ride_id)
                 if reply.get("type") in ("started", "resumed"):
                     token, ride_id = reply.pop("_token"), reply["ride_id"]
-                await websocket.send_json(reply)
+                await websocket.send_text(orjson.dumps(reply, option=orjson.OPT_SERIALIZE_NUMPY).decode())
         except WebSocketDisconnect:
             return
 
@@ -219,9 +227,9 @@ async def _ws_message(service: RideService, raw: str, token: str | None, ride_id
         if len(raw) > MAX_BODY:
             raise InputError(f"message of {len(raw)} bytes; send at most {MAX_BODY}")
         try:
-            message = json.loads(raw, parse_constant=_no_constant)
-        except (json.JSONDecodeError, ValueError) as exc:
-            raise InputError(f"message is not JSON: {exc}") from None
+            message = _json(raw)
+        except InputError as exc:
+            raise InputError(f"message {exc}") from None
         if not isinstance(message, dict):
             raise InputError("a message must be a JSON object with a 'type'")
         kind, seq = message.get("type"), message.get("seq")
@@ -237,7 +245,7 @@ async def _ws_message(service: RideService, raw: str, token: str | None, ride_id
         if ride_id is None:
             raise AccessError("no ride on this connection; send a 'start' or 'resume' message first")
         if kind == "batch":
-            ack = await run_in_threadpool(service.ingest, token, ride_id, message.get("samples"))
+            ack = await service.ingest_async(token, ride_id, message.get("samples"))
             return {"type": "ack", "seq": seq, **ack}
         if kind == "destination":
             await run_in_threadpool(service.set_destination, token, ride_id, message.get("lat"), message.get("lon"))

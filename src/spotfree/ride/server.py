@@ -30,24 +30,32 @@ def _rider_rows(replay: str | None, simulate: str | None, seed: int):
 
 
 def build_service(database: str, model_path: Path | None, say: Callable[[str], None],
-                  synchronous: str = "full") -> RideService:
+                  synchronous: str = "full", workers: int = 0) -> RideService:
     """The service over ``database`` with the model at ``model_path`` (the cached default model when None);
-    ``synchronous``: the SQLite durability of :class:`~spotfree.ride.store.RideStore`."""
+    ``synchronous``: the SQLite durability of :class:`~spotfree.ride.store.RideStore`; ``workers``: rides in
+    that many worker processes (:class:`~spotfree.ride.pool.RideServicePool`), 0 for the server's process."""
     from spotfree.ride.default_model import default_model
 
+    if workers < 0:
+        raise InputError(f"--workers {workers}: give 0 (rides in the server's process) or more")
     model = DictionaryModel.load(model_path) if model_path else default_model(say)
-    return RideService(model, RideStore(database, synchronous=synchronous),
-                       model_name=model_path.stem if model_path else "default")
+    store = RideStore(database, synchronous=synchronous)
+    name = model_path.stem if model_path else "default"
+    if workers:
+        from spotfree.ride.pool import RideServicePool
+
+        return RideServicePool(model, store, model_name=name, processes=workers)
+    return RideService(model, store, model_name=name)
 
 
 def run_server(host: str, port: int, database: str, https: bool, replay: str | None, simulate: str | None,
                model_path: Path | None, speed: float, seed: int, say: Callable[[str], None],
-               synchronous: str = "full") -> None:
+               synchronous: str = "full", workers: int = 0) -> None:
     """Serve until interrupted (see the module docstring)."""
     import uvicorn
 
     rows = _rider_rows(replay, simulate, seed) if (replay or simulate) else None
-    service = build_service(database, model_path, say, synchronous)
+    service = build_service(database, model_path, say, synchronous, workers)
     app = create_app(service)
     if rows is not None:
         from spotfree.ride.sources import ride_live
@@ -68,4 +76,9 @@ def run_server(host: str, port: int, database: str, https: bool, replay: str | N
         tls = {"ssl_certfile": str(cert), "ssl_keyfile": str(key)}
     scheme = "https" if https else "http"
     say(f"spotfree serve: {scheme}://{host}:{port}/ (phone), /rider, /operator; rides recorded in {database}")
-    uvicorn.run(app, host=host, port=port, log_level="warning", **tls)
+    # no per-message compression: a batch or an acknowledgement is under a few kB, and deflating each one cost
+    # an eighth of the server's CPU under load (BENCHMARKS.md)
+    try:
+        uvicorn.run(app, host=host, port=port, log_level="warning", ws_per_message_deflate=False, **tls)
+    finally:
+        service.close()

@@ -23,6 +23,7 @@ import math
 import threading
 import time as clock
 from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import Future
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -53,6 +54,9 @@ class RateError(InputError):
     def __init__(self, message: str, retry_after: float):
         super().__init__(message)
         self.retry_after = retry_after
+
+    def __reduce__(self):
+        return RateError, (str(self), self.retry_after)
 
 
 class SampleBucket:
@@ -136,12 +140,16 @@ class RideService:
 
     def start_ride(self, token: str, vehicle: str, rider_id: str, **meta) -> str:
         """Open a ride for the token's device; ``meta``: ``age_band``, ``gender``, ``skill``, ``started``."""
+        ride_id = self._open_ride(token, vehicle, rider_id, meta)
+        self._publish({"type": "ride", "ride_id": ride_id, "vehicle": vehicle, "rider_id": rider_id}, ride_id)
+        return ride_id
+
+    def _open_ride(self, token: str, vehicle: str, rider_id: str, meta: dict) -> str:
         ride_id = self.store.start_ride(token, vehicle, rider_id, model=self.model_name, **meta)
         with self._lock:
             self._open[ride_id] = _OpenRide(
                 ride_id, token_hash(token), LiveRide(self.model, self.classifier), self.assistant(),
                 SampleBucket(BACKLOG_SECONDS * self.model.rate, RATE_FACTOR * self.model.rate))
-        self._publish({"type": "ride", "ride_id": ride_id, "vehicle": vehicle, "rider_id": rider_id}, ride_id)
         return ride_id
 
     def set_destination(self, token: str, ride_id: str, lat: float, lon: float) -> None:
@@ -161,6 +169,10 @@ class RideService:
 
     def end_ride(self, token: str, ride_id: str) -> None:
         """Close the ride: its open episodes become events, and the store refuses later samples."""
+        events = self._close_ride(token, ride_id)
+        self._publish({"type": "end", "ride_id": ride_id, "events": events}, ride_id)
+
+    def _close_ride(self, token: str, ride_id: str) -> list[dict]:
         ride = self._own(token, ride_id)
         with ride.lock:
             ride.assistant.finish()
@@ -170,7 +182,11 @@ class RideService:
             self.store.end_ride(token, ride_id)
             with self._lock:
                 self._open.pop(ride_id, None)
-        self._publish({"type": "end", "ride_id": ride_id, "events": [vars(e) for e in events]}, ride_id)
+        return [vars(e) for e in events]
+
+    def close(self) -> None:
+        """Close the store (after committing what is queued)."""
+        self.store.close()
 
     def open_rides(self) -> list[str]:
         with self._lock:
@@ -181,10 +197,25 @@ class RideService:
     def ingest(self, token: str, ride_id: str, samples: Mapping[str, Sequence[float]],
                check_rate: bool = True) -> dict:
         """Take one batch (columns of :data:`SAMPLE_COLUMNS`, see the module docstring); returns the
-        acknowledgement: ``count``, ``labels`` (one per sample), ``state`` (the assistant's figures after the
-        last sample: :meth:`~spotfree.ride.assistant.Status.figures`), ``warnings`` (raised in this batch:
-        ``kind``, ``onset``, ``time`` s) and ``events`` (ended in this batch: ``kind``, ``start``, ``end`` s,
-        ``detail``). ``check_rate=False`` skips the rate limit (for in-process sources only)."""
+        acknowledgement once the batch is committed: ``count``, ``labels`` (one per sample), ``state`` (the
+        assistant's figures after the last sample: :meth:`~spotfree.ride.assistant.Status.figures`),
+        ``warnings`` (raised in this batch: ``kind``, ``onset``, ``time`` s) and ``events`` (ended in this batch:
+        ``kind``, ``start``, ``end`` s, ``detail``). ``check_rate=False`` skips the rate limit (for in-process
+        sources only)."""
+        ack, message = self._submit(token, ride_id, samples, check_rate, bool(self._watchers)).result()
+        return self._acknowledge(ack, message, ride_id)
+
+    async def ingest_async(self, token: str, ride_id: str, samples: Mapping[str, Sequence[float]]) -> dict:
+        """:meth:`ingest` on the event loop: the batch is classified at once, and the commit is awaited without
+        holding a thread, so that many devices' batches share one commit (:mod:`spotfree.ride.commit`)."""
+        ack, message = await asyncio.wrap_future(self._submit(token, ride_id, samples, True, bool(self._watchers)))
+        return self._acknowledge(ack, message, ride_id)
+
+    def _submit(self, token: str, ride_id: str, samples: Mapping[str, Sequence[float]], check_rate: bool,
+                describe: bool) -> Future:
+        """Check, classify and assist one batch (refusals raise here), and submit it to the store; a future of
+        ``(ack, message for the views)`` (the message None unless ``describe``), resolved once committed. Under
+        the ride's lock, so its batches reach the store in order."""
         ride = self._own(token, ride_id)
         with ride.lock:
             table = validation.sample_batch(samples, ride.last_time, f"ride {ride_id}")
@@ -194,27 +225,40 @@ class RideService:
             feats = np.empty((n, len(FEATURE_COLUMNS)))
             labels: list[str | None] = []
             warnings = []
-            for k, row in enumerate(table):
-                t, acc, gyr, (lat, lon, speed) = row[0], row[1:4], row[4:7], row[7:10]
-                feats[k], label = ride.live.update(t, acc, gyr, speed)
+            for k, (t, ax, ay, az, gx, gy, gz, lat, lon, speed) in enumerate(table.tolist()):
+                feats[k], label = ride.live.update(t, (ax, ay, az), (gx, gy, gz), speed)
                 labels.append(label)
                 status = ride.assistant.update(t, label, lat, lon, speed)
                 if status.warning is not None:
                     warnings.append(vars(status.warning))
-            columns = {name: table[:, j] for j, name in enumerate(SAMPLE_COLUMNS)}
-            self.store.append_samples(token, ride_id, columns, features=dict(zip(FEATURE_COLUMNS, feats.T)),
-                                      labels={self.model_name: labels})
             events = ride.assistant.pop_events()
-            for event in events:
-                self.store.add_event(token, ride_id, event)
+            committed = self.store.submit_samples(token, ride_id, table, features=feats,
+                                                  labels={self.model_name: labels}, events=events)
             ride.last_time = float(table[-1, 0])
             state = ride.assistant.state()
         ended = [vars(e) for e in events]
-        plot = {name: _json_floats(feats[:, FEATURE_COLUMNS.index(name)]) for name in PLOT_CHANNELS}
-        self._publish({"type": "samples", "ride_id": ride_id, "time": _json_floats(table[:, 0]),
-                       "lat": _json_floats(table[:, 7]), "lon": _json_floats(table[:, 8]), **plot,
-                       "labels": labels, "state": state, "warnings": warnings, "events": ended}, ride_id)
-        return {"count": n, "labels": labels, "state": state, "warnings": warnings, "events": ended}
+        ack = {"count": n, "labels": labels, "state": state, "warnings": warnings, "events": ended}
+        message = None
+        if describe:
+            plot = {name: _json_floats(feats[:, FEATURE_COLUMNS.index(name)]) for name in PLOT_CHANNELS}
+            message = {"type": "samples", "ride_id": ride_id, "time": _json_floats(table[:, 0]),
+                       "lat": _json_floats(table[:, 7]), "lon": _json_floats(table[:, 8]), **plot, **ack}
+        done: Future = Future()
+
+        def settle(commit: Future) -> None:
+            failure = commit.exception()
+            if failure is not None:
+                done.set_exception(failure)
+            else:
+                done.set_result((ack, message))
+        committed.add_done_callback(settle)
+        return done
+
+    def _acknowledge(self, ack: dict, message: dict | None, ride_id: str) -> dict:
+        """``ack`` after its batch committed, published to the views first."""
+        if message is not None:
+            self._publish(message, ride_id)
+        return ack
 
     def _own(self, token: str, ride_id: str) -> _OpenRide:
         with self._lock:

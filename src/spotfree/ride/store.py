@@ -15,7 +15,13 @@ Writing needs the device's token: a device writes only to the rides it started, 
 Every write is one transaction: a batch is validated as a whole first (:mod:`.validation`), and a batch that
 fails any check changes nothing.
 
-Durability: a write method returns only after its transaction has committed. SQLite runs in WAL mode with
+Writes go through one writer thread that commits every write pending in one transaction (group commit,
+:mod:`.commit`), each write inside its own savepoint: concurrent writers share an fsync, and a write that fails
+alone changes nothing. ``submit_samples`` queues a batch and returns a future instead of waiting, for callers that
+wait on many batches at once (the live service).
+
+Durability: a write method returns (a submitted future resolves) only after the transaction holding it has
+committed. SQLite runs in WAL mode with
 ``synchronous=FULL``, so a commit is on disk (fsync of the WAL) before the method returns: an acknowledged
 sample survives the process being killed and the machine losing power; ``synchronous="normal"`` survives the
 process being killed only (the WAL is written but fsync'd at checkpoints), for several times the commit rate.
@@ -26,11 +32,13 @@ One store object may be shared between threads: its calls are serialised on one 
 
 from __future__ import annotations
 
+import contextlib
 import sqlite3
 import threading
 import time as clock
 import uuid
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from concurrent.futures import Future
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -38,6 +46,7 @@ import numpy as np
 
 from spotfree.errors import InputError, SpotfreeError
 from spotfree.ride import validation
+from spotfree.ride.commit import GroupCommit
 from spotfree.ride.records import FEATURE_COLUMNS, RIDER_FIELDS, SAMPLE_COLUMNS, Event, Ride
 from spotfree.ride.tokens import new_token, token_hash
 
@@ -86,9 +95,13 @@ class RideStore:
     synchronous : str
         SQLite only: ``"full"`` (default: a commit survives a power loss) or ``"normal"`` (a commit survives the
         process being killed, not the machine going down).
+    lock : lock, optional
+        Held around each write transaction, e.g. a ``multiprocessing.Lock`` shared by processes that write one
+        SQLite file: they then queue on it instead of polling SQLite's busy lock (which sleeps 1, 2, 5, 10 ... ms
+        between tries).
     """
 
-    def __init__(self, location: str | Path, synchronous: str = "full"):
+    def __init__(self, location: str | Path, synchronous: str = "full", lock=None):
         self.location = str(location)
         if synchronous not in ("full", "normal"):
             raise InputError(f"synchronous={synchronous!r}: use 'full' or 'normal'")
@@ -100,6 +113,8 @@ class RideStore:
         else:
             self._db = SQLiteConnection(self.location, synchronous)
         self._lock = threading.RLock()
+        self._process_lock = lock if lock is not None else contextlib.nullcontext()
+        self._writer = GroupCommit(self._transaction)
         with self._transaction() as db:
             for statement in SCHEMA:
                 db.execute(statement)
@@ -112,7 +127,9 @@ class RideStore:
                              f"{SCHEMA_VERSION}; open it with a matching spotfree version")
 
     def close(self) -> None:
-        """Close the connection (SQLite: after a checkpoint that folds the WAL into the database file)."""
+        """Commit the writes still queued, then close the connection (SQLite: after a checkpoint that folds the
+        WAL into the database file)."""
+        self._writer.close()
         with self._lock:
             self._db.close()
 
@@ -128,9 +145,9 @@ class RideStore:
         """A new device: ``(device_id, token)``. The token is shown only now; the store keeps its hash."""
         name = validation.text(name, "device", "name", required=False) or ""
         device_id, token = uuid.uuid4().hex, new_token()
-        with self._transaction() as db:
-            db.execute("INSERT INTO devices (device_id, name, token_hash, created) VALUES (?, ?, ?, ?)",
-                       (device_id, name, token_hash(token), clock.time()))
+        self._write(lambda db: db.execute(
+            "INSERT INTO devices (device_id, name, token_hash, created) VALUES (?, ?, ?, ?)",
+            (device_id, name, token_hash(token), clock.time())))
         return device_id, token
 
     def authenticate(self, token: str) -> str:
@@ -160,82 +177,100 @@ class RideStore:
         started = clock.time() if started is None else _epoch(started, where, "started")
         ride_id = uuid.uuid4().hex
         names = ("ride_id", "device_id", "started", *fields)
-        with self._transaction() as db:
-            db.execute(f"INSERT INTO rides ({', '.join(names)}) VALUES ({', '.join('?' * len(names))})",
-                       (ride_id, device_id, started, *fields.values()))
+        self._write(lambda db: db.execute(
+            f"INSERT INTO rides ({', '.join(names)}) VALUES ({', '.join('?' * len(names))})",
+            (ride_id, device_id, started, *fields.values())))
         return ride_id
 
     def end_ride(self, token: str, ride_id: str, ended: float | None = None) -> None:
         """Close the ride (``ended`` UNIX seconds, now by default); later writes to it are refused."""
-        with self._transaction() as db:
+        def write(db):
             ride = self._own_open_ride(db, token, ride_id)
-            ended = clock.time() if ended is None else _epoch(ended, f"ride {ride_id}", "ended")
-            if ended < ride.started:
+            end = clock.time() if ended is None else _epoch(ended, f"ride {ride_id}", "ended")
+            if end < ride.started:
                 raise InputError(f"ride {ride_id}: field 'ended' is before the ride started; send a later time")
-            db.execute("UPDATE rides SET ended = ? WHERE ride_id = ?", (ended, ride_id))
+            db.execute("UPDATE rides SET ended = ? WHERE ride_id = ?", (end, ride_id))
+        self._write(write)
 
     def append_samples(self, token: str, ride_id: str, samples: Mapping[str, Sequence[float]],
                        features: Mapping[str, Sequence[float]] | None = None,
-                       labels: Mapping[str, Sequence[str | None]] | None = None) -> int:
-        """Record a batch of raw samples (and, optionally, their features and labels) in one transaction.
+                       labels: Mapping[str, Sequence[str | None]] | None = None,
+                       events: Iterable[Event] = ()) -> int:
+        """Record a batch of raw samples (and, optionally, their features, labels and the events that ended with
+        it) in one write.
 
         ``samples`` maps :data:`SAMPLE_COLUMNS` to equal-length lists (``lat lon speed`` optional, None or NaN
-        where there is no fix); ``features`` maps :data:`FEATURE_COLUMNS` to lists of the same length;
-        ``labels`` maps model names to one label per sample (None where there is none yet). Returns the number
-        of samples recorded, once committed (see Durability in the module docstring); a batch that fails any
-        check (:mod:`.validation`) raises InputError and records nothing.
+        where there is no fix), or is an ``(n, len(SAMPLE_COLUMNS))`` array in that order; ``features`` maps
+        :data:`FEATURE_COLUMNS` to lists of the same length, or is an ``(n, len(FEATURE_COLUMNS))`` array;
+        ``labels`` maps model names to one label per sample (None where there is none yet); ``events`` are
+        recorded as by :meth:`add_event`. Returns the number of samples recorded, once committed (see
+        Durability in the module docstring); a batch that fails any check (:mod:`.validation`) raises
+        InputError and records nothing.
         """
+        return self.submit_samples(token, ride_id, samples, features, labels, events).result()
+
+    def submit_samples(self, token: str, ride_id: str, samples: Mapping[str, Sequence[float]],
+                       features: Mapping[str, Sequence[float]] | None = None,
+                       labels: Mapping[str, Sequence[str | None]] | None = None,
+                       events: Iterable[Event] = ()) -> Future:
+        """:meth:`append_samples` without waiting: the batch is checked now (InputError), the checks that need
+        the store (token, open ride, time after the last stored sample) and the write run in the writer thread.
+        Returns a future of the number of samples, resolved once committed. Batches of one ride submitted in
+        turn are written in that order."""
         where = f"ride {ride_id}"
-        with self._transaction() as db:
+        table = validation.sample_batch(samples, None, where)
+        t = table[:, 0]
+        feature_rows = None if features is None else validation.feature_batch(features, len(t), where)
+        label_rows = {validation.text(m, where, "model"): validation.label_batch(v, len(t), where, m)
+                      for m, v in (labels or {}).items()}
+        event_rows = [_event_row(ride_id, event) for event in events]
+
+        def write(db) -> int:
             self._own_open_ride(db, token, ride_id)
             last = db.execute("SELECT max(t) FROM samples WHERE ride_id = ?", (ride_id,)).fetchone()[0]
-            table = validation.sample_batch(samples, last, where)
-            t = table[:, 0]
-            feature_rows = None if features is None else validation.feature_batch(features, len(t), where)
-            label_rows = {validation.text(m, where, "model"): validation.label_batch(v, len(t), where, m)
-                          for m, v in (labels or {}).items()}
+            validation.check_times(t, last, where)
             db.executemany(_insert("samples", ("ride_id", *_SAMPLE_SQL)), _rows(ride_id, table))
             if feature_rows is not None:
                 db.executemany(_insert("features", ("ride_id", "t", *FEATURE_COLUMNS)),
                                _rows(ride_id, np.column_stack([t, feature_rows])))
+            times = t.tolist()
             for model, values in label_rows.items():
                 db.executemany(_insert("labels", ("ride_id", "model", "t", "label")),
-                               [(ride_id, model, float(s), v) for s, v in zip(t, values)])
-        return len(t)
+                               [(ride_id, model, s, v) for s, v in zip(times, values)])
+            if event_rows:
+                db.executemany(_EVENT_SQL, event_rows)
+            return len(t)
+        return self._writer.submit(write)
 
     def append_labels(self, token: str, ride_id: str, model: str, time: Sequence[float],
                       labels: Sequence[str | None]) -> int:
         """Record the labels of ``model`` at sample times ``time`` (s since the ride started), e.g. from a
         second classifier; times must increase and come after the model's last stored label."""
         where = f"ride {ride_id}"
-        with self._transaction() as db:
+        model = validation.text(model, where, "model")
+        t = np.asarray(time, dtype=float)
+        if t.ndim != 1 or not 1 <= len(t) <= validation.MAX_BATCH:
+            raise InputError(f"{where}: labels need 1 to {validation.MAX_BATCH} times in a flat list")
+        values = validation.label_batch(labels, len(t), where, model)
+
+        def write(db) -> int:
             self._own_open_ride(db, token, ride_id)
-            model = validation.text(model, where, "model")
-            t = np.asarray(time, dtype=float)
-            if t.ndim != 1 or not 1 <= len(t) <= validation.MAX_BATCH:
-                raise InputError(f"{where}: labels need 1 to {validation.MAX_BATCH} times in a flat list")
             last = db.execute("SELECT max(t) FROM labels WHERE ride_id = ? AND model = ?",
                               (ride_id, model)).fetchone()[0]
             validation.check_times(t, last, where)
-            values = validation.label_batch(labels, len(t), where, model)
             db.executemany(_insert("labels", ("ride_id", "model", "t", "label")),
                            [(ride_id, model, float(s), v) for s, v in zip(t, values)])
-        return len(t)
+            return len(t)
+        return self._write(write)
 
     def add_event(self, token: str, ride_id: str, event: Event) -> None:
         """Record ``event``; an event of the same kind and start replaces the earlier one (its end may grow)."""
-        where = f"ride {ride_id}"
-        kind = validation.text(event.kind, where, "kind")
-        detail = "" if not event.detail else validation.text(event.detail, where, "detail")
-        start, end = float(event.start), float(event.end)
-        if not (np.isfinite(start) and np.isfinite(end) and 0 <= start <= end):
-            raise InputError(f"{where}: event {kind!r} from {start!r} to {end!r} s; send 0 <= start <= end")
-        with self._transaction() as db:
+        row = _event_row(ride_id, event)
+
+        def write(db) -> None:
             self._own_open_ride(db, token, ride_id)
-            db.execute("INSERT INTO events (ride_id, kind, start_time, end_time, detail) VALUES (?, ?, ?, ?, ?) "
-                       "ON CONFLICT (ride_id, kind, start_time) DO UPDATE "
-                       "SET end_time = excluded.end_time, detail = excluded.detail",
-                       (ride_id, kind, start, end, detail))
+            db.execute(_EVENT_SQL, row)
+        self._write(write)
 
     # ------------------------------------------------------------ reading
 
@@ -288,9 +323,13 @@ class RideStore:
 
     # ------------------------------------------------------------ internals
 
+    def _write(self, write: Callable):
+        """Run ``write(cursor)`` in the writer's next transaction; its value once committed."""
+        return self._writer.submit(write).result()
+
     @contextmanager
     def _transaction(self) -> Iterator:
-        with self._lock, self._db.transaction() as cursor:
+        with self._lock, self._process_lock, self._db.transaction() as cursor:
             yield cursor
 
     def _query(self, sql: str, params: tuple = ()) -> list[tuple]:
@@ -356,6 +395,22 @@ def _add_feature_columns(db) -> None:
     for column in FEATURE_COLUMNS:
         if column.lower() not in present:
             db.execute(f"ALTER TABLE features ADD COLUMN {column} {_REAL}")
+
+
+_EVENT_SQL = ("INSERT INTO events (ride_id, kind, start_time, end_time, detail) VALUES (?, ?, ?, ?, ?) "
+              "ON CONFLICT (ride_id, kind, start_time) DO UPDATE "
+              "SET end_time = excluded.end_time, detail = excluded.detail")
+
+
+def _event_row(ride_id: str, event: Event) -> tuple:
+    """The ``events`` row of ``event``, checked: InputError for bad text or times."""
+    where = f"ride {ride_id}"
+    kind = validation.text(event.kind, where, "kind")
+    detail = "" if not event.detail else validation.text(event.detail, where, "detail")
+    start, end = float(event.start), float(event.end)
+    if not (np.isfinite(start) and np.isfinite(end) and 0 <= start <= end):
+        raise InputError(f"{where}: event {kind!r} from {start!r} to {end!r} s; send 0 <= start <= end")
+    return ride_id, kind, start, end, detail
 
 
 def _insert(table: str, columns: Sequence[str]) -> str:

@@ -18,13 +18,14 @@ Limits (SI units):
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 
 import numpy as np
 
 from spotfree.errors import InputError
 from spotfree.io.recording import ACC_CHANNELS, GYRO_CHANNELS
-from spotfree.ride.records import FEATURE_COLUMNS, SAMPLE_COLUMNS
+from spotfree.ride.records import FEATURE_COLUMNS, GPS_COLUMNS, SAMPLE_COLUMNS
 from spotfree.signal.frame import GRAVITY
 
 MAX_BATCH = 5000
@@ -41,12 +42,66 @@ MAX_TEXT = 100
 """Characters in a text field (ids, names, labels, event kinds)."""
 
 
-def sample_batch(samples: Mapping[str, Sequence[float]], last_time: float | None, where: str) -> np.ndarray:
-    """The batch as an ``(n, len(SAMPLE_COLUMNS))`` float array in :data:`SAMPLE_COLUMNS` order.
+def sample_batch(samples: Mapping[str, Sequence[float]] | np.ndarray, last_time: float | None,
+                 where: str) -> np.ndarray:
+    """The batch as a read-only :class:`CheckedSamples` array ``(n, len(SAMPLE_COLUMNS))`` in
+    :data:`SAMPLE_COLUMNS` order.
 
-    ``samples`` maps column names to equal-length sequences (``None`` reads as NaN); ``lat lon speed`` may be
-    left out (no fix). ``last_time`` is the last time stored for the ride (None when it has none yet).
+    ``samples`` maps column names to equal-length sequences (``None`` reads as NaN; ``lat lon speed`` may be
+    left out: no fix), or is such an array (a :class:`CheckedSamples` has passed every check but the time order,
+    which is checked again). ``last_time`` is the last time stored for the ride (None when it has none yet).
     """
+    if isinstance(samples, CheckedSamples) and samples.ndim == 2:
+        check_times(samples[:, 0], last_time, where)
+        return samples
+    if isinstance(samples, np.ndarray):
+        if samples.ndim != 2 or samples.shape[1] != len(SAMPLE_COLUMNS) or not 1 <= len(samples) <= MAX_BATCH:
+            raise InputError(f"{where}: a sample array must have 1 to {MAX_BATCH} rows of {len(SAMPLE_COLUMNS)} "
+                             f"columns ({', '.join(SAMPLE_COLUMNS)}), not shape {samples.shape}")
+        table = samples.astype(float)
+    else:
+        table = _sample_table(samples, where)
+    check_times(table[:, 0], last_time, where)
+    if _within_limits(table):
+        return _checked(table)
+    for names, bound, unit in ((ACC_CHANNELS, MAX_ACCELERATION, "m/s^2"), (GYRO_CHANNELS, MAX_ROTATION, "rad/s")):
+        for name in names:
+            column = table[:, SAMPLE_COLUMNS.index(name)]
+            bad = ~np.isfinite(column) | (np.abs(column) > bound)
+            _refuse(bad, column, where, name, f"send finite values within +-{bound:.4g} {unit}")
+    _check_gps(table, where)
+    return _checked(table)
+
+
+class CheckedSamples(np.ndarray):
+    """A read-only batch that :func:`sample_batch` returned: its values need no second check."""
+
+
+def _checked(table: np.ndarray) -> CheckedSamples:
+    checked = table.view(CheckedSamples)
+    checked.flags.writeable = False
+    return checked
+
+
+_LOWER = np.array([0.0, *[-MAX_ACCELERATION] * 3, *[-MAX_ROTATION] * 3, -90.0, -180.0, 0.0])
+_UPPER = np.array([np.finfo(float).max, *[MAX_ACCELERATION] * 3, *[MAX_ROTATION] * 3, 90.0, 180.0, MAX_SPEED])
+_OPTIONAL = np.array([name in GPS_COLUMNS for name in SAMPLE_COLUMNS])
+_NO_FIX = [None] * MAX_BATCH
+_LAT, _LON = SAMPLE_COLUMNS.index("lat"), SAMPLE_COLUMNS.index("lon")
+
+
+def _within_limits(table: np.ndarray) -> bool:
+    """Whether every row passes the value checks of :func:`sample_batch` (finite values within bounds, GPS columns
+    NaN or within bounds, lat and lon present together), in a few array operations; the checks that name the
+    first failing field and row run only when this is False."""
+    nan = np.isnan(table)
+    ok = ((table >= _LOWER) & (table <= _UPPER)) | (nan & _OPTIONAL)
+    return bool(ok.all()) and bool((nan[:, _LAT] == nan[:, _LON]).all())
+
+
+def _sample_table(samples: Mapping[str, Sequence[float]], where: str) -> np.ndarray:
+    """The columns of ``samples`` as one float array, or InputError naming the first field that is not a list of
+    numbers of the batch's length."""
     if not isinstance(samples, Mapping) and not hasattr(samples, "columns"):
         raise InputError(f"{where}: samples must map column names ({', '.join(SAMPLE_COLUMNS)}) to lists")
     unknown = [c for c in samples if c not in SAMPLE_COLUMNS]
@@ -56,38 +111,55 @@ def sample_batch(samples: Mapping[str, Sequence[float]], last_time: float | None
     if missing:
         raise InputError(f"{where}: sample field {missing[0]!r} is missing; send time, ax, ay, az, gx, gy, gz")
     n = _length(samples, where, "samples")
-    table = np.full((n, len(SAMPLE_COLUMNS)), np.nan)
-    for j, name in enumerate(SAMPLE_COLUMNS):
-        if name in samples:
-            table[:, j] = _floats(samples[name], n, where, name)
-    check_times(table[:, 0], last_time, where)
-    for names, bound, unit in ((ACC_CHANNELS, MAX_ACCELERATION, "m/s^2"), (GYRO_CHANNELS, MAX_ROTATION, "rad/s")):
-        for name in names:
-            column = table[:, SAMPLE_COLUMNS.index(name)]
-            bad = ~np.isfinite(column) | (np.abs(column) > bound)
-            _refuse(bad, column, where, name, f"send finite values within +-{bound:.4g} {unit}")
-    _check_gps(table, where)
+    try:  # one conversion for the whole batch; a column that fails is found and named below
+        table = np.array([samples[name] if name in samples else _NO_FIX[:n] for name in SAMPLE_COLUMNS],
+                         dtype=float).T
+    except (TypeError, ValueError):
+        table = None
+    if table is None or table.shape != (n, len(SAMPLE_COLUMNS)):
+        table = np.full((n, len(SAMPLE_COLUMNS)), np.nan)
+        for j, name in enumerate(SAMPLE_COLUMNS):
+            if name in samples:
+                table[:, j] = _floats(samples[name], n, where, name)
     return table
 
 
 def check_times(t: np.ndarray, last_time: float | None, where: str) -> None:
     """Finite, non-negative, strictly increasing times after ``last_time``, at a mean rate of at most MAX_RATE."""
-    _refuse(~np.isfinite(t) | (t < 0), t, where, "time", "send finite seconds since the ride started")
-    steps = np.diff(t)
-    _refuse(np.r_[False, steps <= 0], t, where, "time", "times must increase strictly within a batch")
-    if last_time is not None and t[0] <= last_time:
-        raise InputError(f"{where}: field 'time', row 1: {float(t[0])!r} s is not after the last stored time "
+    times = t.tolist()  # a phone's batch is a few samples: plain floats beat array calls
+    if not (math.isfinite(times[0]) and times[0] >= 0 and math.isfinite(times[-1])
+            and all(b > a for a, b in zip(times, times[1:]))):
+        steps = np.diff(t)
+        _refuse(~np.isfinite(t) | (t < 0), t, where, "time", "send finite seconds since the ride started")
+        _refuse(np.r_[False, ~(steps > 0)], t, where, "time", "times must increase strictly within a batch")
+    if last_time is not None and times[0] <= last_time:
+        raise InputError(f"{where}: field 'time', row 1: {times[0]!r} s is not after the last stored time "
                          f"{float(last_time)!r} s; send only new samples, in order")
-    if len(t) > 1 and (len(t) - 1) / (t[-1] - t[0]) > MAX_RATE:
-        raise InputError(f"{where}: field 'time': {len(t)} samples in {t[-1] - t[0]:.6g} s is faster than "
-                         f"{MAX_RATE:g} Hz; send times in seconds")
+    if len(times) > 1 and (len(times) - 1) / (times[-1] - times[0]) > MAX_RATE:
+        raise InputError(f"{where}: field 'time': {len(times)} samples in {times[-1] - times[0]:.6g} s is faster "
+                         f"than {MAX_RATE:g} Hz; send times in seconds")
 
 
-def feature_batch(features: Mapping[str, Sequence[float]], n: int, where: str) -> np.ndarray:
-    """Features as an ``(n, len(FEATURE_COLUMNS))`` array (columns left out are NaN); infinities refused."""
+def feature_batch(features: Mapping[str, Sequence[float]] | np.ndarray, n: int, where: str) -> np.ndarray:
+    """Features as an ``(n, len(FEATURE_COLUMNS))`` array (columns left out are NaN), from a mapping of columns or
+    such an array; infinities refused."""
+    if isinstance(features, np.ndarray):
+        if features.shape != (n, len(FEATURE_COLUMNS)):
+            raise InputError(f"{where}: a feature array must have shape ({n}, {len(FEATURE_COLUMNS)}), "
+                             f"not {features.shape}")
+        if np.isinf(features).any():
+            raise InputError(f"{where}: a feature array holds an infinity; send finite features or NaN")
+        return features.astype(float)
     unknown = [c for c in features if c not in FEATURE_COLUMNS]
     if unknown:
         raise InputError(f"{where}: unknown feature {unknown[0]!r}; the features are {', '.join(FEATURE_COLUMNS)}")
+    try:  # one conversion for all features; a column that fails is found and named below
+        table = np.array([features[name] if name in features else _NO_FIX[:n] for name in FEATURE_COLUMNS],
+                         dtype=float).T
+    except (TypeError, ValueError):
+        table = None
+    if table is not None and table.shape == (n, len(FEATURE_COLUMNS)) and not np.isinf(table).any():
+        return table
     table = np.full((n, len(FEATURE_COLUMNS)), np.nan)
     for j, name in enumerate(FEATURE_COLUMNS):
         if name in features:

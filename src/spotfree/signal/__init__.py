@@ -4,7 +4,8 @@
 * :mod:`~spotfree.signal.complementary` -- the paper's PI complementary filter (eq. 3, bilinear transform);
 * :mod:`~spotfree.signal.orientation` -- the roll/pitch backends ``default`` (GravityPI), ``paper``, ``vqf``;
 * :mod:`~spotfree.signal.butterworth` -- third-order Butterworth low-pass, causal and zero-phase;
-* :mod:`~spotfree.signal.features` -- :func:`ride_features` and :class:`FeatureStream`.
+* :mod:`~spotfree.signal.features` -- :func:`ride_features` and :class:`FeatureStream`;
+* :mod:`~spotfree.signal.recursions` -- the compiled per-sample recursions behind the streaming forms.
 """
 
 from spotfree.signal.butterworth import LowpassStream, butter_lowpass, lowpass

@@ -18,6 +18,7 @@ import numpy as np
 import scipy.signal
 
 from spotfree.errors import InputError
+from spotfree.signal.recursions import lowpass_step
 
 ACC_CUTOFF = 3.0
 """Cut-off frequency of the acceleration low-pass, Hz."""
@@ -50,35 +51,34 @@ def lowpass(x: np.ndarray, sos: np.ndarray, zero_phase: bool = False) -> np.ndar
 
 
 class LowpassStream:
-    """Causal :func:`lowpass` one sample at a time for ``channels`` signals (direct form II transposed)."""
+    """Causal :func:`lowpass` one sample at a time for ``channels`` signals (direct form II transposed).
+
+    The recursion is the compiled :func:`~spotfree.signal.recursions.lowpass_step`, the same one
+    :class:`~spotfree.signal.features.FeatureStream` runs inside its own compiled step."""
 
     def __init__(self, sos: np.ndarray, channels: int):
         self.sos = np.asarray(sos, dtype=float)
         self.channels = channels
-        self._sections = [tuple(float(v) for v in (s[0], s[1], s[2], s[4], s[5])) for s in self.sos]
-        self._zi = [tuple(float(v) for v in z) for z in scipy.signal.sosfilt_zi(self.sos)]
+        self._sections, self._zi = sections_and_zi(self.sos)
+        self._state = np.zeros((channels, len(self.sos), 2))
+        self._x = np.zeros(channels)
+        self._y = np.zeros(channels)
         self.reset()
 
     def reset(self) -> None:
         """Forget the past: the next sample starts the filter at rest on its own value."""
-        self._state: list[list[float]] | None = None
+        self._start = True
 
     def update(self, x) -> list[float]:
-        """Filtered values for one sample ``x`` of ``channels`` values.
+        """Filtered values for one sample ``x`` of ``channels`` values."""
+        self._x[:] = x
+        lowpass_step(self._sections, self._zi, self._state, self._start, self._x, self._y)
+        self._start = False
+        return self._y.tolist()
 
-        Per channel the state is flat, ``[z1, z2]`` of each section in turn; each section computes
-        ``y = b0 v + z1``, ``z1 <- b1 v - a1 y + z2``, ``z2 <- b2 v - a2 y`` and passes ``y`` on as ``v``.
-        """
-        if self._state is None:
-            self._state = [[z * v for pair in self._zi for z in pair] for v in x]
-        out = []
-        for z, v in zip(self._state, x):
-            i = 0
-            for b0, b1, b2, a1, a2 in self._sections:
-                y = b0 * v + z[i]
-                z[i] = b1 * v - a1 * y + z[i + 1]
-                z[i + 1] = b2 * v - a2 * y
-                v = y
-                i += 2
-            out.append(v)
-        return out
+
+def sections_and_zi(sos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``sos`` as the ``(s, 5)`` rows ``[b0, b1, b2, a1, a2]`` of :func:`~spotfree.signal.recursions.lowpass_step` and
+    its at-rest state per unit input ``(s, 2)`` (``scipy.signal.sosfilt_zi``)."""
+    sos = np.asarray(sos, dtype=float)
+    return np.ascontiguousarray(sos[:, [0, 1, 2, 4, 5]]), np.ascontiguousarray(scipy.signal.sosfilt_zi(sos))

@@ -45,6 +45,7 @@ import numpy as np
 import scipy.signal
 
 from spotfree.errors import InputError
+from spotfree.signal.recursions import pi_complementary_channels
 
 PAPER_KP = 7.5924
 """Proportional gain of the paper (1/s)."""
@@ -115,33 +116,35 @@ class PIComplementaryStream:
 
     The state is the direct-form-II-transposed pair ``(z1, z2)`` per channel, shared by both inputs (they have
     the same denominator): ``y = bg0 w + ba0 x + z1``, ``z1 <- bg1 w + ba1 x - a1 y + z2``,
-    ``z2 <- bg2 w + ba2 x - a2 y`` with ``w`` the rate and ``x`` the accelerometer angle.
+    ``z2 <- bg2 w + ba2 x - a2 y`` with ``w`` the rate and ``x`` the accelerometer angle (compiled:
+    :func:`~spotfree.signal.recursions.pi_complementary_sample`).
     """
 
     def __init__(self, design: PIDesign, channels: int = 2):
         self.design = design
         self.channels = channels
-        self._a = tuple(float(v) for v in design.a[1:])
-        self._br = tuple(float(v) for v in design.b_rate)
-        self._ba = tuple(float(v) for v in design.b_acc)
-        self._zi = tuple(float(v) for v in scipy.signal.lfilter_zi(design.b_acc, design.a))
+        self._coefficients, self._zi = stream_coefficients(design)
+        self._state = np.zeros((channels, 2))
+        self._out = np.zeros(channels)
         self.reset()
 
     def reset(self) -> None:
         """Forget the past: the next sample starts the filter at rest on its accelerometer angle."""
-        self._state: list[list[float]] | None = None
+        self._start = True
 
     def update(self, angle_acc, rate) -> list[float]:
         """Filtered angles (rad) for one sample: ``angle_acc`` (rad) and ``rate`` (rad/s), ``channels`` each."""
-        if self._state is None:
-            self._state = [[self._zi[0] * x, self._zi[1] * x] for x in angle_acc]
-        a1, a2 = self._a
-        r0, r1, r2 = self._br
-        b0, b1, b2 = self._ba
-        out = []
-        for state, x, w in zip(self._state, angle_acc, rate):
-            y = r0 * w + b0 * x + state[0]
-            state[0] = r1 * w + b1 * x - a1 * y + state[1]
-            state[1] = r2 * w + b2 * x - a2 * y
-            out.append(y)
-        return out
+        angle_acc, rate = np.asarray(angle_acc, dtype=float), np.asarray(rate, dtype=float)
+        if angle_acc.shape != self._out.shape or rate.shape != self._out.shape:
+            raise InputError(f"complementary filter: one sample takes {self.channels} angles and {self.channels} "
+                             f"rates, got shapes {angle_acc.shape} and {rate.shape}")
+        pi_complementary_channels(self._coefficients, self._zi, self._state, self._start, angle_acc, rate, self._out)
+        self._start = False
+        return self._out.tolist()
+
+
+def stream_coefficients(design: PIDesign) -> tuple[np.ndarray, np.ndarray]:
+    """``design`` as :func:`~spotfree.signal.recursions.pi_complementary_sample` takes it: ``[a1, a2, br0, br1, br2,
+    ba0, ba1, ba2]`` and the at-rest state per unit accelerometer angle ``(2,)`` (``scipy.signal.lfilter_zi``)."""
+    coefficients = np.concatenate([design.a[1:], design.b_rate, design.b_acc]).astype(float)
+    return coefficients, np.asarray(scipy.signal.lfilter_zi(design.b_acc, design.a), dtype=float)

@@ -38,17 +38,16 @@ Derived channels (``derived=True``), :data:`DERIVED_CHANNELS`:
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from scipy.signal import lfilter
 
 from spotfree.errors import InputError
 from spotfree.io.recording import ACC_CHANNELS, GYRO_CHANNELS, IMU_CHANNELS, Recording
-from spotfree.signal.butterworth import LowpassStream, butter_lowpass, lowpass
-from spotfree.signal.frame import MOUNT, device_to_vehicle_axes, gravity_free_level, gravity_free_level_sample
-from spotfree.signal.orientation import attitude_filter
-from spotfree.signal.speed_aided import SpeedAidedPitch, speed_aided_acceleration
+from spotfree.signal.butterworth import butter_lowpass, lowpass, sections_and_zi
+from spotfree.signal.frame import GRAVITY, MOUNT, device_to_vehicle_axes, gravity_free_level
+from spotfree.signal.orientation import GravityPI, PaperAttitude, attitude_filter
+from spotfree.signal.recursions import FEATURE_PARAMETERS, FEATURE_STATE, ride_features_update
+from spotfree.signal.speed_aided import speed_aided_acceleration, speed_aided_parameters
 
 FEATURE_CHANNELS = ("roll", "pitch", "pitch_rate", "acc_x", "acc_y", "acc_z")
 """Channel names of the ride features, in output order."""
@@ -142,54 +141,75 @@ def ride_features(rec: Recording, orientation: str = "default", zero_phase: bool
     return feats
 
 
+_ATTITUDE_KINDS = {"default": 0, "paper": 1}
+"""Attitude filters the compiled step runs itself; any other (``vqf``) hands it roll and pitch (kind 2)."""
+
+
+def feature_parameters(rate: float, orientation: str = "default") -> np.ndarray:
+    """The :data:`~spotfree.signal.recursions.FEATURE_PARAMETERS` of the causal ride features at ``rate`` Hz with
+    ``orientation``, one record in an array (numba takes a one-element array faster than a record)."""
+    array = np.zeros(1, FEATURE_PARAMETERS)
+    p = array[0]
+    p["attitude"] = _ATTITUDE_KINDS.get(orientation, 2)
+    p["mount"] = MOUNT
+    p["g"] = GRAVITY
+    p["gravity"] = GravityPI(rate).parameters_
+    p["paper"] = PaperAttitude(rate).parameters_
+    p["sections"], p["zi"] = sections_and_zi(butter_lowpass(rate))
+    p["long_sections"], p["long_zi"] = sections_and_zi(butter_lowpass(rate, LONG_CUTOFF))
+    p["speed_aided"] = speed_aided_parameters(rate)[0]
+    p["lean_b"], p["lean_a"], p["bias_c"] = lean_coefficients(rate)
+    p["vib_c"] = vibration_coefficient(rate)
+    return array
+
+
 class FeatureStream:
     """The causal :func:`ride_features` one sample at a time (one gap-free segment; :meth:`reset` between).
 
     With ``derived=True``, :meth:`update` returns the :data:`DERIVED_CHANNELS` after the six standard channels;
-    pass the GPS ``speed`` (m/s) on the samples where a fix arrives.
-    """
+    pass the GPS ``speed`` (m/s) on the samples where a fix arrives. One compiled call per sample
+    (:func:`~spotfree.signal.recursions.ride_features_step`) updates every filter; :attr:`parameters_` and
+    :attr:`state_` hold its records (one-element arrays)."""
 
     def __init__(self, rate: float, orientation: str = "default", derived: bool = False):
         self.rate = rate
         self.orientation = orientation
         self.derived = derived
-        self._lean_b, self._lean_a, self._bias_c = lean_coefficients(rate)
-        self._vib_c = vibration_coefficient(rate)
-        self._lean = self._bias = 0.0
-        self._vib = [0.0, 0.0, 0.0]
-        self._attitude = attitude_filter(orientation, rate)
-        self._lowpass = LowpassStream(butter_lowpass(rate), channels=3)
-        self._speed_aided = SpeedAidedPitch(rate)
-        self._long_lowpass = LowpassStream(butter_lowpass(rate, LONG_CUTOFF), channels=1)
-        self._mount = tuple(tuple(float(v) for v in row) for row in MOUNT)
+        self._attitude = attitude_filter(orientation, rate) if orientation not in _ATTITUDE_KINDS else None
+        self.parameters_ = feature_parameters(rate, orientation)
+        self.state_ = np.zeros(1, FEATURE_STATE)
+        self._out = np.zeros(len(FEATURE_CHANNELS + DERIVED_CHANNELS))
+        self._width = len(self._out) if derived else len(FEATURE_CHANNELS)
+        self.reset()
 
     def reset(self) -> None:
         """Start a new segment: fresh attitude and low-pass state."""
-        self._attitude.reset()
-        self._lowpass.reset()
-        self._speed_aided.reset()
-        self._long_lowpass.reset()
-        self._lean = self._bias = 0.0
-        self._vib = [0.0, 0.0, 0.0]
+        if self._attitude is not None:
+            self._attitude.reset()
+        self._start = True
 
     def update(self, acc, gyr, speed: float = float("nan")) -> np.ndarray:
         """Features ``(6,)`` (``(13,)`` with ``derived``) for one sample: ``acc`` (m/s^2) and ``gyr`` (rad/s)
         3-vectors in the device frame, ``speed`` (m/s) the GPS speed on a fix, NaN otherwise."""
-        (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = self._mount
-        a0, a1, a2 = float(acc[0]), float(acc[1]), float(acc[2])
-        w0, w1, w2 = float(gyr[0]), float(gyr[1]), float(gyr[2])
-        acc_v = (m00 * a0 + m01 * a1 + m02 * a2, m10 * a0 + m11 * a1 + m12 * a2, m20 * a0 + m21 * a1 + m22 * a2)
-        gyr_v = (m00 * w0 + m01 * w1 + m02 * w2, m10 * w0 + m11 * w1 + m12 * w2, m20 * w0 + m21 * w1 + m22 * w2)
-        roll, pitch = self._attitude.update(acc_v, gyr_v)
-        raw_level = gravity_free_level_sample(acc_v, roll, pitch)
-        level = self._lowpass.update(raw_level)
-        if not self.derived:
-            return np.array([roll, pitch, gyr_v[1], *level])
-        c = self._vib_c
-        self._vib = [c * v + (1.0 - c) * (r - f) ** 2 for v, r, f in zip(self._vib, raw_level, level)]
-        self._bias = self._bias_c * self._bias + (1.0 - self._bias_c) * gyr_v[1]
-        self._lean = self._lean_a * self._lean + self._lean_b * (gyr_v[1] - self._bias)
-        a_t, _ = self._speed_aided.update(acc_v, gyr_v, roll, pitch, float(speed))
-        (acc_long,) = self._long_lowpass.update((a_t,))
-        return np.array([roll, pitch, gyr_v[1], *level, self._lean, acc_long, gyr_v[0], gyr_v[2],
-                         *[math.sqrt(v) for v in self._vib]])
+        self.step(*imu_floats(acc, gyr), float(speed), self._out)
+        return self._out[:self._width].copy()
+
+    def step(self, a0: float, a1: float, a2: float, w0: float, w1: float, w2: float, speed: float,
+             out: np.ndarray) -> None:
+        """:meth:`update` on plain floats, writing all 13 channels into ``out`` (no copy, no checks)."""
+        roll = pitch = 0.0
+        if self._attitude is not None:
+            m = self.parameters_[0]["mount"]
+            roll, pitch = self._attitude.update(m @ (a0, a1, a2), m @ (w0, w1, w2))
+        ride_features_update(self.parameters_, self.state_, self._start, a0, a1, a2, w0, w1, w2, speed, roll,
+                             pitch, out)
+        self._start = False
+
+
+def imu_floats(acc, gyr) -> tuple[float, float, float, float, float, float]:
+    """``acc`` and ``gyr`` (3-vectors: arrays, lists or tuples) as six Python floats."""
+    if isinstance(acc, np.ndarray) and isinstance(gyr, np.ndarray):
+        a0, a1, a2 = acc.tolist()
+        w0, w1, w2 = gyr.tolist()
+        return float(a0), float(a1), float(a2), float(w0), float(w1), float(w2)
+    return float(acc[0]), float(acc[1]), float(acc[2]), float(gyr[0]), float(gyr[1]), float(gyr[2])

@@ -19,8 +19,6 @@ and the body-to-level rotation is ``R = R_y(theta) R_x(phi)``, so at rest ``a_bo
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 GRAVITY = 9.80665
@@ -85,15 +83,3 @@ def gravity_direction(roll: np.ndarray, pitch: np.ndarray) -> np.ndarray:
     pitch = np.asarray(pitch, dtype=float)
     cp = np.cos(pitch)
     return np.stack([-np.sin(pitch), np.sin(roll) * cp, np.cos(roll) * cp], axis=-1)
-
-
-def gravity_free_level_sample(acc, roll: float, pitch: float, g: float = GRAVITY) -> tuple[float, float, float]:
-    """:func:`gravity_free_level` of one vehicle-axis specific force ``acc`` (3 floats, m/s^2), in plain floats.
-
-    The same ``R_y(pitch) R_x(roll)`` as :func:`body_to_level`, written out for a per-sample cost of a few
-    microseconds (the array form pays numpy's call overhead on every sample).
-    """
-    ax, ay, az = acc
-    cr, sr, cp, sp = math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch)
-    across = sr * ay + cr * az
-    return cp * ax + sp * across, cr * ay - sr * az, -sp * ax + cp * across - g

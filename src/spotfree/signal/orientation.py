@@ -32,8 +32,14 @@ import math
 import numpy as np
 
 from spotfree.errors import InputError
-from spotfree.signal.complementary import PAPER_KI, PAPER_KP, PIComplementaryStream, pi_complementary, pi_complementary_design
+from spotfree.signal.complementary import (
+    PAPER_KI, PAPER_KP, pi_complementary, pi_complementary_design, stream_coefficients,
+)
 from spotfree.signal.frame import GRAVITY, accel_roll_pitch
+from spotfree.signal.recursions import (
+    GRAVITY_PI_PARAMETERS, GRAVITY_PI_STATE, PAPER_PARAMETERS, PAPER_STATE, gravity_pi_run, gravity_pi_update,
+    paper_attitude_update,
+)
 
 ORIENTATIONS = ("default", "paper", "vqf")
 """Valid names of the orientation backends."""
@@ -47,30 +53,31 @@ def _wrap(angle):
 
 
 class PaperAttitude:
-    """The paper's filter: eq. (1) on the accelerometer, eq. (3) per angle with body rates ``gyr[0:2]``."""
+    """The paper's filter: eq. (1) on the accelerometer, eq. (3) per angle with body rates ``gyr[0:2]``; batch by
+    ``scipy.signal.lfilter``, streaming compiled (:func:`~spotfree.signal.recursions.paper_attitude_step`)."""
 
     def __init__(self, rate: float, kp: float = PAPER_KP, ki: float = PAPER_KI):
         self.rate = rate
         self.design = pi_complementary_design(kp, ki, rate)
-        self._stream = PIComplementaryStream(self.design, channels=2)
+        self._parameters = paper_parameters(self.design)
+        self._state = np.zeros(1, PAPER_STATE)
         self.reset()
+
+    @property
+    def parameters_(self) -> np.void:
+        """The :data:`~spotfree.signal.recursions.PAPER_PARAMETERS` record."""
+        return self._parameters[0]
 
     def reset(self) -> None:
         """Forget the past: the next sample starts the filter at rest on its accelerometer angles."""
-        self._stream.reset()
-        self._roll_prev: float | None = None
-        self._turns = 0.0
+        self._start = True
 
     def update(self, acc, gyr) -> tuple[float, float]:
         """Roll and pitch (rad) after one sample; ``acc`` (m/s^2) and ``gyr`` (rad/s) body-frame 3-vectors."""
-        ax, ay, az = float(acc[0]), float(acc[1]), float(acc[2])
-        roll_acc = math.atan2(ay, az)
-        pitch_acc = math.atan2(-ax, math.hypot(ay, az))
-        if self._roll_prev is not None:
-            self._turns -= round((roll_acc - self._roll_prev) / TWO_PI) * TWO_PI
-        self._roll_prev = roll_acc
-        roll, pitch = self._stream.update((roll_acc + self._turns, pitch_acc), (float(gyr[0]), float(gyr[1])))
-        return _wrap(roll), pitch
+        out = paper_attitude_update(self._parameters, self._state, self._start, float(acc[0]), float(acc[1]),
+                                     float(acc[2]), float(gyr[0]), float(gyr[1]))
+        self._start = False
+        return out
 
     def run(self, acc: np.ndarray, gyr: np.ndarray) -> np.ndarray:
         """``(n, 2)`` roll and pitch (rad) for ``(n, 3)`` body-frame ``acc`` (m/s^2) and ``gyr`` (rad/s)."""
@@ -81,23 +88,11 @@ class PaperAttitude:
         return angles
 
 
-def _rotate(ux: float, uy: float, uz: float, wx: float, wy: float, wz: float, dt: float):
-    """Body coordinates of a world-fixed vector ``u`` after the body turns at ``w`` (rad/s) for ``dt`` (s).
-
-    ``u <- exp(-[w dt]x) u`` by Rodrigues' formula (``u' = -w x u`` integrated exactly for constant ``w``).
-    """
-    norm = math.sqrt(wx * wx + wy * wy + wz * wz)
-    angle = norm * dt
-    if angle < 1e-12:
-        return ux, uy, uz
-    kx, ky, kz = -wx / norm, -wy / norm, -wz / norm
-    c, s = math.cos(angle), math.sin(angle)
-    d = (kx * ux + ky * uy + kz * uz) * (1.0 - c)
-    return (
-        ux * c + (ky * uz - kz * uy) * s + kx * d,
-        uy * c + (kz * ux - kx * uz) * s + ky * d,
-        uz * c + (kx * uy - ky * ux) * s + kz * d,
-    )
+def paper_parameters(design) -> np.ndarray:
+    """The :data:`~spotfree.signal.recursions.PAPER_PARAMETERS` of a :class:`~spotfree.signal.complementary.PIDesign`,
+    one record in an array (numba takes a one-element array faster than a record)."""
+    coefficients, zi = stream_coefficients(design)
+    return np.array([(coefficients, zi)], dtype=PAPER_PARAMETERS)
 
 
 class GravityPI:
@@ -129,6 +124,8 @@ class GravityPI:
     Defaults: ``kp, ki, acc_scale, rate_scale, max_error`` were tuned on the four BROAD trials at 20.4 Hz
     (``benchmarks/tune_orientation.py``); the rest constants are physical (phone gyro noise and bias
     are well below 2 deg/s, 0.5 m/s^2 passes handlebar vibration) and were not tuned.
+
+    :meth:`update` and :meth:`run` run the same compiled step (:func:`~spotfree.signal.recursions.gravity_pi_step`).
     """
 
     def __init__(
@@ -156,58 +153,39 @@ class GravityPI:
         self.reset()
 
     def reset(self) -> None:
-        """Forget the past: vertical from the next accelerometer sample, zero bias, not still."""
-        self._u: tuple[float, float, float] | None = None
-        self.bias_ = [0.0, 0.0, 0.0]
-        self._still = 0.0
+        """Forget the past: vertical from the next accelerometer sample, zero bias, not still. The parameters are
+        read here (:attr:`parameters_`)."""
+        self._parameters = np.array([tuple(float(getattr(self, name)) for name in GRAVITY_PI_PARAMETERS.names)],
+                                    dtype=GRAVITY_PI_PARAMETERS)
+        self._state = np.zeros(1, GRAVITY_PI_STATE)
+        self._start = True
+
+    @property
+    def parameters_(self) -> np.void:
+        """The :data:`~spotfree.signal.recursions.GRAVITY_PI_PARAMETERS` record, as read at the last :meth:`reset`."""
+        return self._parameters[0]
+
+    @property
+    def bias_(self) -> list[float]:
+        """The gyro bias estimate (rad/s, body frame)."""
+        return self._state[0]["bias"].tolist()
 
     def update(self, acc, gyr) -> tuple[float, float]:
         """Roll and pitch (rad) after one sample; ``acc`` (m/s^2) and ``gyr`` (rad/s) body-frame 3-vectors."""
-        ax, ay, az = float(acc[0]), float(acc[1]), float(acc[2])
-        norm_a = math.sqrt(ax * ax + ay * ay + az * az)
-        if self._u is None:
-            self._u = (ax / norm_a, ay / norm_a, az / norm_a) if norm_a > 0 else (0.0, 0.0, 1.0)
-        b = self.bias_
-        wx, wy, wz = float(gyr[0]) - b[0], float(gyr[1]) - b[1], float(gyr[2]) - b[2]
-        half = 0.5 / self.rate
-        ux, uy, uz = _rotate(*self._u, wx, wy, wz, half)
-        w2 = wx * wx + wy * wy + wz * wz
-        departure = norm_a - self.g
-        if w2 < self.rest_gyr * self.rest_gyr and abs(departure) < self.rest_acc:
-            self._still += 2.0 * half
-        else:
-            self._still = 0.0
-        if norm_a > 0:
-            nx, ny, nz = ax / norm_a, ay / norm_a, az / norm_a
-            ex, ey, ez = ny * uz - nz * uy, nz * ux - nx * uz, nx * uy - ny * ux
-            if self._still >= self.rest_time:
-                k = self.rest_gain
-                step = 2.0 * half / self.rest_tau
-                b[0] += step * wx
-                b[1] += step * wy
-                b[2] += step * wz
-            else:
-                trust = math.sqrt((1.0 + w2 / self.rate_scale**2) / (1.0 + (departure / self.acc_scale) ** 2))
-                k = self.kp * trust
-                sine = math.sqrt(ex * ex + ey * ey + ez * ez)
-                limit = math.sin(self.max_error)
-                if sine > limit:
-                    k *= limit / sine
-                integral = self.ki * (k / self.kp) * 2.0 * half
-                b[0] -= integral * ex
-                b[1] -= integral * ey
-                b[2] -= integral * ez
-            ux, uy, uz = _rotate(ux, uy, uz, k * ex, k * ey, k * ez, 2.0 * half)
-        ux, uy, uz = _rotate(ux, uy, uz, wx, wy, wz, half)
-        norm_u = math.sqrt(ux * ux + uy * uy + uz * uz)
-        self._u = (ux / norm_u, uy / norm_u, uz / norm_u)
-        return math.atan2(self._u[1], self._u[2]), math.atan2(-self._u[0], math.hypot(self._u[1], self._u[2]))
+        out = gravity_pi_update(self._parameters, self._state, self._start, float(acc[0]), float(acc[1]),
+                                float(acc[2]), float(gyr[0]), float(gyr[1]), float(gyr[2]))
+        self._start = False
+        return out
 
     def run(self, acc: np.ndarray, gyr: np.ndarray) -> np.ndarray:
         """``(n, 2)`` roll and pitch (rad) for ``(n, 3)`` body-frame ``acc`` (m/s^2) and ``gyr`` (rad/s)."""
         self.reset()
-        acc, gyr = np.asarray(acc, dtype=float).tolist(), np.asarray(gyr, dtype=float).tolist()
-        return np.array([self.update(a, w) for a, w in zip(acc, gyr)]).reshape(-1, 2)
+        acc = np.ascontiguousarray(acc, dtype=float).reshape(-1, 3)
+        gyr = np.ascontiguousarray(gyr, dtype=float).reshape(-1, 3)
+        out = np.empty((len(acc), 2))
+        gravity_pi_run(self._parameters, self._state, acc, gyr, out)
+        self._start = len(acc) == 0
+        return out
 
 
 class VQFAttitude:

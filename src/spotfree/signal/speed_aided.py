@@ -32,6 +32,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from spotfree.signal.recursions import (
+    SPEED_AIDED_PARAMETERS, SPEED_AIDED_STATE, speed_aided_run, speed_aided_update,
+)
+
 
 @dataclass(frozen=True)
 class SpeedAidedParameters:
@@ -55,76 +59,49 @@ class SpeedAidedParameters:
     """m/s: standard deviation of the speed before the first fix (started at 0, then set by the fix)."""
 
 
+def speed_aided_parameters(rate: float, parameters: SpeedAidedParameters | None = None) -> np.ndarray:
+    """The :data:`~spotfree.signal.recursions.SPEED_AIDED_PARAMETERS` for ``rate`` (Hz) and ``parameters`` (defaults
+    when None), one record in an array (numba takes a one-element array faster than a record)."""
+    values = vars(parameters or SpeedAidedParameters())
+    return np.array([(float(rate), *(float(values[name]) for name in SPEED_AIDED_PARAMETERS.names[1:]))],
+                    dtype=SPEED_AIDED_PARAMETERS)
+
+
 class SpeedAidedPitch:
-    """The filter of the module docstring, one sample at a time (plain floats: a few microseconds per sample)."""
+    """The filter of the module docstring, one sample at a time (compiled:
+    :func:`~spotfree.signal.recursions.speed_aided_step`)."""
 
     def __init__(self, rate: float, parameters: SpeedAidedParameters | None = None):
         self.rate = float(rate)
         self.parameters = parameters or SpeedAidedParameters()
+        self._packed = speed_aided_parameters(self.rate, self.parameters)
+        self._state = np.zeros(1, SPEED_AIDED_STATE)
         self.reset()
 
     def reset(self) -> None:
         """Forget the state: the next sample starts a new segment."""
-        self._x: tuple[float, float, float] | None = None
-        self._P = (0.0,) * 6  # p00, p01, p02, p11, p12, p22 of the symmetric covariance
-        self._has_speed = False
+        self._start = True
 
     def update(self, acc, gyr, roll: float, pitch_ref: float, speed: float = math.nan) -> tuple[float, float]:
         """``(a_t, theta)`` for one sample: ``acc`` (m/s^2) and ``gyr`` (rad/s) on vehicle axes, ``roll`` and
         ``pitch_ref`` (rad) from the attitude filter, ``speed`` (m/s) on a GPS fix, NaN otherwise."""
-        par, dt = self.parameters, 1.0 / self.rate
-        ax, ay, az = float(acc[0]), float(acc[1]), float(acc[2])
-        q, r = float(gyr[1]), float(gyr[2])
-        sr, cr = math.sin(roll), math.cos(roll)
-        across = sr * ay + cr * az
-        if self._x is None:
-            self._x = (float(pitch_ref), 0.0, 0.0)
-            self._P = (par.initial_pitch**2, 0.0, 0.0, par.initial_bias**2, 0.0, par.initial_speed**2)
-        theta, bias, v = self._x
-        st, ct = math.sin(theta), math.cos(theta)
-        a_t = ct * ax + st * across
-        s = (-st * ax + ct * across) * dt  # d v / d theta over one step
-        p00, p01, p02, p11, p12, p22 = self._P
-        self._P = (  # F P F^T + Q, F = [[1, -dt, 0], [0, 1, 0], [s, 0, 1]]
-            p00 - 2 * dt * p01 + dt * dt * p11 + par.pitch_noise**2 * dt,
-            p01 - dt * p11,
-            s * (p00 - dt * p01) + p02 - dt * p12,
-            p11 + par.bias_noise**2 * dt,
-            s * p01 + p12,
-            s * s * p00 + 2 * s * p02 + p22 + (par.accel_noise * dt) ** 2,
-        )
-        self._x = (theta + (q * cr - r * sr - bias) * dt, bias, v + a_t * dt)
-        self._measure(0, float(pitch_ref) - self._x[0], par.reference_noise**2 / dt)
-        if speed == speed:  # a GPS fix (not NaN)
-            if not self._has_speed:
-                p00, p01, _, p11, _, _ = self._P
-                self._x, self._P = (self._x[0], self._x[1], float(speed)), (p00, p01, 0.0, p11, 0.0, 0.0)
-                self._has_speed = True
-            self._measure(2, float(speed) - self._x[2], par.speed_noise**2)
-        theta = self._x[0]
-        return math.cos(theta) * ax + math.sin(theta) * across, theta
-
-    def _measure(self, k: int, innovation: float, variance: float) -> None:
-        """Kalman update for a direct measurement of state ``k`` (0 pitch, 2 speed): ``K = P e_k / (P_kk + var)``,
-        ``x += K innovation``, ``P -= K (P e_k)^T``."""
-        p00, p01, p02, p11, p12, p22 = self._P
-        c0, c1, c2 = (p00, p01, p02) if k == 0 else (p02, p12, p22)
-        inv = 1.0 / ((c0 if k == 0 else c2) + variance)
-        x0, x1, x2 = self._x
-        self._x = (x0 + c0 * inv * innovation, x1 + c1 * inv * innovation, x2 + c2 * inv * innovation)
-        self._P = (p00 - c0 * c0 * inv, p01 - c0 * c1 * inv, p02 - c0 * c2 * inv,
-                   p11 - c1 * c1 * inv, p12 - c1 * c2 * inv, p22 - c2 * c2 * inv)
+        out = speed_aided_update(self._packed, self._state, self._start, float(acc[0]), float(acc[1]), float(acc[2]),
+                               float(gyr[1]), float(gyr[2]), float(roll), float(pitch_ref), float(speed))
+        self._start = False
+        return out
 
 
 def speed_aided_acceleration(acc: np.ndarray, gyr: np.ndarray, roll: np.ndarray, pitch_ref: np.ndarray,
                              speed: np.ndarray | None, rate: float,
                              parameters: SpeedAidedParameters | None = None) -> np.ndarray:
     """``(n, 2)`` columns ``a_t`` (m/s^2) and ``theta`` (rad) of one gap-free segment; ``speed`` (m/s) NaN between
-    fixes, or ``None`` without GPS. Runs :class:`SpeedAidedPitch` sample by sample, so batch equals streaming."""
-    filt = SpeedAidedPitch(rate, parameters)
+    fixes, or ``None`` without GPS. Runs :func:`~spotfree.signal.recursions.speed_aided_step` sample by sample, so
+    batch equals streaming."""
     n = len(acc)
     speed = np.full(n, np.nan) if speed is None else np.asarray(speed, dtype=float)
     out = np.empty((n, 2))
-    for k in range(n):
-        out[k] = filt.update(acc[k], gyr[k], float(roll[k]), float(pitch_ref[k]), float(speed[k]))
+    acc, gyr, roll, pitch_ref, speed = (np.ascontiguousarray(v, dtype=float)
+                                        for v in (acc, gyr, roll, pitch_ref, speed))
+    speed_aided_run(speed_aided_parameters(rate, parameters), np.zeros(1, SPEED_AIDED_STATE), acc.reshape(-1, 3),
+                     gyr.reshape(-1, 3), roll, pitch_ref, speed, out)
     return out

@@ -1,0 +1,229 @@
+"""The live service over several processes: each open ride lives in one worker process, which classifies its
+batches and commits them; the web server's process only parses, routes and answers.
+
+:class:`RideServicePool` is a :class:`~spotfree.ride.service.RideService` (same methods, same refusals, same
+acknowledgements, the views fed in the server's process) whose rides are opened in ``processes`` worker processes,
+each with its own :class:`~spotfree.ride.service.RideService` and its own connection to the same store. SQLite
+takes one writer at a time: the workers' group commits take turns on one lock (a blocking wait, where SQLite's own
+busy handler would poll with sleeps of up to 100 ms); PostgreSQL takes them together.
+A new ride goes to the worker with the fewest open rides and stays there; every later call on it is sent to that
+worker over a pipe, and the answer comes back once the worker has committed (an acknowledged sample is in the
+store, as in one process). Python runs one thread at a time per process, so this is how the service uses more
+than one core.
+
+The server's process keeps its own store connection for device registration and for the views' reads.
+"""
+
+from __future__ import annotations
+
+import itertools
+import multiprocessing
+import threading
+from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import Future
+
+from spotfree.errors import SpotfreeError
+from spotfree.model import DictionaryModel
+from spotfree.ride.assistant import RideAssistant
+from spotfree.ride.live import LiveRide
+from spotfree.ride.service import RideService
+from spotfree.ride.store import AccessError, RideStore
+from spotfree.signal.frame import GRAVITY
+
+
+class WorkerError(SpotfreeError):
+    """A worker process stopped or failed in a way its answer could not carry."""
+
+
+class RideServicePool(RideService):
+    """:class:`~spotfree.ride.service.RideService` with rides in ``processes`` worker processes (module docstring).
+
+    Parameters are those of :class:`~spotfree.ride.service.RideService`, and ``processes``: worker processes
+    (at least 1). Call :meth:`close` to stop them.
+    """
+
+    def __init__(self, model: DictionaryModel, store: RideStore, model_name: str = "default",
+                 assistant: Callable[[], RideAssistant] | None = None, processes: int = 2):
+        super().__init__(model, store, model_name, assistant)
+        if processes < 1:
+            raise ValueError(f"processes={processes}: give at least 1 worker process")
+        context = multiprocessing.get_context("spawn")
+        lock = context.Lock()  # the workers take turns at the SQLite file's write lock
+        self._workers = [_Worker(context, k, (model, store.location, store.synchronous, lock, model_name,
+                                              assistant)) for k in range(processes)]
+        for worker in self._workers:
+            worker.ready()
+        self._home: dict[str, _Worker] = {}
+
+    def close(self) -> None:
+        """Stop the workers (each commits what it holds first), then close the server's store."""
+        for worker in self._workers:
+            worker.stop()
+        super().close()
+
+    def _open_ride(self, token: str, vehicle: str, rider_id: str, meta: dict) -> str:
+        with self._lock:
+            worker = min(self._workers, key=lambda w: w.rides)
+            worker.rides += 1
+        try:
+            ride_id = worker.call("open", token, vehicle, rider_id, meta).result()
+        except BaseException:
+            with self._lock:
+                worker.rides -= 1
+            raise
+        with self._lock:
+            self._home[ride_id] = worker
+        return ride_id
+
+    def _close_ride(self, token: str, ride_id: str) -> list[dict]:
+        worker = self._worker(ride_id)
+        events = worker.call("close", token, ride_id).result()
+        with self._lock:
+            if self._home.pop(ride_id, None) is not None:
+                worker.rides -= 1
+        return events
+
+    def set_destination(self, token: str, ride_id: str, lat: float, lon: float) -> None:
+        self._worker(ride_id).call("destination", token, ride_id, lat, lon).result()
+
+    def resume(self, token: str, ride_id: str) -> float | None:
+        return self._worker(ride_id).call("resume", token, ride_id).result()
+
+    def open_rides(self) -> list[str]:
+        with self._lock:
+            return list(self._home)
+
+    def _submit(self, token: str, ride_id: str, samples: Mapping[str, Sequence[float]], check_rate: bool,
+                describe: bool) -> Future:
+        return self._worker(ride_id).call("submit", token, ride_id, samples, check_rate, describe)
+
+    def _worker(self, ride_id: str) -> "_Worker":
+        with self._lock:
+            worker = self._home.get(ride_id)
+        if worker is None:
+            self.store.ride(ride_id)  # NotFoundError for an unknown id
+            raise AccessError(f"ride {ride_id} is not open on this server; start a new ride")
+        return worker
+
+
+class _Worker:
+    """The server's end of one worker process: calls go down a pipe, answers come back on a reader thread."""
+
+    def __init__(self, context, index: int, service_args: tuple):
+        self.index = index
+        self.rides = 0
+        self._pipe, child = context.Pipe()
+        self._process = context.Process(target=_serve, args=(child, service_args), daemon=True,
+                                        name=f"spotfree-rides-{index}")
+        self._process.start()
+        child.close()
+        self._send_lock = threading.Lock()
+        self._pending: dict[int, Future] = {}
+        self._ids = itertools.count()
+        self._stopped: WorkerError | None = None
+        self._ready: Future = Future()
+        self._pending[-1] = self._ready
+        self._reader = threading.Thread(target=self._read, name=f"spotfree-rides-{index}-answers", daemon=True)
+        self._reader.start()
+
+    def ready(self) -> None:
+        """Wait until the worker has loaded the model and opened the store (its failure raised here)."""
+        self._ready.result()
+
+    def call(self, name: str, *args) -> Future:
+        """A future of the worker's answer to ``name(*args)`` (its exception when it refused)."""
+        future: Future = Future()
+        with self._send_lock:
+            if self._stopped is not None:
+                raise WorkerError(str(self._stopped))
+            call_id = next(self._ids)
+            self._pending[call_id] = future
+            try:
+                self._pipe.send((call_id, name, args))
+            except (OSError, ValueError) as exc:
+                self._pending.pop(call_id, None)
+                raise WorkerError(f"ride worker {self.index} has stopped ({exc}); start new rides") from None
+        return future
+
+    def stop(self) -> None:
+        with self._send_lock:
+            try:
+                self._pipe.send(None)
+            except (OSError, ValueError):
+                pass
+        self._process.join(60)
+        if self._process.is_alive():
+            self._process.kill()
+        self._reader.join(10)
+
+    def _read(self) -> None:
+        while True:
+            try:
+                call_id, ok, value = self._pipe.recv()
+            except (EOFError, OSError):
+                break
+            future = self._pending.pop(call_id, None)
+            if future is None:
+                continue
+            if ok:
+                future.set_result(value)
+            else:
+                future.set_exception(value)
+        self._process.join(5)
+        with self._send_lock:
+            self._stopped = WorkerError(f"ride worker {self.index} has stopped (exit code "
+                                        f"{self._process.exitcode}); the rides it held are closed, start new ones")
+            pending, self._pending = list(self._pending.values()), {}
+        for future in pending:
+            future.set_exception(WorkerError(str(self._stopped)))
+
+
+def _warm_up(service: RideService) -> None:  # pragma: no cover - runs in the worker process
+    """Run a resting phone through a throw-away ride pipeline, so that the compiled kernels are loaded before the
+    worker says it is ready (else the first batches of its first rides wait for them)."""
+    live = LiveRide(service.model, service.classifier)
+    for k in range(2 * service.model.window):
+        live.update(k / service.model.rate, (0.0, GRAVITY, 0.0), (0.0, 0.0, 0.0))
+
+
+def _serve(pipe, service_args: tuple) -> None:  # pragma: no cover - runs in the worker process
+    """A worker process: one :class:`RideService` answering the calls of :class:`_Worker` until told to stop."""
+    model, location, synchronous, lock, model_name, assistant = service_args
+    lock = threading.Lock()
+
+    def answer(call_id: int, ok: bool, value) -> None:
+        with lock:
+            try:
+                pipe.send((call_id, ok, value))
+            except Exception as exc:  # an exception that does not pickle travels as its message
+                pipe.send((call_id, False, WorkerError(f"{type(value).__name__}: {value} ({exc})")))
+
+    try:
+        store = RideStore(location, synchronous=synchronous, lock=lock)
+        service = RideService(model, store, model_name, assistant)
+        _warm_up(service)
+    except Exception as exc:
+        answer(-1, False, exc)
+        return
+    answer(-1, True, None)
+    methods = {"open": service._open_ride, "close": service._close_ride, "destination": service.set_destination,
+               "resume": service.resume, "submit": service._submit}
+    while True:
+        try:
+            message = pipe.recv()
+        except (EOFError, OSError):
+            break
+        if message is None:
+            break
+        call_id, name, args = message
+        try:
+            value = methods[name](*args)
+        except Exception as exc:
+            answer(call_id, False, exc)
+            continue
+        if isinstance(value, Future):
+            value.add_done_callback(lambda done, call_id=call_id: answer(
+                call_id, done.exception() is None, done.exception() or done.result()))
+        else:
+            answer(call_id, True, value)
+    store.close()

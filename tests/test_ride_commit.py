@@ -1,0 +1,119 @@
+"""Group commit of the ride store: concurrent writes share transactions, a refused write in a group changes
+nothing while the others commit, a failed COMMIT fails its whole group, queued writes are committed on close; and
+the quick value checks of a sample batch refuse exactly what the field-by-field checks refuse."""
+
+from __future__ import annotations
+
+import sqlite3
+import threading
+from concurrent.futures import wait
+from contextlib import contextmanager
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from ride_fixtures import batch, postgres_server, store  # noqa: F401 (fixtures)
+
+from spotfree.errors import InputError
+from spotfree.ride import RideStore
+from spotfree.ride import validation
+from spotfree.ride.commit import GroupCommit
+from spotfree.ride.records import SAMPLE_COLUMNS
+
+
+def _ride(store):
+    _, token = store.register_device("phone")
+    return token, store.start_ride(token, "segway", "rider")
+
+
+def test_pending_writes_share_a_commit_and_a_refused_one_changes_nothing(store):
+    rides = [_ride(store) for _ in range(20)]
+    groups = store._writer.groups
+    with store._lock:  # the writer waits, so every batch below is pending at once
+        futures = [store.submit_samples(token, ride, batch(0.0, 5)) for token, ride in rides]
+        futures.append(store.submit_samples(*rides[0], batch(0.0, 5)))  # not after ride 0's last time
+    wait(futures, timeout=60)
+    assert [f.result() for f in futures[:-1]] == [5] * 20
+    with pytest.raises(InputError, match="not after the last stored time"):
+        futures[-1].result()
+    assert store._writer.groups - groups <= 2  # 21 writes, one or two transactions
+    assert [len(store.samples(ride)["time"]) for _, ride in rides] == [5] * 20
+    assert len(store.labels(rides[0][1])["time"]) == 0
+
+
+def test_batches_of_a_ride_commit_in_submission_order_with_their_events(tmp_path):
+    from spotfree.ride import Event
+
+    with RideStore(tmp_path / "rides.db", synchronous="normal") as store:
+        token, ride = _ride(store)
+        futures = [store.submit_samples(token, ride, batch(k * 0.25, 5), labels={"m": ["cruising"] * 5},
+                                        events=[Event("sudden-braking", k, k + 0.5)] if k == 3 else ())
+                   for k in range(8)]
+        assert [f.result(timeout=60) for f in futures] == [5] * 8
+        assert np.all(np.diff(store.samples(ride)["time"]) > 0) and len(store.labels(ride)["m"]) == 40
+        assert [(e.kind, e.start) for e in store.events(ride)] == [("sudden-braking", 3.0)]
+    with RideStore(tmp_path / "rides.db") as again:  # close committed everything
+        assert len(again.samples(ride)["time"]) == 40
+
+
+def test_a_failed_commit_fails_every_write_of_its_group(tmp_path):
+    connection = sqlite3.connect(tmp_path / "x.db", isolation_level=None, check_same_thread=False)
+    connection.execute("CREATE TABLE t (x INTEGER)")
+    fail = threading.Event()
+
+    @contextmanager
+    def transaction():
+        cursor = connection.cursor()
+        cursor.execute("BEGIN")
+        try:
+            yield cursor
+        except BaseException:
+            cursor.execute("ROLLBACK")
+            raise
+        if fail.is_set():
+            cursor.execute("ROLLBACK")
+            raise sqlite3.OperationalError("disk I/O error")
+        cursor.execute("COMMIT")
+
+    writer = GroupCommit(transaction)
+    assert writer.submit(lambda db: db.execute("INSERT INTO t VALUES (1)") and 1).result(timeout=30) == 1
+    fail.set()
+    futures = [writer.submit(lambda db, k=k: db.execute("INSERT INTO t VALUES (?)", (k,))) for k in range(5)]
+    for future in futures:
+        with pytest.raises(sqlite3.OperationalError, match="disk I/O"):
+            future.result(timeout=30)
+    writer.close()
+    assert connection.execute("SELECT x FROM t").fetchall() == [(1,)]
+
+
+_LIMITS = {"time": (0.0, 1e6), "ax": (-200.0, 200.0), "gx": (-40.0, 40.0), "lat": (-100.0, 100.0),
+           "lon": (-200.0, 200.0), "speed": (-5.0, 120.0)}
+_SPECIAL = st.sampled_from([np.nan, np.inf, -np.inf])
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.data())
+def test_quick_value_checks_refuse_exactly_what_the_field_checks_refuse(data):
+    table = np.column_stack([np.arange(6) * 0.05] + [np.zeros(6)] * 9)
+    table[:, 3] = 9.81
+    table[:, 7:10] = [36.0, 140.0, 3.0]
+    for _ in range(data.draw(st.integers(0, 3))):
+        row, column = data.draw(st.integers(0, 5)), data.draw(st.integers(1, len(SAMPLE_COLUMNS) - 1))
+        low, high = _LIMITS.get(SAMPLE_COLUMNS[column], _LIMITS["ax" if column < 4 else "gx"])
+        table[row, column] = data.draw(_SPECIAL | st.floats(low, high))
+    quick = validation._within_limits(table)
+    try:
+        validation._check_gps(table, "ride")
+        for column in range(1, 7):
+            name = SAMPLE_COLUMNS[column]
+            bound = validation.MAX_ACCELERATION if column < 4 else validation.MAX_ROTATION
+            values = table[:, column]
+            validation._refuse(~np.isfinite(values) | (np.abs(values) > bound), values, "ride", name, "")
+        refused = False
+    except InputError:
+        refused = True
+    assert quick == (not refused)
+    if not quick:
+        with pytest.raises(InputError):
+            validation.sample_batch(table, None, "ride")

@@ -1,0 +1,91 @@
+"""The live service with its rides in worker processes (``spotfree serve --workers``): the same acknowledgements,
+labels, refusals and views as in one process, rides spread over the workers, and a killed worker failing only
+its own rides' calls, with what it acknowledged in the store."""
+
+from __future__ import annotations
+
+import os
+import signal
+
+import pytest
+from test_ride_service import _columns, model, raw  # noqa: F401 (fixtures)
+
+from spotfree.errors import InputError
+from spotfree.ride.pool import RideServicePool, WorkerError
+from spotfree.ride.service import BACKLOG_SECONDS, RateError, RideService
+from spotfree.ride.sources import recording_rows
+from spotfree.ride.store import AccessError, NotFoundError, RideStore
+
+
+@pytest.fixture(scope="module")
+def pool(model, tmp_path_factory):
+    service = RideServicePool(model, RideStore(tmp_path_factory.mktemp("pool") / "rides.db", synchronous="normal"),
+                              processes=2)
+    yield service
+    service.close()
+
+
+def test_pool_acknowledges_as_one_process_does(pool, model, raw, tmp_path):
+    rows = recording_rows(raw.select_experiment(2))
+    alone = RideService(model, RideStore(tmp_path / "alone.db", synchronous="normal"))
+    _, token = pool.register_device("phone")
+    _, own = alone.register_device("phone")
+    first, second = pool.start_ride(token, "v", "r"), pool.start_ride(token, "v", "r")
+    assert sorted(w.rides for w in pool._workers) == [1, 1]  # one ride on each worker
+    reference = alone.start_ride(own, "v", "r")
+    from fastapi.testclient import TestClient
+
+    from spotfree.ride.api import create_app
+
+    with TestClient(create_app(pool)) as client, client.websocket_connect("/ws/watch") as view:
+        assert view.receive_json()["type"] == "hello"
+        with client.websocket_connect("/ws/ride") as ws:
+            ws.send_json({"type": "resume", "token": token, "ride_id": first})
+            assert ws.receive_json()["last_time"] is None
+            for k in range(0, 600, 20):
+                ws.send_json({"type": "batch", "seq": k, "samples": _columns(rows[k:k + 20])})
+                ack = ws.receive_json()
+                expected = alone.ingest(own, reference, _columns(rows[k:k + 20]))
+                assert {key: ack[key] for key in expected} == expected
+            published = view.receive_json()
+            assert published["type"] == "samples" and published["ride_id"] == first and len(published["pitch"]) == 20
+            ws.send_json({"type": "batch", "seq": 1, "samples": _columns(rows[:5])})
+            assert ws.receive_json()["status"] == 400  # already recorded
+    assert pool.resume(token, first) == pytest.approx(rows[599, 0])
+    pool.end_ride(token, first)
+    assert first not in pool.open_rides() and second in pool.open_rides()
+    assert len(pool.store.samples(first)["time"]) == 600
+    with pytest.raises(AccessError, match="not open"):
+        pool.ingest(token, first, _columns(rows[600:605]))
+    with pytest.raises(NotFoundError):
+        pool.resume(token, "no-such-ride")
+    _, other = pool.register_device("other phone")
+    with pytest.raises(AccessError, match="may not write"):
+        pool.ingest(other, second, _columns(rows[:5]))
+    with pytest.raises(InputError, match="destination"):
+        pool.set_destination(token, second, 91.0, 0.0)
+    backlog = int(BACKLOG_SECONDS * model.rate)
+    for k in range(0, backlog, 200):
+        pool.ingest(token, second, _columns(rows[k % 1200:k % 1200 + 200]) | {
+            "time": list(k / model.rate + rows[:200, 0])})
+    with pytest.raises(RateError) as refused:  # unless the 1200 samples above took over 5 s to send
+        pool.ingest(token, second, _columns(rows[:400]) | {"time": list(backlog / model.rate + rows[:400, 0])})
+    assert refused.value.retry_after > 0
+
+
+def test_a_killed_worker_fails_only_its_rides(model, raw, tmp_path):
+    rows = recording_rows(raw.select_experiment(2))
+    service = RideServicePool(model, RideStore(tmp_path / "rides.db"), processes=2)
+    try:
+        _, token = service.register_device("phone")
+        doomed, spared = service.start_ride(token, "v", "r"), service.start_ride(token, "v", "r")
+        acked = service.ingest(token, doomed, _columns(rows[:20]))["count"]
+        victim = service._home[doomed]
+        os.kill(victim._process.pid, signal.SIGKILL)
+        victim._process.join(30)
+        with pytest.raises(WorkerError, match="stopped"):
+            service.ingest(token, doomed, _columns(rows[20:40]))
+        assert service.ingest(token, spared, _columns(rows[:20]))["count"] == 20
+        assert len(service.store.samples(doomed)["time"]) == acked
+    finally:
+        service.close()
