@@ -1,4 +1,5 @@
-"""The shared ring buffer of streaming windows: windows equal the batch windows, compiled CRC equals predict_one."""
+"""The shared ring buffer of streaming windows: windows equal the batch windows, compiled CRC_RLS and kernel CRC_RLS
+equal the batch labels."""
 
 import numpy as np
 import pytest
@@ -49,13 +50,14 @@ def test_ring_windows_equal_the_batch_windows_bit_for_bit(raw, normalisation, st
         np.testing.assert_array_equal(np.array(recorder.windows), batch_windows(m, feats))
 
 
-def test_compiled_crc_with_rejection_equals_the_batch_labels(model, raw):
+@pytest.mark.parametrize("method", ["crc", "kcrc"])
+def test_compiled_crc_with_rejection_equals_the_batch_labels(model, raw, method):
     ride = with_gap(raw.select_experiment(2), 200, 215)
-    free = dictionary_classifier(model, "crc")
+    free = dictionary_classifier(model, method)
     windows = batch_windows(model, ride_features(raw.select_experiment(2).take(slice(0, 200)), derived=True))
     scores = np.sort(free.rejection_score(windows))
     k = int(0.7 * len(scores))  # about 30 % rejected; the threshold halfway between two scores, far from rounding
-    clf = dictionary_classifier(model, "crc", reject=float(scores[k] + scores[k + 1]) / 2)
+    clf = dictionary_classifier(model, method, reject=float(scores[k] + scores[k + 1]) / 2)
     stream = RideClassifier(model, classifier=clf)
     acc, gyr, speed = ride.array(["ax", "ay", "az"]), ride.array(["gx", "gy", "gz"]), ride.channels["speed"]
     labels = np.array([stream.update(a, w, t, v) or "" for a, w, t, v in zip(acc, gyr, ride.time, speed)])

@@ -49,6 +49,18 @@ def test_every_sample_gets_a_label_after_the_first_window_of_each_ride(folder):
     assert labels["label"].nunique() >= 3
 
 
+def test_the_default_method_is_the_library_default_and_is_said(folder):
+    from spotfree.classify import DEFAULT_METHOD
+
+    result = invoke("classify", folder / "model.npz", folder / "ride.csv", "-o", folder / "default.csv")
+    assert result.exit_code == 0, result.output
+    assert f"by {DEFAULT_METHOD}" in result.output
+    explicit = invoke("classify", folder / "model.npz", folder / "ride.csv", "-o", folder / "named.csv",
+                      "--method", DEFAULT_METHOD)
+    assert explicit.exit_code == 0, explicit.output
+    assert (folder / "default.csv").read_text() == (folder / "named.csv").read_text()
+
+
 def test_centred_windows_and_smoothing_are_said_and_used(folder):
     assert invoke("classify", folder / "model.npz", f"{folder / 'ride.csv'}@2", "-o", folder / "causal2.csv").exit_code == 0
     result = invoke("classify", folder / "model.npz", f"{folder / 'ride.csv'}@2", "-o", folder / "centred.csv",

@@ -182,8 +182,9 @@ def classify(
                                       "(PATH@K selects experiment K)"),
     output: Path = typer.Option(..., "-o", "--output", help="CSV file to write: time, label (and experiment); "
                                 "with several models one label column per model, named by its file stem"),
-    method: str = typer.Option("crc", "--method", help="crc | kcrc | src | bsrc | nearest (kcrc: kernel CRC_RLS, "
-                               "amplitude-aware; kcrc and nearest are not in the paper)"),
+    method: str = typer.Option("kcrc", "--method", help="kcrc | crc | src | bsrc | nearest (kcrc: kernel "
+                               "CRC_RLS, amplitude-aware, the default; crc: the paper's CRC_RLS; kcrc and nearest are "
+                               "not in the paper)"),
     centred: bool = typer.Option(False, "--centred", help="label each sample by the window centred on it "
                                  "(offline); default: the window ending at it, as a live stream does"),
     smooth: int = typer.Option(0, "--smooth", help="majority vote over N samples (0: none)"),

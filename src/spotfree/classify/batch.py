@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from spotfree.classify import make_classifier
+from spotfree.classify import DEFAULT_METHOD, make_classifier
 from spotfree.classify.smoothing import check_smoothing, majority_vote
 from spotfree.errors import InputError
 from spotfree.io.checks import write_text
@@ -119,7 +119,7 @@ def model_features(model: DictionaryModel, rec: Recording) -> Recording:
     return rec
 
 
-def dictionary_classifier(model: DictionaryModel, method: str = "crc", **params):
+def dictionary_classifier(model: DictionaryModel, method: str = DEFAULT_METHOD, **params):
     """Classifier ``method`` fitted on the model's dictionary columns (with the affine row), one atom per column."""
     atoms = with_affine_row(model.dictionary, model_affine(model)).T
     return make_classifier(method, **params).fit(atoms, np.asarray(model.classes)[model.column_class])
@@ -135,7 +135,7 @@ def alignment_offset(model: DictionaryModel, centred: bool) -> int:
     return model.window // 2 if centred else 0
 
 
-def classify_recording(model: DictionaryModel, rec: Recording, method: str = "crc", centred: bool = False,
+def classify_recording(model: DictionaryModel, rec: Recording, method: str = DEFAULT_METHOD, centred: bool = False,
                        smoothing: int | None = None, classifier=None) -> Labels:
     """Label every sample of ``rec`` (a raw IMU log or a log of the model's channels), see the module docstring.
 

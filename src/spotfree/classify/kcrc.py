@@ -25,15 +25,14 @@ sudden stop; 32 landmarks label as well as every atom.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 from scipy.spatial.distance import pdist
 from sklearn.cluster import KMeans
 from sklearn.utils.validation import check_is_fitted
 
 from spotfree.classify.base import UNKNOWN, ResidualClassifier
-from spotfree.classify.crc import _FAST, CRCClassifier
-from spotfree.classify.crc import _one_window as crc_one_window
+from spotfree.classify.crc import CRCClassifier
+from spotfree.classify.ring import crc_window, kernel_features
 from spotfree.errors import InputError
 
 
@@ -101,7 +100,7 @@ class KernelCRCClassifier(ResidualClassifier):
         return np.linalg.norm(self._features(X), axis=1)
 
     def predict_one(self, y):
-        """Class of one window ``y`` ``(d,)`` (one compiled call); for streaming."""
+        """Class of one window ``y`` ``(d,)`` (two compiled calls); for streaming."""
         try:
             landmarks, crc = self.landmarks_, self.crc_
         except AttributeError:
@@ -111,7 +110,9 @@ class KernelCRCClassifier(ResidualClassifier):
         if y.shape != (landmarks.shape[1],):
             raise InputError(f"KernelCRCClassifier.predict_one takes one window of shape ({landmarks.shape[1]},)"
                              f" (window length times channels, as the dictionary was trained), got shape {y.shape}")
-        best, ratio = _one_window(landmarks, self.normalisation_, self.gamma_, crc._operator, len(self.classes_), y)
+        phi = np.empty(len(self.normalisation_))
+        finite = kernel_features(landmarks, self.normalisation_, self.gamma_, y, phi)
+        best, ratio = crc_window(crc._operator, len(self.classes_), phi) if finite else (-1, np.nan)
         if best < 0:
             raise InputError("KernelCRCClassifier.predict_one: the window holds NaN or infinity; give finite values "
                              "(cut windows inside gap-free stretches)")
@@ -125,26 +126,3 @@ def _kernel(X: np.ndarray, landmarks: np.ndarray, gamma: float) -> np.ndarray:
     d2 = (np.einsum("ij,ij->i", X, X)[:, None] + np.einsum("ij,ij->i", landmarks, landmarks)[None, :]
           - 2.0 * (X @ landmarks.T))
     return np.exp(-gamma * np.maximum(d2, 0.0))
-
-
-@numba.njit(cache=True, nogil=True, fastmath=_FAST)
-def _one_window(landmarks, normalisation, gamma, operator, n_classes, y):  # pragma: no cover - compiled
-    """Best class of ``y`` and ``min_i r_i / ||phi(y)||`` (CRC_RLS on ``phi(y)``); ``-1`` if ``y`` is not finite."""
-    m, d = landmarks.shape
-    for j in range(d):
-        if not np.isfinite(y[j]):
-            return -1, np.nan
-    k = np.empty(m)
-    for a in range(m):
-        s = 0.0
-        for j in range(d):
-            e = y[j] - landmarks[a, j]
-            s += e * e
-        k[a] = np.exp(-gamma * s)
-    phi = np.empty(normalisation.shape[0])
-    for r in range(normalisation.shape[0]):
-        s = 0.0
-        for a in range(m):
-            s += normalisation[r, a] * k[a]
-        phi[r] = s
-    return crc_one_window(operator, n_classes, phi)

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from spotfree.classify import DEFAULT_METHOD
 from spotfree.classify.batch import Labels, classify_recording, dictionary_classifier
 from spotfree.errors import InputError
 from spotfree.io.recording import Recording
@@ -73,7 +74,7 @@ def onset_latency(labels: Labels, truth: np.ndarray, tolerance: float = 1.0) -> 
     return {c: OnsetLatency(c, onsets[c], np.array(delays[c])) for c in delays}
 
 
-def decision_latency(model: DictionaryModel, rec: Recording, method: str = "crc", smoothing: int | None = None,
+def decision_latency(model: DictionaryModel, rec: Recording, method: str = DEFAULT_METHOD, smoothing: int | None = None,
                      tolerance: float = 1.0) -> dict[str, dict[str, OnsetLatency]]:
     """``{"causal": ..., "centred": ...}``: :func:`onset_latency` of both window alignments on ``rec``, whose
     ``truth["label"]`` holds the ground truth."""

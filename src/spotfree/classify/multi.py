@@ -18,6 +18,7 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
+from spotfree.classify import DEFAULT_METHOD
 from spotfree.classify.batch import classify_recording, dictionary_classifier
 from spotfree.classify.ring import ModelRing
 from spotfree.classify.smoothing import check_smoothing
@@ -56,7 +57,7 @@ def _check_models(models: Mapping[str, DictionaryModel]) -> None:
             )
 
 
-def classify_models(models: Mapping[str, DictionaryModel], rec: Recording, method: str = "crc",
+def classify_models(models: Mapping[str, DictionaryModel], rec: Recording, method: str = DEFAULT_METHOD,
                     centred: bool = False, smoothing: int | None = None) -> pd.DataFrame:
     """One label column per model (named by its key) for every sample of ``rec``, after ``experiment`` (when the
     recording has one) and ``time`` (s); ``""`` where a model gives no label (see
@@ -93,7 +94,7 @@ class MultiModelStream:
         Classifiers already fitted by :func:`~spotfree.classify.batch.dictionary_classifier`.
     """
 
-    def __init__(self, models: Mapping[str, DictionaryModel], method: str = "crc", smoothing: int | None = None,
+    def __init__(self, models: Mapping[str, DictionaryModel], method: str = DEFAULT_METHOD, smoothing: int | None = None,
                  max_gap: float = MAX_GAP, classifiers: Mapping[str, object] | None = None):
         _check_models(models)
         first = next(iter(models.values()))

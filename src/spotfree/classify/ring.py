@@ -6,12 +6,13 @@ last ``L`` samples of any model are the contiguous columns ``p + L_max - L + 1 .
 compiled call (:func:`ring_step`) stores the sample and, for every model whose window is due (the segment holds
 ``n >= L`` samples and ``(n - L) % step == 0``), gathers its window channel by channel, divides each channel by its
 scale, divides the whole by its l2 norm for ``unit`` models, appends the affine row, and -- for CRC_RLS -- takes the
-class residuals and their argmin (:func:`crc_window`). Windows and labels are those of
+class residuals and their argmin (:func:`crc_window`); for kernel CRC_RLS it first maps the window to its Nystroem
+features (:func:`kernel_features`). Windows and labels are those of
 :func:`~spotfree.classify.batch.classify_recording` (same scaling, same order, causal alignment); other classifiers
 get the gathered window in Python.
 
-:func:`crc_window` is the single-window CRC_RLS kernel of :meth:`~spotfree.classify.crc.CRCClassifier.predict_one`
-too; it lives here because numba's disk cache only notices changes in the file of the function it caches, so a
+:func:`crc_window` and :func:`kernel_features` are the single-window kernels of the classifiers' ``predict_one``
+too; they live here because numba's disk cache only notices changes in the file of the function it caches, so a
 compiled call chain stays inside one module.
 """
 
@@ -33,12 +34,15 @@ _FAST = {"reassoc", "contract", "nsz", "arcp"}
 MODEL = np.dtype([
     ("window", "i8"), ("step", "i8"), ("first", "i8"), ("channels", "i8"), ("d", "i8"), ("y", "i8"),
     ("affine", "f8"), ("unit", "?"), ("compiled", "?"), ("classes", "i8"), ("operator", "i8"), ("reject", "f8"),
+    ("kernel", "?"), ("landmarks", "i8"), ("m", "i8"), ("features", "i8"), ("phi", "i8"), ("gamma", "f8"),
     ("code", "i8"),
 ])
 """One row per model of :func:`ring_step`'s table: window ``L`` and ``step`` (samples); ``first``, ``channels``: its
 slice of the flat ``picks`` / ``scales``; ``d`` and ``y``: its window length (``channels L`` plus the affine row when
 ``affine != 0``) and offset in the flat ``windows``; ``unit``: l2-normalised columns; ``compiled``: CRC_RLS in the
-kernel, with ``classes``, its operator's offset in the flat ``operators`` and the ``reject`` threshold (inf: off).
+kernel, with ``classes``, its operator's offset in the flat ``operators`` and the ``reject`` threshold (inf: off);
+``kernel``: kernel CRC_RLS, its ``m`` landmarks (``m d``) and then its normalisation (``features m``) at offset
+``landmarks`` of the flat ``kernels``, ``gamma``, and ``phi`` the offset of its features in ``windows``.
 ``code`` is the result of the last sample (:data:`NOT_DUE`, :data:`IN_PYTHON`, :data:`NOT_FINITE`, or the class index,
 ``classes`` meaning rejected)."""
 NOT_DUE, IN_PYTHON, NOT_FINITE = -1, -2, -3
@@ -68,8 +72,31 @@ def crc_window(operator, n_classes, y):  # pragma: no cover - compiled
     return best, ratio
 
 
+@numba.njit(cache=True, nogil=True, fastmath=_FAST)
+def kernel_features(landmarks, normalisation, gamma, y, phi):  # pragma: no cover - compiled
+    """``phi = normalisation exp(-gamma ||y - l_a||^2)_a`` (Nystroem features of ``y``); False if ``y`` is not
+    finite."""
+    m, d = landmarks.shape
+    for j in range(d):
+        if not np.isfinite(y[j]):
+            return False
+    k = np.empty(m)
+    for a in range(m):
+        s = 0.0
+        for j in range(d):
+            e = y[j] - landmarks[a, j]
+            s += e * e
+        k[a] = np.exp(-gamma * s)
+    for r in range(normalisation.shape[0]):
+        s = 0.0
+        for a in range(m):
+            s += normalisation[r, a] * k[a]
+        phi[r] = s
+    return True
+
+
 @numba.njit(cache=True, nogil=True)
-def ring_step(ring, cursor, models, picks, scales, operators, windows, values):  # pragma: no cover - compiled
+def ring_step(ring, cursor, models, picks, scales, operators, kernels, windows, values):  # pragma: no cover - compiled
     """Store ``values`` ``(F,)`` in ``ring`` ``(F, 2 L_max)`` and set every model's ``code`` (see :data:`MODEL`);
     ``cursor`` is ``[position, samples in the segment]``, advanced here."""
     length = ring.shape[1] // 2
@@ -103,8 +130,18 @@ def ring_step(ring, cursor, models, picks, scales, operators, windows, values): 
         if not model.compiled:
             model.code = IN_PYTHON
             continue
-        size = model.classes * model.d * model.d
-        operator = operators[model.operator:model.operator + size].reshape(model.classes * model.d, model.d)
+        d = model.d
+        if model.kernel:
+            size = model.m * model.d
+            landmarks = kernels[model.landmarks:model.landmarks + size].reshape(model.m, model.d)
+            normalisation = kernels[model.landmarks + size:model.landmarks + size + model.features * model.m]
+            phi = windows[model.phi:model.phi + model.features]
+            if not kernel_features(landmarks, normalisation.reshape(model.features, model.m), model.gamma, y, phi):
+                model.code = NOT_FINITE
+                continue
+            y, d = phi, model.features
+        size = model.classes * d * d
+        operator = operators[model.operator:model.operator + size].reshape(model.classes * d, d)
         best, ratio = crc_window(operator, model.classes, y)
         if best < 0:
             model.code = NOT_FINITE
@@ -126,14 +163,16 @@ class ModelRing:
         Length of those feature vectors.
     classifiers : sequence of fitted classifiers
         One per model (:func:`~spotfree.classify.batch.dictionary_classifier`); a plain
-        :class:`~spotfree.classify.crc.CRCClassifier` runs compiled, any other through its ``predict_one``.
+        :class:`~spotfree.classify.crc.CRCClassifier` or :class:`~spotfree.classify.kcrc.KernelCRCClassifier` runs
+        compiled, any other through its ``predict_one``.
     smoothing : int or None
         Causal majority vote over that many samples, per model.
     """
 
     def __init__(self, models: Sequence[DictionaryModel], picks: Sequence[np.ndarray], width: int,
                  classifiers: Sequence, smoothing: int | None = None):
-        from spotfree.classify.crc import CRCClassifier  # here: crc imports crc_window from this module
+        from spotfree.classify.crc import CRCClassifier  # here: crc and kcrc import their kernels from this module
+        from spotfree.classify.kcrc import KernelCRCClassifier
 
         if not len(models) == len(picks) == len(classifiers) > 0:
             raise InputError(f"ModelRing needs one channel pick and one classifier per model, got {len(models)} "
@@ -145,22 +184,30 @@ class ModelRing:
                                  f"one index below {width} per channel, got picks {list(pick)}")
         self.width = width
         self.models_ = np.zeros(len(models), MODEL)
-        operators, y = [], 0
+        operators, kernels, y = [], [], 0
         for row, model, pick, clf in zip(self.models_, models, picks, classifiers):
             affine = float(model.parameters.get("affine", 0.0))
-            compiled = type(clf) is CRCClassifier
+            kernel = type(clf) is KernelCRCClassifier
+            compiled = kernel or type(clf) is CRCClassifier
             d = len(pick) * model.window + (affine != 0)
             row["window"], row["step"], row["channels"], row["d"], row["y"] = model.window, model.step, len(pick), d, y
             row["affine"], row["unit"], row["compiled"] = affine, model.normalisation == "unit", compiled
             row["reject"] = np.inf if getattr(clf, "reject", None) is None else clf.reject
+            y += d
+            if kernel:
+                row["kernel"], row["gamma"], row["landmarks"] = True, clf.gamma_, sum(k.size for k in kernels)
+                row["m"], row["features"], row["phi"] = len(clf.landmarks_), len(clf.normalisation_), y
+                kernels += [clf.landmarks_.reshape(-1), clf.normalisation_.reshape(-1)]
+                y += len(clf.normalisation_)
+                clf = clf.crc_
             if compiled:
                 row["classes"], row["operator"] = len(clf.classes_), sum(o.size for o in operators)
                 operators.append(np.ascontiguousarray(clf.residual_operators_, dtype=float).reshape(-1))
-            y += d
         self.models_["first"] = np.cumsum([0] + [len(p) for p in picks])[:-1]
         self._picks = np.concatenate([np.asarray(p, dtype=np.int64) for p in picks])
         self._scales = np.concatenate([np.asarray(m.scale, dtype=float) for m in models])
         self._operators = np.concatenate(operators) if operators else np.zeros(0)
+        self._kernels = np.ascontiguousarray(np.concatenate(kernels), dtype=float) if kernels else np.zeros(0)
         self._windows = np.zeros(y)
         self._ring = np.zeros((width, 2 * max(m.window for m in models)))
         self._cursor = np.zeros(2, dtype=np.int64)
@@ -181,8 +228,8 @@ class ModelRing:
     def push(self, values: np.ndarray) -> list[str | None]:
         """The label of every model after the feature vector ``values`` ``(width,)`` (finite, float64): the label of
         its newest window, held between windows (None before the first), majority-voted when smoothing."""
-        ring_step(self._ring, self._cursor, self.models_, self._picks, self._scales, self._operators, self._windows,
-                  values)
+        ring_step(self._ring, self._cursor, self.models_, self._picks, self._scales, self._operators, self._kernels,
+                  self._windows, values)
         labels = self._labels
         for m, code in enumerate(self._codes.tolist()):
             if code >= 0:

@@ -20,6 +20,7 @@ import math
 
 import numpy as np
 
+from spotfree.classify import DEFAULT_METHOD
 from spotfree.classify.batch import dictionary_classifier
 from spotfree.classify.ring import ModelRing
 from spotfree.classify.smoothing import check_smoothing
@@ -41,7 +42,7 @@ class RideClassifier:
     ----------
     model : DictionaryModel
     method : str
-        ``crc`` | ``src`` | ``bsrc`` | ``nearest`` (:data:`spotfree.classify.METHODS`).
+        ``kcrc`` (default) | ``crc`` | ``src`` | ``bsrc`` | ``nearest`` (:data:`spotfree.classify.METHODS`).
     smoothing : int or None
         Causal majority vote over that many samples (:mod:`spotfree.classify.smoothing`); None for none.
     max_gap : float
@@ -51,7 +52,7 @@ class RideClassifier:
         rejection threshold); fitted here by ``method`` when None.
     """
 
-    def __init__(self, model: DictionaryModel, method: str = "crc", smoothing: int | None = None,
+    def __init__(self, model: DictionaryModel, method: str = DEFAULT_METHOD, smoothing: int | None = None,
                  max_gap: float = MAX_GAP, classifier=None):
         self.model = model
         self.method = method
