@@ -11,11 +11,14 @@ classification", IEEE GRSL 12(1), 2015, here with the plain ridge) are solved on
     phi(y) = K_LL^{-1/2} k(L, y)                                   (m values; K_LL = k(L, L))
     CRC_RLS (:class:`~spotfree.classify.crc.CRCClassifier`) on the atoms phi(a_j), applied to phi(y)
 
-With every atom a landmark, ``phi(u) . phi(v) = k(u, v)`` between atoms and the residuals are those of exact kernel
-CRC_RLS up to one term common to all classes (the part of ``phi(y)`` outside the atoms' span), so the labels are
-the same. Fewer landmarks make a window cost ``m d`` for the kernel row and ``2 C m^2`` for the residuals, instead of
+``phi(y)`` is the projection of the window's feature vector on the landmarks' span; the part outside it, of squared
+norm ``1 - ||phi(y)||^2`` (``k(y, y) = 1``), is left unexplained by every class and is added to each residual:
+``r_i = sqrt(||phi(y) - Phi_i x_i||^2 + 1 - ||phi(y)||^2)``. With every atom a landmark these are the residuals of exact
+kernel CRC_RLS. A window far from every landmark keeps ``r_i`` near 1, so the rejection ratio ``min_i r_i / 1``
+rejects it. Fewer landmarks make a window cost ``m d`` for the kernel row and ``2 C m^2`` for the residuals, instead of
 the ``2 C d^2`` of CRC_RLS on windows of ``d`` values: with ``m`` near ``d`` about the same. Landmarks are taken per
-class, in proportion to its atoms (at least one), as k-means centres of its atoms (all of them when it has no more);
+class, in proportion to its atoms (at least one), by farthest-point sampling of its atoms (all of them when it has
+no more; deterministic, so every process labels alike);
 ``gamma = gamma_scale / median_{j<l} ||a_j - a_l||^2``, so the kernel does not depend on the windows' units.
 
 Measured against CRC_RLS on the simulated braking tests (``benchmarks/evaluation_seeds.py``, BENCHMARKS.md): far
@@ -27,12 +30,11 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.spatial.distance import pdist
-from sklearn.cluster import KMeans
 from sklearn.utils.validation import check_is_fitted
 
 from spotfree.classify.base import UNKNOWN, ResidualClassifier
 from spotfree.classify.crc import CRCClassifier
-from spotfree.classify.ring import crc_window, kernel_features
+from spotfree.classify.ring import crc_window, kernel_features, kernel_residual
 from spotfree.errors import InputError
 
 
@@ -49,18 +51,15 @@ class KernelCRCClassifier(ResidualClassifier):
     alpha : float
         Ridge weight of the CRC_RLS on the features, relative to their mean squared norm (as in CRC_RLS).
     reject : float or None
-        Rejection threshold on ``min_i r_i / ||phi(y)||``.
-    random_state : int
-        Seed of the k-means that places the landmarks.
+        Rejection threshold on ``min_i r_i`` (in [0, 1]: the feature vector's norm is 1).
     """
 
     def __init__(self, gamma_scale: float = 0.25, landmarks: int | None = 32, alpha: float = 1e-3,
-                 reject: float | None = None, random_state: int = 0):
+                 reject: float | None = None):
         super().__init__(reject=reject)
         self.gamma_scale = gamma_scale
         self.landmarks = landmarks
         self.alpha = alpha
-        self.random_state = random_state
 
     def _fit_dictionary(self, A: np.ndarray, atom_class: np.ndarray) -> None:
         if not (np.isfinite(self.gamma_scale) and self.gamma_scale > 0):
@@ -82,22 +81,20 @@ class KernelCRCClassifier(ResidualClassifier):
             return np.ascontiguousarray(atoms)
         counts = np.bincount(atom_class)
         share = np.maximum(1, np.round(self.landmarks * counts / counts.sum()).astype(int))
-        chosen = []
-        for i, m in enumerate(share):
-            own = atoms[atom_class == i]
-            chosen.append(own if len(own) <= m else
-                          KMeans(m, n_init=4, random_state=self.random_state).fit(own).cluster_centers_)
-        return np.ascontiguousarray(np.vstack(chosen))
+        return np.ascontiguousarray(np.vstack([_farthest_points(atoms[atom_class == i], m)
+                                               for i, m in enumerate(share)]))
 
     def _features(self, X: np.ndarray) -> np.ndarray:
         """``phi`` of every row of ``X``, ``(n, m)``."""
         return _kernel(X, self.landmarks_, self.gamma_) @ self.normalisation_.T
 
     def _residuals(self, X: np.ndarray) -> np.ndarray:
-        return self.crc_._residuals(self._features(X))
+        phi = self._features(X)
+        outside = np.maximum(1.0 - np.einsum("ij,ij->i", phi, phi), 0.0)  # ||phi(y)||^2 = k(y, y) = 1 in all
+        return np.sqrt(self.crc_._residuals(phi) ** 2 + outside[:, None])
 
     def _window_norms(self, X: np.ndarray) -> np.ndarray:
-        return np.linalg.norm(self._features(X), axis=1)
+        return np.ones(len(X))
 
     def predict_one(self, y):
         """Class of one window ``y`` ``(d,)`` (two compiled calls); for streaming."""
@@ -111,12 +108,12 @@ class KernelCRCClassifier(ResidualClassifier):
             raise InputError(f"KernelCRCClassifier.predict_one takes one window of shape ({landmarks.shape[1]},)"
                              f" (window length times channels, as the dictionary was trained), got shape {y.shape}")
         phi = np.empty(len(self.normalisation_))
-        finite = kernel_features(landmarks, self.normalisation_, self.gamma_, y, phi)
-        best, ratio = crc_window(crc._operator, len(self.classes_), phi) if finite else (-1, np.nan)
+        norm2 = kernel_features(landmarks, self.normalisation_, self.gamma_, y, phi)
+        best, ratio = crc_window(crc._operator, len(self.classes_), phi) if norm2 >= 0 else (-1, np.nan)
         if best < 0:
             raise InputError("KernelCRCClassifier.predict_one: the window holds NaN or infinity; give finite values "
                              "(cut windows inside gap-free stretches)")
-        if self.reject is not None and ratio > self.reject:
+        if self.reject is not None and kernel_residual(ratio, norm2) > self.reject:
             return UNKNOWN
         return self.classes_[best]
 
@@ -126,3 +123,16 @@ def _kernel(X: np.ndarray, landmarks: np.ndarray, gamma: float) -> np.ndarray:
     d2 = (np.einsum("ij,ij->i", X, X)[:, None] + np.einsum("ij,ij->i", landmarks, landmarks)[None, :]
           - 2.0 * (X @ landmarks.T))
     return np.exp(-gamma * np.maximum(d2, 0.0))
+
+
+def _farthest_points(points: np.ndarray, m: int) -> np.ndarray:
+    """``m`` of ``points`` (all when there are no more) spread over them: the one nearest their mean, then each time
+    the one farthest from those chosen (deterministic: no random start, ties to the first)."""
+    if len(points) <= m:
+        return points
+    chosen = [int(np.argmin(np.linalg.norm(points - points.mean(axis=0), axis=1)))]
+    distance = np.linalg.norm(points - points[chosen[0]], axis=1)
+    while len(chosen) < m:
+        chosen.append(int(np.argmax(distance)))
+        distance = np.minimum(distance, np.linalg.norm(points - points[chosen[-1]], axis=1))
+    return points[chosen]

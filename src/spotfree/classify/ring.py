@@ -74,12 +74,12 @@ def crc_window(operator, n_classes, y):  # pragma: no cover - compiled
 
 @numba.njit(cache=True, nogil=True, fastmath=_FAST)
 def kernel_features(landmarks, normalisation, gamma, y, phi):  # pragma: no cover - compiled
-    """``phi = normalisation exp(-gamma ||y - l_a||^2)_a`` (Nystroem features of ``y``); False if ``y`` is not
-    finite."""
+    """``phi = normalisation exp(-gamma ||y - l_a||^2)_a`` (Nystroem features of ``y``); returns ``||phi||^2``, or
+    -1 if ``y`` is not finite."""
     m, d = landmarks.shape
     for j in range(d):
         if not np.isfinite(y[j]):
-            return False
+            return -1.0
     k = np.empty(m)
     for a in range(m):
         s = 0.0
@@ -87,12 +87,21 @@ def kernel_features(landmarks, normalisation, gamma, y, phi):  # pragma: no cove
             e = y[j] - landmarks[a, j]
             s += e * e
         k[a] = np.exp(-gamma * s)
+    norm2 = 0.0
     for r in range(normalisation.shape[0]):
         s = 0.0
         for a in range(m):
             s += normalisation[r, a] * k[a]
         phi[r] = s
-    return True
+        norm2 += s * s
+    return norm2
+
+
+@numba.njit(cache=True, nogil=True)
+def kernel_residual(ratio, norm2):  # pragma: no cover - compiled
+    """Kernel CRC_RLS's ``min_i r_i`` from CRC_RLS's ``min_i r_i / ||phi||`` on the features and ``||phi||^2``: the
+    feature vector's part outside the landmarks' span (``1 - ||phi||^2``) added (``spotfree.classify.kcrc``)."""
+    return np.sqrt(max(ratio * ratio * norm2 + 1.0 - norm2, 0.0))
 
 
 @numba.njit(cache=True, nogil=True)
@@ -136,13 +145,16 @@ def ring_step(ring, cursor, models, picks, scales, operators, kernels, windows, 
             landmarks = kernels[model.landmarks:model.landmarks + size].reshape(model.m, model.d)
             normalisation = kernels[model.landmarks + size:model.landmarks + size + model.features * model.m]
             phi = windows[model.phi:model.phi + model.features]
-            if not kernel_features(landmarks, normalisation.reshape(model.features, model.m), model.gamma, y, phi):
+            norm2 = kernel_features(landmarks, normalisation.reshape(model.features, model.m), model.gamma, y, phi)
+            if norm2 < 0:
                 model.code = NOT_FINITE
                 continue
             y, d = phi, model.features
         size = model.classes * d * d
         operator = operators[model.operator:model.operator + size].reshape(model.classes * d, d)
         best, ratio = crc_window(operator, model.classes, y)
+        if model.kernel:
+            ratio = kernel_residual(ratio, norm2)
         if best < 0:
             model.code = NOT_FINITE
         elif ratio > model.reject:
