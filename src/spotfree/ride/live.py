@@ -19,6 +19,7 @@ import numpy as np
 import scipy.signal
 
 from spotfree.classify.batch import dictionary_classifier, model_affine
+from spotfree.classify.kcrc import KernelCRCClassifier
 from spotfree.classify.stream import MAX_GAP, RideClassifier
 from spotfree.errors import InputError
 from spotfree.model import DictionaryModel
@@ -78,23 +79,30 @@ def _sections(sos: np.ndarray) -> dict:
 
 
 def pipeline_spec(model: DictionaryModel, classifier=None) -> dict:
-    """The model's streaming pipeline as JSON-ready numbers for ``static/pipeline.js`` (CRC_RLS only).
+    """The model's streaming pipeline as JSON-ready numbers for ``static/pipeline.js`` (CRC_RLS or kernel CRC_RLS).
 
     Keys: ``classes``, ``channels``, ``pick`` (indices into :data:`FEATURE_COLUMNS`), ``rate`` (Hz), ``window``,
     ``step``, ``scale``, ``normalisation``, ``affine``, ``max_gap`` (s), ``mount`` (device to vehicle axes),
     ``gravity`` (m/s^2), ``attitude`` (``kind`` and its parameters), ``lowpass`` and ``long_lowpass``
     (Butterworth sections), ``lean`` (``b``, ``a``, ``c``), ``speed_aided`` (noise densities), ``operator``
-    (the ``(C d, d)`` residual operators, flat, row-major), ``reject`` (None when off).
+    (the ``(C d, d)`` residual operators, flat, row-major), ``reject`` (None when off), ``kernel`` (None for
+    CRC_RLS; for kernel CRC_RLS ``gamma``, the ``m`` ``landmarks`` ``(m, d)`` and the ``normalisation``
+    ``(f, m)``, flat, row-major, and then ``operator`` acts on the ``f`` features).
     """
     if model.features != "ride":
         raise InputError("the page pipeline needs a model of ride features")
     if model.orientation not in PAGE_ORIENTATIONS:
         raise InputError(f"the page pipeline implements the orientation filters {', '.join(PAGE_ORIENTATIONS)}, "
                          f"not {model.orientation!r}; serve a model trained with one of them")
-    clf = classifier if classifier is not None else dictionary_classifier(model, "crc")
-    operators = getattr(clf, "residual_operators_", None)
+    clf = classifier if classifier is not None else dictionary_classifier(model)
+    kernel = None
+    if isinstance(clf, KernelCRCClassifier):
+        kernel = {"gamma": clf.gamma_, "m": len(clf.landmarks_), "features": len(clf.normalisation_),
+                  "landmarks": clf.landmarks_.reshape(-1).tolist(),
+                  "normalisation": clf.normalisation_.reshape(-1).tolist()}
+    operators = getattr(clf.crc_ if kernel else clf, "residual_operators_", None)
     if operators is None:
-        raise InputError("the page pipeline needs a CRC classifier (residual operators)")
+        raise InputError("the page pipeline needs a CRC_RLS or kernel CRC_RLS classifier (residual operators)")
     if model.orientation == "default":
         pi = GravityPI(model.rate)
         attitude = {"kind": "default", **{k: getattr(pi, k) for k in (
@@ -126,4 +134,5 @@ def pipeline_spec(model: DictionaryModel, classifier=None) -> dict:
         "speed_aided": vars(SpeedAidedParameters()),
         "operator": operators.reshape(-1).tolist(),
         "reject": clf.reject,
+        "kernel": kernel,
     }

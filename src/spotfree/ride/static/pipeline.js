@@ -1,7 +1,8 @@
 // The server's streaming pipeline in the browser (spotfree.ride.live.pipeline_spec gives the numbers):
 // device-to-vehicle axes, attitude filter (GravityPI or the paper's PI filter), gravity-free level
 // accelerations through a 3rd-order Butterworth, lean, speed-aided longitudinal acceleration, the model's
-// channels scaled into a ring buffer, and CRC_RLS on each due window: r_i = ||E_i y||, label = argmin_i r_i.
+// channels scaled into a ring buffer, and CRC_RLS on each due window: r_i = ||E_i y||, label = argmin_i r_i (kernel
+// CRC_RLS: the same on the window's Nystroem features).
 // Same operations in the same order as spotfree.signal.* and spotfree.classify.stream, so labels are equal.
 // Units: m/s^2, rad/s, s; device frame of Android (x right, y up, z out of the screen).
 "use strict";
@@ -218,6 +219,10 @@
       this.buffer = spec.channels.map(() => new Float64Array(2 * L));
       this.y = new Float64Array(this.d + (spec.affine !== 0 ? 1 : 0)).fill(spec.affine);
       this.operator = Float64Array.from(spec.operator);
+      if (spec.kernel) {
+        this.landmarks = Float64Array.from(spec.kernel.landmarks);
+        this.normalisation = Float64Array.from(spec.kernel.normalisation);
+      }
       this.time = null;
       this.resetSegment();
     }
@@ -261,8 +266,27 @@
       }
       return this.label;
     }
-    classify(y) {
-      // CRC_RLS: argmin_i ||E_i y||, rejection on min_i r_i / ||y|| when the model sets it
+    kernelFeatures(y) {
+      // kernel CRC_RLS: phi = N exp(-gamma ||y - l_a||^2)_a (Nystroem features on the model's landmarks)
+      const K = this.spec.kernel, m = K.m, d = y.length, L = this.landmarks, N = this.normalisation;
+      const k = new Float64Array(m);
+      for (let a = 0; a < m; a++) {
+        let s = 0.0;
+        for (let j = 0; j < d; j++) { const e = y[j] - L[a * d + j]; s += e * e; }
+        k[a] = Math.exp(-K.gamma * s);
+      }
+      const phi = new Float64Array(K.features);
+      for (let r = 0; r < K.features; r++) {
+        let s = 0.0;
+        for (let a = 0; a < m; a++) s += N[r * m + a] * k[a];
+        phi[r] = s;
+      }
+      return phi;
+    }
+    classify(window) {
+      // CRC_RLS: argmin_i ||E_i y||, rejection on min_i r_i / ||y|| when the model sets it; kernel CRC_RLS: the same
+      // on the features phi of the window, the rejection on sqrt(min_i ||E_i phi||^2 + 1 - ||phi||^2)
+      const y = this.spec.kernel ? this.kernelFeatures(window) : window;
       const D = y.length, C = this.spec.classes.length, E = this.operator;
       let norm2 = 0.0;
       for (let j = 0; j < D; j++) norm2 += y[j] * y[j];
@@ -279,7 +303,8 @@
       }
       const reject = this.spec.reject;
       if (reject !== null && reject !== undefined) {
-        const ratio = norm2 > 0 ? Math.sqrt(bestR2 / norm2) : Infinity;
+        const ratio = this.spec.kernel ? Math.sqrt(Math.max(bestR2 + 1.0 - norm2, 0.0))
+          : norm2 > 0 ? Math.sqrt(bestR2 / norm2) : Infinity;
         if (ratio > reject) return "unknown";
       }
       return this.spec.classes[best];
