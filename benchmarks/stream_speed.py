@@ -1,6 +1,6 @@
 """Per-sample latency of streaming ride classification (``RideClassifier.update``), beside its parts and peers.
 
-Model: trained by ``spotfree.training.train`` (default configuration: channels lean, acc_x; window 20 samples;
+Model: trained by ``spotfree.training.train`` (default configuration: channels acc_long, acc_x; window 20 samples;
 affine row, so d = 41) on the first 25 s of a simulated normal-braking ride (seed 0) and of a sudden-braking ride
 (seed 1), read from CSV like ``spotfree train`` does. Test data: two simulated sudden-braking rides (seed 7), raw
 device-frame IMU at 20 Hz with GPS speed on the fixes.
@@ -8,15 +8,16 @@ device-frame IMU at 20 Hz with GPS speed on the fixes.
 Every row times single calls with ``time.perf_counter_ns`` after one warm-up pass (compiled kernels loaded):
 
 * ``RideClassifier.update <method>``: one raw sample in, one label out (features, ring-buffer window, scaling,
-  affine row, classifier). CRC runs over the rides ``--passes`` times; SRC and B_SRC over their first
-  ``--sparse`` samples (they solve an optimisation per window; their convergence warnings are counted).
+  affine row, classifier). The default method (kernel CRC_RLS) runs over the rides ``--passes`` times, CRC_RLS over
+  them once, the others over their first ``--sparse`` samples (SRC and B_SRC solve an optimisation per window; their convergence warnings
+  are counted).
 * ``FeatureStream.update``: the ride features alone (attitude filter, low-pass, lean, speed-aided acc_long), the
   floor under the end-to-end figure.
-* ``CRC predict_one`` / ``CRC predict (one-row matrix)``: the classifier alone on the windows of the rides, its
-  single-window path and the generic scikit-learn path that the stream would otherwise take (first ``--short``
-  windows).
-* ``classify_recording (batch), per sample``: the batch path on the same rides (features, windows, CRC), wall time
-  over samples, with the stream's fitted classifier (fitting is outside every row).
+* ``crc`` / ``kcrc predict_one``, ``crc predict (one-row matrix)``: the classifiers alone on the windows of the rides,
+  their single-window path and the generic scikit-learn path that the stream would otherwise take (first
+  ``--short`` windows).
+* ``classify_recording (batch), per sample``: the batch path on the same rides (features, windows, classifier),
+  wall time over samples, with the stream's fitted classifier (fitting is outside every row).
 
 The stream's labels are checked against the batch path's (causal) on the same rides.
 
@@ -40,7 +41,7 @@ import numba
 import numpy as np
 from threadpoolctl import threadpool_info
 
-from spotfree.classify import METHODS
+from spotfree.classify import DEFAULT_METHOD, METHODS
 from spotfree.classify.batch import classify_recording, dictionary_classifier, model_affine, model_features
 from spotfree.classify.stream import RideClassifier
 from spotfree.io.csvlog import write_csv
@@ -125,7 +126,8 @@ def main() -> None:
         ns_stream.append(ns)
         ns_features.append(timed(features.update, feature_rows, features.reset)[0])
     ns_features = np.concatenate(ns_features)
-    table = [("RideClassifier.update crc (end to end)", "raw sample", np.concatenate(ns_stream)),
+    table = [(f"RideClassifier.update {DEFAULT_METHOD} (default; end to end)", "raw sample",
+              np.concatenate(ns_stream)),
              ("FeatureStream.update (features alone)", "raw sample", ns_features)]
     batch_start = time.perf_counter_ns()
     batch = classify_recording(model, rides, classifier=stream.classifier_)
@@ -136,19 +138,20 @@ def main() -> None:
     windows = recording_windows(feats, tuple(model.channels), model.window, 1,
                                 ChannelScaling(tuple(model.channels), model.scale), model.normalisation)
     windows = with_affine_row(windows.matrix, model_affine(model)).T.copy()
+    for method in ("crc", "kcrc"):
+        clf = dictionary_classifier(model, method)
+        table.append((f"{method} predict_one (classifier alone)", "window",
+                      timed(clf.predict_one, [(y,) for y in windows], passes=args.passes)[0]))
     crc = dictionary_classifier(model, "crc")
-    if hasattr(crc, "predict_one"):
-        table.append(("CRC predict_one (classifier alone)", "window",
-                      timed(crc.predict_one, [(y,) for y in windows], passes=args.passes)[0]))
-    table.append(("CRC predict, one-row matrix (classifier alone)", "window",
+    table.append(("crc predict, one-row matrix (classifier alone)", "window",
                   timed(lambda y: crc.predict(y[None, :]), [(y,) for y in windows[:args.short]])[0]))
     unconverged = 0
-    for method in sorted(set(METHODS) - {"crc"}):
+    for method in sorted(set(METHODS) - {DEFAULT_METHOD}):
         other = RideClassifier(model, method=method)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             timed(other.update, rows[:model.window + 5], other.reset)
-            ns_other = timed(other.update, rows[:args.sparse], other.reset)[0]
+            ns_other = timed(other.update, rows if method == "crc" else rows[:args.sparse], other.reset)[0]
         unconverged += len(caught)
         table.append((f"RideClassifier.update {method} (end to end)", "raw sample", ns_other))
 
@@ -160,7 +163,8 @@ def main() -> None:
         print(f"| {name} | {per} | {len(values)} | {np.median(values) / 1e3:.1f} | "
               f"{np.percentile(values, 90) / 1e3:.1f} | {np.percentile(values, 99) / 1e3:.1f} | "
               f"{np.median(values) / floor:.2f} |")
-    print(f"| classify_recording crc (batch), wall time / samples | raw sample | {len(rides)} | {batch_ns / 1e3:.1f} "
+    print(f"| classify_recording {DEFAULT_METHOD} (batch), wall time / samples | raw sample | {len(rides)} | "
+          f"{batch_ns / 1e3:.1f} "
           f"| | | {batch_ns / floor:.2f} |")
     print()
     end_to_end = np.median(table[0][2]) / 1e3
