@@ -18,7 +18,7 @@ runner = CliRunner()
 @pytest.fixture(scope="module")
 def files(tmp_path_factory):
     root = tmp_path_factory.mktemp("hand")
-    write_hand_log(simulate_hands(people=2, seed=4, rounds=2, protocol="training"), root / "train.jsonl")
+    write_hand_log(simulate_hands(people=2, seed=4, rounds=3, protocol="training"), root / "train.jsonl")
     write_hand_log(simulate_hands(people=1, seed=6, rounds=1, first=50), root / "test.jsonl")
     result = runner.invoke(app, ["hand", "train", "-o", str(root / "m.npz"), str(root / "train.jsonl")])
     assert result.exit_code == 0, result.output
