@@ -1,8 +1,10 @@
 """Hand posture and gesture recognition on held-out simulated people: the paper's six test runs, in report form.
 
 Usage: python benchmarks/hand_eval.py [--train-people 4] [--test-people 6] [--seed 0]
-Prints Markdown (accuracy per run and stage, confusion matrices, command latency, streaming speed) for
-BENCHMARKS.md and docs/hand.md.
+       python benchmarks/hand_eval.py --grid     stage 1 alone for several channel sets and windows, scored on six
+                                                 development people (seed 1, people 201..), not the test people
+Prints Markdown (accuracy per run, mode and stage, collars, where gestures are lost, confusion matrices, command
+latency, streaming speed; or the grid) for BENCHMARKS.md and docs/hand.md.
 """
 
 from __future__ import annotations
@@ -12,7 +14,10 @@ import datetime
 
 from classifier_timing import machine
 
-from spotfree.hand.evaluation import evaluate_hand, hand_report
+from spotfree.hand.evaluation import evaluate_hand, hand_report, state_grid
+
+GRID = [(("speed", "turn", "flex"), 4), (("speed", "turn"), 4), (("speed", "turn"), 5), (("speed", "turn"), 6)]
+"""Stage-1 settings compared by --grid: (channels, window in samples)."""
 
 
 def main() -> None:
@@ -20,10 +25,16 @@ def main() -> None:
     parser.add_argument("--train-people", type=int, default=4)
     parser.add_argument("--test-people", type=int, default=6)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--grid", action="store_true", help="compare stage-1 settings on development people")
     args = parser.parse_args()
-    print(f"`python benchmarks/hand_eval.py --train-people {args.train_people} --test-people {args.test_people} "
-          f"--seed {args.seed}`, {datetime.date.today()}, {machine()}")
+    command = "--grid" if args.grid else f"--test-people {args.test_people}"
+    print(f"`python benchmarks/hand_eval.py --train-people {args.train_people} {command} --seed {args.seed}`, "
+          f"{datetime.date.today()}, {machine()}")
     print()
+    if args.grid:
+        table = state_grid(GRID, args.train_people, seed=args.seed)
+        print(table.to_string(index=False, float_format=lambda x: f"{100 * x:.2f} %"))
+        return
     ev = evaluate_hand(args.train_people, args.test_people, args.seed)
     print(hand_report(ev))
 

@@ -1,9 +1,12 @@
 """Load on ``spotfree serve``: N simulated phones streaming at 20 Hz over loopback WebSockets to a real server.
 
 The server is ``spotfree serve`` (uvicorn) in a subprocess, its store a fresh SQLite file (synchronous FULL, the
-default) per N. Each phone is a WebSocket client in this process: it starts a ride, then every ``--batch`` s sends
-the samples of that span of a simulated sudden-braking ride (each phone from its own offset, so stops fall at
-different moments) and waits for nothing (a phone keeps measuring). Phones start spread over one batch period.
+default) per N, its rides in the server's process or, with ``--workers K``, in K worker processes. The phones run
+in ``--clients`` processes of their own (default 2), so that the load client is not one Python process doing all
+the sending and receiving; each phone is a WebSocket client that starts a ride, then every ``--batch`` s sends the
+samples of that span of a simulated sudden-braking ride (each phone from its own offset, so stops fall at
+different moments; the messages are encoded before the run) and waits for nothing (a phone keeps measuring).
+Phones start spread over one batch period, once every client process has connected all of its phones.
 
 Measured per N over ``--seconds`` s of streaming:
 
@@ -12,16 +15,19 @@ Measured per N over ``--seconds`` s of streaming:
   ``batch - 1/rate`` s for the first sample of a batch, 0 for the last; that wait is the page's choice, not load;
 * batch-to-warning latency: the same for the batches whose acknowledgement carries a warning;
 * nothing lost: after the phones stop and every acknowledgement is in, the server is stopped and the samples
-  rows in its SQLite file are counted against the acknowledged samples.
+  rows in its SQLite file are counted against the acknowledged samples;
+* CPU: user + system seconds of the server's process tree and of the client processes over the streaming, per
+  second (cores) and per acknowledged batch (ms). Server, clients and other jobs share the machine's cores; the
+  1-minute load average after each N is printed, since other jobs move the tail.
 
 The model is a dictionary of every third window of one simulated ride named by the simulator's truth
 (``tests/classify_fixtures.truth_model``): it warns on the simulated stops, which the trained default model does
 not, and costs the same per sample (the CRC_RLS operator is ``(C d, d)`` whatever the number of columns).
 The largest N with p99 batch-to-ack under 100 ms (and nothing lost) is printed; the run stops at the first N whose
-p99 exceeds ten times that or that loses a sample. The 1-minute load average before each N is printed: on a shared
-machine other jobs move the tail.
+p99 exceeds ten times that or that loses a sample.
 
-    python benchmarks/serve_load.py [--phones 10,25,50,100,200,500] [--seconds 15] [--batch 0.25]
+    python benchmarks/serve_load.py [--phones 10,25,50,100,200,500] [--seconds 15] [--batch 0.25] [--clients 2]
+                                    [--workers 0] [--sync full]
 """
 
 from __future__ import annotations

@@ -18,7 +18,7 @@ runner = CliRunner()
 @pytest.fixture(scope="module")
 def files(tmp_path_factory):
     root = tmp_path_factory.mktemp("hand")
-    write_hand_log(simulate_hands(people=2, seed=4, rounds=2, protocol="training"), root / "train.jsonl")
+    write_hand_log(simulate_hands(people=2, seed=4, rounds=3, protocol="training"), root / "train.jsonl")
     write_hand_log(simulate_hands(people=1, seed=6, rounds=1, first=50), root / "test.jsonl")
     result = runner.invoke(app, ["hand", "train", "-o", str(root / "m.npz"), str(root / "train.jsonl")])
     assert result.exit_code == 0, result.output
@@ -38,6 +38,20 @@ def test_train_writes_three_stage_files_and_run_writes_the_stream(files):
     assert set(out.command) <= set(COMMANDS.values())
     assert (out.label[out.state == ""] == "").all() and (out.command[out.state == ""] == "stop").all()
     assert np.all(np.diff(out.time) > 0) and (out.state != "").mean() > 0.9
+
+
+def test_run_offline_names_each_gesture_stretch_once(files):
+    result = runner.invoke(app, ["hand", "run", str(files / "m.npz"), str(files / "test.jsonl"), "--offline",
+                                 "-o", str(files / "offline.csv")])
+    assert result.exit_code == 0, result.output
+    out = pd.read_csv(files / "offline.csv", keep_default_na=False)
+    gesture = (out.state == "gesture").to_numpy()
+    edges = np.diff(np.r_[0, gesture.astype(int), 0])
+    stretches = list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)))
+    assert stretches and all(out.label[a:b].nunique() == 1 for a, b in stretches)
+    runner.invoke(app, ["hand", "run", str(files / "m.npz"), str(files / "test.jsonl"), "-o", str(files / "live.csv")])
+    live = pd.read_csv(files / "live.csv", keep_default_na=False)
+    assert len(out) == len(live) and (out.time == live.time).all()
 
 
 def test_bad_frames_are_clear_errors_and_no_labels_are_invented(files, tmp_path):

@@ -10,14 +10,14 @@ from spotfree.hand.features import FEATURES
 from spotfree.hand.log import frames_to_recording
 from spotfree.hand.motion import MOTION, motion_channels
 from spotfree.hand.recognition import (
-    HandModel, HandRecognizer, declared, features_of, recognise, session_tasks, train_hand,
+    HandModel, HandRecognizer, declared, features_of, recognise, session_tasks, train_hand, vote_stretches,
 )
 from spotfree.sim.hand import GESTURES, POSTURES, TRAINING_TASKS, simulate_hands
 
 
 @pytest.fixture(scope="module")
 def training():
-    rec = frames_to_recording(simulate_hands(people=2, seed=4, rounds=2, protocol="training"))
+    rec = frames_to_recording(simulate_hands(people=2, seed=4, rounds=3, protocol="training"))
     return [(features_of(part), task) for part, task in session_tasks(rec)]
 
 
@@ -71,10 +71,31 @@ def test_held_out_person_postures_and_gestures(result, test_run):
     assert (labels.state[posture] == "posture").mean() > 0.9
     assert (labels.state[gesture] == "gesture").mean() > 0.4
     caught = posture & (labels.state == "posture")
-    assert (labels.label[caught] == label[caught]).mean() > 0.97
+    assert (labels.label[caught] == label[caught]).mean() > 0.93  # two training people; four: benchmarks/hand_eval.py
     caught = gesture & (labels.state == "gesture")
     assert (labels.label[caught] == label[caught]).mean() > 0.6  # two training people; chance is 1/8
     assert not (labels.label[~ok] != "").any()
+
+
+def test_offline_mode_sees_more_of_each_gesture_and_names_each_stretch_once(result, test_run):
+    live, offline = recognise(result.model, test_run), recognise(result.model, test_run, offline=True)
+    state, label = test_run.truth["state"], test_run.truth["label"]
+    gesture = state == "gesture"
+    assert (offline.label[gesture] == label[gesture]).mean() > (live.label[gesture] == label[gesture]).mean()
+    posture = (state == "posture") & (offline.state != "")
+    assert (offline.label[posture] == label[posture]).mean() > 0.93
+    edges = np.diff(np.r_[0, (offline.state == "gesture").astype(int), 0])
+    stretches = list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)))
+    assert len(stretches) >= 8 and all(len(set(offline.label[a:b])) == 1 for a, b in stretches)
+    assert not (offline.label[offline.state == ""] != "").any()
+
+
+def test_vote_stretches_gives_each_run_its_most_frequent_label():
+    mask = np.array([0, 1, 1, 1, 0, 1, 1, 0, 1], dtype=bool)
+    label = np.array(["x", "a", "b", "b", "y", "c", "d", "z", "e"])
+    out = vote_stretches(mask, label)
+    assert out.tolist() == ["x", "b", "b", "b", "y", "c", "c", "z", "e"]  # a tie goes to the first in the run
+    assert vote_stretches(np.zeros(3, dtype=bool), label[:3]).tolist() == ["x", "a", "b"]
 
 
 def test_streaming_equals_batch_and_gaps_give_no_label(result, test_run):
@@ -121,6 +142,18 @@ def test_motion_channels_are_zero_for_a_still_hand_and_nan_at_segment_starts(tes
     out = motion_channels(still)
     assert np.isnan(out.channels["turn"][0]) and np.isnan(out.channels["flex"][0])
     assert np.allclose([out.channels[c][1:] for c in MOTION], 0.0, atol=1e-6)
+
+
+def test_signed_rates_tell_a_turn_from_its_reverse(test_run):
+    part = test_run.take(slice(0, 21))
+    angle = np.linspace(0.0, 1.0, 21)  # the hand direction turns 1 rad in 1 s about the vertical, toward -x
+    part.channels.update(dir_x=-np.sin(angle), dir_y=np.zeros(21), dir_z=-np.cos(angle))
+    forward = motion_channels(part)
+    part.channels.update(dir_x=-np.sin(angle[::-1]), dir_z=-np.cos(angle[::-1]))
+    backward = motion_channels(part)
+    assert forward.channels["drate_x"][1:] == pytest.approx(-np.cos(angle[1:] - 0.025), rel=2e-3, nan_ok=True)
+    assert np.all(forward.channels["drate_x"][1:] < -0.5) and np.all(backward.channels["drate_x"][1:] > 0.5)
+    assert forward.channels["turn"][1:] == pytest.approx(backward.channels["turn"][1:], nan_ok=True)  # unsigned
 
 
 def test_command_changes_only_after_confirmation():

@@ -340,6 +340,8 @@ def hand_run(
     model: Path = typer.Argument(..., metavar="MODEL.npz", help="model written by 'spotfree hand train'"),
     log: Path = typer.Argument(..., metavar="LOG.jsonl", help="hand-tracking log"),
     output: Path = typer.Option(..., "-o", "--output", help="CSV file to write: time, state, label, command"),
+    offline: bool = typer.Option(False, "--offline", help="centred windows and one gesture per gesture stretch "
+                                 "(sees half a window ahead; default: causal, as live)"),
 ) -> None:
     """Recognise postures and gestures in a log and emit wheelchair commands."""
     from spotfree.hand.log import read_hand_log
@@ -347,7 +349,7 @@ def hand_run(
 
     hand_model = HandModel.load(model)
     rec = read_hand_log(log, rate=hand_model.state.rate)
-    labels = recognise(hand_model, features_of(rec))
+    labels = recognise(hand_model, features_of(rec), offline=offline)
     labels.write_csv(output)
     _report_repairs_and_gaps(rec)
     labelled = labels.state != ""

@@ -1,14 +1,20 @@
 """Evaluation of the hand recogniser in the style of the ride report: six test runs of held-out simulated people.
 
 The recogniser is trained on the training protocol of people ``1 .. train_people`` and tested on one session of
-the test protocol for each of people ``101 ..`` (never seen in training), per 20 Hz sample, causally (the labels a
-live stream gives). Measures:
+the test protocol for each of people ``101 ..`` (never seen in training), per 20 Hz sample, in both modes of
+:func:`~spotfree.hand.recognition.recognise`: **offline** (centred windows, one gesture per gesture stretch) and
+**live** (causal windows, the labels a live stream gives). Measures, per mode:
 
 * **stage 1** (posture or gesture): share of labelled samples whose state is the true one;
 * **stage 2**: among samples of true state ``s`` that stage 1 calls ``s``, the share with the true label
   (postures and gestures apart), and the confusion matrices;
 * **end to end**: among labelled samples of true state ``s``, the share with the true label (a stage-1 miss counts
-  as wrong); the paper's count (100 % of 5,850 labels over six test runs) beside ours;
+  as wrong); the paper's count (100 % of 5,850 labels over six test runs) beside ours; also with a *collar*: the
+  samples within ``c`` samples of a true change of state left out (as diarisation scoring leaves a collar around
+  every reference boundary), since the truth puts the change where the hand starts or stops moving, which no
+  sensor sees at once;
+* **where gestures are lost**: end-to-end gesture accuracy by the sample's place in its gesture (first, second,
+  ... sample from the start and from the end), beside the measured palm speed there and in postures;
 * **commands**: latency from each true posture onset to its command (:func:`~spotfree.hand.commands.command_latencies`)
   and switches to a command that is not the current or the next posture's;
 * **streaming**: samples per second of :class:`~spotfree.hand.recognition.HandRecognizer` and whether its labels
@@ -25,12 +31,14 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from spotfree.classify.batch import classify_recording
 from spotfree.hand.commands import COMMANDS, command_latencies
 from spotfree.hand.features import FEATURES
 from spotfree.hand.log import frames_to_recording
-from spotfree.hand.recognition import HandLabels, HandModel, HandRecognizer, features_of, recognise, \
-    session_tasks, train_hand
+from spotfree.hand.recognition import STATES, HandLabels, HandModel, HandRecognizer, declared, features_of, \
+    recognise, session_tasks, train_hand
 from spotfree.sim.hand import GESTURES, POSTURES, simulate_hands
+from spotfree.training import TrainingConfig, TrainingExperiment, train
 
 PAPER = {"labels": 5850, "accuracy": 1.0, "runs": 6}
 """The paper's hand result (section V): 100 % of 5,850 labels over six test runs."""
@@ -38,15 +46,27 @@ PAPER = {"labels": 5850, "accuracy": 1.0, "runs": 6}
 TEST_FIRST = 101
 """Number of the first held-out test person."""
 
+MODES = ("offline", "live")
+"""Recognition modes evaluated: centred windows with one gesture per stretch, and causal windows."""
+
+COLLARS = (1, 2)
+"""Collars (samples on each side of a true change of state left out) of the extra end-to-end figures."""
+
+PLACES = 4
+"""Samples from each end of a gesture reported one by one in the table of where gestures are lost."""
+
 
 @dataclass
 class HandEvaluation:
-    """Per-run rows, overall accuracies, confusion matrices (rows true, columns recognised), command latency,
-    streaming speed and the time each phase took."""
+    """Per mode: per-run rows, overall accuracies, accuracies with collars, gesture accuracy by place, confusion
+    matrices (rows true, columns recognised); command latency and streaming speed (live); the time each phase
+    took."""
 
-    runs: pd.DataFrame
-    accuracy: dict[str, float]
-    confusion: dict[str, pd.DataFrame]
+    runs: dict[str, pd.DataFrame]
+    accuracy: dict[str, dict[str, float]]
+    collars: dict[str, dict[int, dict[str, float]]]
+    places: pd.DataFrame
+    confusion: dict[str, dict[str, pd.DataFrame]]
     latency: dict[str, float]
     wrong_switches: int
     streaming: dict[str, float]
@@ -67,37 +87,123 @@ def evaluate_hand(train_people: int = 4, test_people: int = 6, seed: int = 0, ro
     clock = time.perf_counter()
     model = train_hand([(features_of(part), task) for part, task in session_tasks(training)], progress=say).model
     seconds["training"] = time.perf_counter() - clock
-    clock = time.perf_counter()
     feats = features_of(test)
-    labels = recognise(model, feats)
-    seconds["recognition"] = time.perf_counter() - clock
-    streaming = _streaming(model, feats, labels)
+    labels = {}
+    for mode in MODES:
+        clock = time.perf_counter()
+        labels[mode] = recognise(model, feats, offline=mode == "offline")
+        seconds[f"recognition {mode}"] = time.perf_counter() - clock
+    streaming = _streaming(model, feats, labels["live"])
     truth_state, truth_label = feats.truth["state"], feats.truth["label"]
-    latencies, wrong, rows = [], 0, []
+    experiment = feats.experiment if feats.experiment is not None else np.ones(len(feats), dtype=int)
+    latencies, wrong = [], 0
+    runs = {mode: [] for mode in MODES}
     for number, part in feats.experiments():
-        mask = feats.experiment == number if feats.experiment is not None else np.ones(len(feats), dtype=bool)
-        latencies.append(command_latencies(part.time, labels.command[mask], truth_state[mask], truth_label[mask]))
-        wrong += _wrong_switches(labels.state[mask], labels.command[mask], truth_state[mask], truth_label[mask])
-        rows.append({"run": len(rows) + 1, "person": int(part.truth["person"][0]),
-                     **_accuracy(labels.state[mask], labels.label[mask], truth_state[mask], truth_label[mask])})
+        mask = experiment == number
+        live = labels["live"]
+        latencies.append(command_latencies(part.time, live.command[mask], truth_state[mask], truth_label[mask]))
+        wrong += _wrong_switches(live.state[mask], live.command[mask], truth_state[mask], truth_label[mask])
+        for mode in MODES:
+            runs[mode].append({"run": len(runs[mode]) + 1, "person": int(part.truth["person"][0]),
+                               **_accuracy(labels[mode].state[mask], labels[mode].label[mask], truth_state[mask],
+                                           truth_label[mask])})
     latency = np.concatenate([x.latency for x in latencies])
     reached = latency[np.isfinite(latency)]
     return HandEvaluation(
-        runs=pd.DataFrame(rows),
-        accuracy=_accuracy(labels.state, labels.label, truth_state, truth_label),
-        confusion=_confusions(labels, truth_state, truth_label),
+        runs={mode: pd.DataFrame(rows) for mode, rows in runs.items()},
+        accuracy={mode: _accuracy(x.state, x.label, truth_state, truth_label) for mode, x in labels.items()},
+        collars={mode: {c: _accuracy(x.state, x.label, truth_state, truth_label,
+                                     ~_near_change(truth_state, experiment, c)) for c in COLLARS}
+                 for mode, x in labels.items()},
+        places=_places(labels, truth_state, truth_label, experiment, feats.channels["speed"]),
+        confusion={mode: _confusions(x, truth_state, truth_label) for mode, x in labels.items()},
         latency={"onsets": int(len(latency)), "reached": float(len(reached) / max(1, len(latency))),
                  "median": float(np.median(reached)), "p95": float(np.percentile(reached, 95)),
                  "max": float(reached.max())},
         wrong_switches=wrong, streaming=streaming, seconds=seconds,
         settings={"train_people": train_people, "test_people": test_people, "seed": seed, "rounds": rounds,
-                  "windows": {s: m.window for s, m in model.stages().items()}, "rate": model.state.rate},
+                  "windows": {s: m.window for s, m in model.stages().items()},
+                  "channels": {s: list(m.channels) for s, m in model.stages().items()}, "rate": model.state.rate},
     )
 
 
-def _accuracy(state, label, truth_state, truth_label) -> dict[str, float]:
+DEV_FIRST = 201
+"""Number of the first development person (the grid of :func:`state_grid`; never a test person)."""
+
+
+def state_grid(settings: list[tuple[tuple[str, ...], int]], train_people: int = 4, dev_people: int = 6,
+               seed: int = 0, dev_seed: int = 1, rounds: int = 3) -> pd.DataFrame:
+    """Stage 1 alone for each ``(channels, window)`` of ``settings``: trained on the training protocol of people
+    ``1 .. train_people`` (``seed``), scored on ``dev_people`` development people from :data:`DEV_FIRST` of
+    ``dev_seed`` (not the test people): share of true posture and gesture samples given their state, centred and
+    causal, without and with each of the :data:`COLLARS`."""
+    training = frames_to_recording(simulate_hands(train_people, seed, rounds, protocol="training"))
+    sessions = [(features_of(part), task) for part, task in session_tasks(training)]
+    dev = features_of(frames_to_recording(simulate_hands(dev_people, dev_seed, rounds, first=DEV_FIRST)))
+    truth = dev.truth["state"]
+    experiment = dev.experiment if dev.experiment is not None else np.ones(len(dev), dtype=int)
+    rows = []
+    for channels, window in settings:
+        model = train([TrainingExperiment(rec, declared(task, "state")) for rec, task in sessions],
+                      TrainingConfig(channels=tuple(channels), window=window, train_step=1, seed=seed)).model
+        for centred in (True, False):
+            state = classify_recording(model, dev, centred=centred).label
+            row = {"channels": ",".join(channels), "window": window, "windows": "centred" if centred else "causal"}
+            for c in (0, *COLLARS):
+                keep = (state != "") & ~_near_change(truth, experiment, c)
+                for s in STATES:
+                    row[f"{s}s" + (f", collar {c}" if c else "")] = float((state[keep & (truth == s)] == s).mean())
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _near_change(truth_state: np.ndarray, experiment: np.ndarray, collar: int) -> np.ndarray:
+    """True on the samples within ``collar`` samples of a true change of state (the ``collar`` samples before it
+    and the ``collar`` from it on), within one experiment."""
+    near = np.zeros(len(truth_state), dtype=bool)
+    change = np.flatnonzero((truth_state[1:] != truth_state[:-1]) & (experiment[1:] == experiment[:-1])) + 1
+    for k in change:
+        near[max(0, k - collar):k + collar] = True
+    return near
+
+
+def _places(labels: dict[str, HandLabels], truth_state, truth_label, experiment, speed) -> pd.DataFrame:
+    """Per place in a gesture (``k``-th sample from its start, from its end, or further inside), the number of
+    labelled samples, the median measured palm speed (mm/s), and each mode's end-to-end gesture accuracy; a last
+    row for the posture samples."""
+    gesture = truth_state == "gesture"
+    place = np.full(len(truth_state), "", dtype=object)
+    for start, stop in _runs(gesture, experiment):
+        for i in range(stop - start):
+            back = stop - start - 1 - i
+            place[start + i] = (f"start +{i}" if i < PLACES and i <= back
+                                else f"end -{back}" if back < PLACES else "inside")
+    place[truth_state == "posture"] = "postures"
+    order = [f"start +{k}" for k in range(PLACES)] + ["inside"] + [f"end -{k}" for k in reversed(range(PLACES))]
+    rows = []
+    labelled = np.all([x.state != "" for x in labels.values()], axis=0)
+    for name in order + ["postures"]:
+        at = labelled & (place == name)
+        row = {"place": name, "samples": int(at.sum()), "speed mm/s": 1e3 * float(np.nanmedian(speed[at]))}
+        row.update({mode: float((x.label[at] == truth_label[at]).mean()) for mode, x in labels.items()})
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _runs(mask: np.ndarray, experiment: np.ndarray) -> list[tuple[int, int]]:
+    """``(start, stop)`` of the runs of consecutive ``mask`` samples within one experiment."""
+    cut = np.r_[True, experiment[1:] != experiment[:-1]]
+    starts = np.flatnonzero(mask & (cut | ~np.r_[False, mask[:-1]]))
+    stops = np.flatnonzero(mask & (np.r_[cut[1:], True] | ~np.r_[mask[1:], False])) + 1
+    return list(zip(starts.tolist(), stops.tolist()))
+
+
+def _accuracy(state, label, truth_state, truth_label, keep=None) -> dict[str, float]:
     """Labelled share, stage-1 accuracy, stage-2 accuracy given a correct stage 1, and end-to-end accuracy, for
-    postures and gestures; also the counts behind the end-to-end figure."""
+    postures and gestures; also the counts behind the end-to-end figure. ``keep``: the samples scored (all when
+    None)."""
+    if keep is not None:
+        state, label, truth_state, truth_label = state[keep], label[keep], truth_state[keep], truth_label[keep]
     labelled = state != ""
     out = {"samples": int(len(state)), "labelled": float(labelled.mean()),
            "stage1": float((state[labelled] == truth_state[labelled]).mean())}
@@ -160,39 +266,70 @@ def _streaming(model: HandModel, feats, labels: HandLabels) -> dict[str, float]:
 
 def hand_report(ev: HandEvaluation) -> str:
     """The evaluation as Markdown."""
-    a, s = ev.accuracy, ev.settings
+    s = ev.settings
     pct = lambda x: f"{100 * x:.2f} %"  # noqa: E731
+    off, live = ev.accuracy["offline"], ev.accuracy["live"]
     lines = [
         f"Trained on the training protocol of {s['train_people']} simulated people (seed {s['seed']}, {s['rounds']} "
-        f"round trips per posture); tested on {s['test_people']} held-out people, one run each, at {s['rate']:g} Hz, "
-        f"causal windows of {s['windows']} samples.",
+        f"round trips per posture); tested on {s['test_people']} held-out people, one run each, at {s['rate']:g} Hz. "
+        f"Windows (samples) {s['windows']}; channels {s['channels']}. Offline: centred windows and one gesture per "
+        f"gesture stretch; live: causal windows (what `HandRecognizer` gives sample by sample).",
         "",
-        "| | paper | spotfree |",
-        "|---|---:|---:|",
-        f"| labels (posture + gesture samples, six runs) | {PAPER['labels']:,} | {a['labels']:,} |",
-        f"| correct end to end | {pct(PAPER['accuracy'])} | {pct(a['correct'] / a['labels'])} |",
-        "",
-        "| run | person | samples | labelled | stage 1 | stage 2 postures | stage 2 gestures | end to end postures "
-        "| end to end gestures |",
-        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "| | paper | offline | live |",
+        "|---|---:|---:|---:|",
+        f"| labels (posture + gesture samples, six runs) | {PAPER['labels']:,} | {off['labels']:,} | "
+        f"{live['labels']:,} |",
+        f"| correct end to end | {pct(PAPER['accuracy'])} | {pct(off['correct'] / off['labels'])} | "
+        f"{pct(live['correct'] / live['labels'])} |",
+        f"| postures, end to end | | {pct(off['end_posture'])} | {pct(live['end_posture'])} |",
+        f"| gestures, end to end | | {pct(off['end_gesture'])} | {pct(live['end_gesture'])} |",
     ]
-    for r in ev.runs.to_dict("records"):
-        lines.append(f"| {r['run']} | {r['person']} | {r['samples']} | {pct(r['labelled'])} | {pct(r['stage1'])} | "
-                     f"{pct(r['stage2_posture'])} | {pct(r['stage2_gesture'])} | {pct(r['end_posture'])} | "
-                     f"{pct(r['end_gesture'])} |")
-    lines.append(f"| all | | {a['samples']} | {pct(a['labelled'])} | {pct(a['stage1'])} | {pct(a['stage2_posture'])} "
-                 f"| {pct(a['stage2_gesture'])} | {pct(a['end_posture'])} | {pct(a['end_gesture'])} |")
-    lines += ["", f"Stage 1 per true state: postures {pct(a['stage1_posture'])}, gestures {pct(a['stage1_gesture'])}.",
-              ""]
-    for name, table in ev.confusion.items():
-        lines += [f"Confusion, {name} (rows true, columns recognised):", "", "```", table.to_string(), "```", ""]
+    for c in COLLARS:
+        o, v = ev.collars["offline"][c], ev.collars["live"][c]
+        lines += [f"| postures, collar {c} ({c / s['rate']:.2f} s) | | {pct(o['end_posture'])} | "
+                  f"{pct(v['end_posture'])} |",
+                  f"| gestures, collar {c} ({c / s['rate']:.2f} s) | | {pct(o['end_gesture'])} | "
+                  f"{pct(v['end_gesture'])} |"]
+    lines += ["", "A collar of c leaves out the c samples on each side of every true change of state.", ""]
+    lines += ["| mode | run | person | samples | labelled | stage 1 | stage 2 postures | stage 2 gestures "
+              "| end to end postures | end to end gestures |",
+              "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for mode in MODES:
+        a = ev.accuracy[mode]
+        for r in [*ev.runs[mode].to_dict("records"), {**a, "run": "all", "person": ""}]:
+            lines.append(f"| {mode} | {r['run']} | {r['person']} | {r['samples']} | {pct(r['labelled'])} | "
+                         f"{pct(r['stage1'])} | {pct(r['stage2_posture'])} | {pct(r['stage2_gesture'])} | "
+                         f"{pct(r['end_posture'])} | {pct(r['end_gesture'])} |")
+    lines += ["", "Stage 1 per true state: " + "; ".join(
+        f"{mode} postures {pct(ev.accuracy[mode]['stage1_posture'])}, gestures "
+        f"{pct(ev.accuracy[mode]['stage1_gesture'])}" for mode in MODES) + ".", ""]
+    places = ev.places.copy()
+    for mode in MODES:
+        places[mode] = places[mode].map(pct)
+    places["speed mm/s"] = places["speed mm/s"].map(lambda x: f"{x:.1f}")
+    lines += ["Where gestures are lost: end-to-end accuracy by the sample's place in its gesture (start +0 is the "
+              "first sample the truth calls gesture), and the median measured palm speed there:", "",
+              _markdown(places), ""]
+    for mode in MODES:
+        for name, table in ev.confusion[mode].items():
+            if mode == "live" and name != "stage 1":
+                continue
+            lines += [f"Confusion, {mode}, {name} (rows true, columns recognised):", "", "```", table.to_string(),
+                      "```", ""]
     lat = ev.latency
     lines += [
-        f"Commands: {lat['onsets']} posture onsets, command reached for {pct(lat['reached'])}; latency from the true "
-        f"onset median {lat['median']:.2f} s, 95th percentile {lat['p95']:.2f} s, max {lat['max']:.2f} s; "
+        f"Commands (live): {lat['onsets']} posture onsets, command reached for {pct(lat['reached'])}; latency from "
+        f"the true onset median {lat['median']:.2f} s, 95th percentile {lat['p95']:.2f} s, max {lat['max']:.2f} s; "
         f"{ev.wrong_switches} switch(es) to a wrong command.",
         f"Streaming: {ev.streaming['per_second']:,.0f} samples per second ({ev.streaming['per_sample_us']:.0f} us per "
-        f"20 Hz sample, three stages and the command), {ev.streaming['differ']} sample(s) differing from batch.",
-        f"Time: " + ", ".join(f"{k} {v:.1f} s" for k, v in ev.seconds.items()) + ".",
+        f"20 Hz sample, three stages and the command), {ev.streaming['differ']} sample(s) differing from live batch.",
+        "Time: " + ", ".join(f"{k} {v:.1f} s" for k, v in ev.seconds.items()) + ".",
     ]
     return "\n".join(lines)
+
+
+def _markdown(table: pd.DataFrame) -> str:
+    """A Markdown table of ``table``'s cells as they are (first column left-aligned, the others right)."""
+    rows = [list(table.columns), ["---"] + ["---:"] * (len(table.columns) - 1)]
+    rows += [[str(x) for x in row] for row in table.itertuples(index=False)]
+    return "\n".join("| " + " | ".join(map(str, row)) + " |" for row in rows)

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import itertools
 import multiprocessing
+import signal
 import threading
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Future
@@ -188,11 +189,12 @@ def _warm_up(service: RideService) -> None:  # pragma: no cover - runs in the wo
 
 def _serve(pipe, service_args: tuple) -> None:  # pragma: no cover - runs in the worker process
     """A worker process: one :class:`RideService` answering the calls of :class:`_Worker` until told to stop."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C stops the server, which then stops its workers
     model, location, synchronous, lock, model_name, assistant = service_args
-    lock = threading.Lock()
+    sending = threading.Lock()
 
     def answer(call_id: int, ok: bool, value) -> None:
-        with lock:
+        with sending:
             try:
                 pipe.send((call_id, ok, value))
             except Exception as exc:  # an exception that does not pickle travels as its message

@@ -5,9 +5,13 @@
 distance, time to the destination). A batch of samples is taken in this order, so that a refused batch changes
 nothing: (1) the token must be the one the ride was started with (:class:`~spotfree.ride.store.AccessError`);
 (2) the batch is validated as the store validates it (:mod:`spotfree.ride.validation`, InputError); (3) features,
-labels and assistant run; (4) samples, features, labels and the events that ended are committed to the store;
-(5) the result is published to the views. The acknowledgement a device gets is sent after (4): an acknowledged
-sample is on disk. Ending a ride closes the assistant's open episodes and records them.
+labels and assistant run; (4) samples, features, labels and the events that ended are submitted to the store as
+one write, which its writer thread commits together with the other writes pending (group commit,
+:mod:`spotfree.ride.commit`); (5) once committed, the result is published to the views. The acknowledgement a
+device gets is sent after the commit: an acknowledged sample is on disk. :meth:`RideService.ingest_async` runs
+(1)-(4) on the event loop and awaits the commit without holding a thread. A commit that fails (a disk error) is
+reported to the device, but the ride's filters and assistant have taken the batch: end that ride and start a new
+one. Ending a ride closes the assistant's open episodes and records them.
 
 Rate: each ride has a bucket of ``BACKLOG_SECONDS * rate`` samples (``rate`` the model's, Hz) refilled at
 ``RATE_FACTOR * rate`` samples/s; a batch of ``n`` samples takes ``n`` from it or is refused whole (HTTP 429,

@@ -1,0 +1,38 @@
+"""Scoring of the hand evaluation: collars around true changes of state and the places inside a gesture."""
+
+import numpy as np
+
+from spotfree.hand.evaluation import _accuracy, _near_change, _places
+from spotfree.hand.recognition import HandLabels
+
+
+def test_collar_leaves_out_the_samples_around_each_change_within_an_experiment():
+    truth = np.array(["posture"] * 4 + ["gesture"] * 3 + ["posture"] * 3 + ["gesture"] * 2)
+    experiment = np.array([1] * 10 + [2] * 2)
+    near = _near_change(truth, experiment, 1)
+    assert np.flatnonzero(near).tolist() == [3, 4, 6, 7]  # no change counted across experiments 1 -> 2
+    assert np.flatnonzero(_near_change(truth, experiment, 2)).tolist() == [2, 3, 4, 5, 6, 7, 8]
+
+
+def test_accuracy_with_a_collar_scores_only_the_kept_samples():
+    truth_state = np.array(["posture"] * 3 + ["gesture"] * 3 + ["posture"] * 3)
+    truth_label = np.array(["straight"] * 3 + ["straight-to-left"] * 3 + ["left"] * 3)
+    state = np.array(["posture"] * 4 + ["gesture"] * 1 + ["posture"] * 4)  # the gesture seen late and short
+    label = np.where(state == "gesture", "straight-to-left", np.array(["straight"] * 4 + [""] + ["left"] * 4))
+    strict = _accuracy(state, label, truth_state, truth_label)
+    assert strict["end_gesture"] == 1 / 3 and strict["end_posture"] == 1.0
+    keep = ~_near_change(truth_state, np.ones(9, dtype=int), 1)
+    assert _accuracy(state, label, truth_state, truth_label, keep)["end_gesture"] == 1.0
+
+
+def test_places_count_from_both_ends_of_every_gesture():
+    truth_state = np.array(["posture"] * 2 + ["gesture"] * 10 + ["posture"] * 2)
+    truth_label = np.where(truth_state == "gesture", "straight-to-stop", "straight")
+    recognised = np.where(np.arange(14) >= 3, truth_label, "straight")  # first gesture sample missed
+    labels = HandLabels(np.arange(14) / 20, np.where(truth_state == "gesture", "gesture", "posture"), recognised,
+                        np.full(14, "stop"))
+    table = _places({"offline": labels}, truth_state, truth_label, np.ones(14, dtype=int), np.full(14, 0.05))
+    rows = table.set_index("place")
+    assert rows.loc["start +0", "offline"] == 0.0 and rows.loc["start +1", "offline"] == 1.0
+    assert rows.loc["inside", "samples"] == 2 and rows.loc["end -0", "samples"] == 1
+    assert rows.loc["postures", "samples"] == 4 and rows.loc["postures", "speed mm/s"] == 50.0
