@@ -117,3 +117,23 @@ def test_quick_value_checks_refuse_exactly_what_the_field_checks_refuse(data):
     if not quick:
         with pytest.raises(InputError):
             validation.sample_batch(table, None, "ride")
+
+
+def test_a_shared_lock_is_held_around_each_write_transaction(tmp_path):
+    class Counting:
+        held = entered = 0
+
+        def __enter__(self):
+            self.entered += 1
+            self.held += 1
+
+        def __exit__(self, *exc):
+            self.held -= 1
+
+    lock = Counting()
+    with RideStore(tmp_path / "rides.db", lock=lock) as store:
+        token, ride = _ride(store)
+        store.append_samples(token, ride, batch(0.0, 5))
+        assert lock.held == 0 and lock.entered == 4  # schema, device, ride, batch
+        store.samples(ride)
+        assert lock.entered == 4  # reads do not take it
