@@ -9,8 +9,8 @@ Every row times single calls with ``time.perf_counter_ns`` after one warm-up pas
 
 * ``RideClassifier.update <method>``: one raw sample in, one label out (features, ring-buffer window, scaling,
   affine row, classifier). The default method (kernel CRC_RLS) runs over the rides ``--passes`` times, CRC_RLS over
-  them once, the others over their first ``--sparse`` samples (SRC and B_SRC solve an optimisation per window; their convergence warnings
-  are counted).
+  them once, the others over their first ``--sparse`` samples (SRC and B_SRC solve an optimisation per window;
+  their convergence warnings are counted).
 * ``FeatureStream.update``: the ride features alone (attitude filter, low-pass, lean, speed-aided acc_long), the
   floor under the end-to-end figure.
 * ``crc`` / ``kcrc predict_one``, ``crc predict (one-row matrix)``: the classifiers alone on the windows of the rides,

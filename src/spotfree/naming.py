@@ -141,10 +141,12 @@ def rename_habits(pooled: np.ndarray, recording: np.ndarray, labels: np.ndarray,
     ``recording`` and ``labels``: each window's recording and cluster.
 
     A group enriched in the recordings of ``X`` may be one rider's habit (a brisker acceleration) instead of ``X``.
-    A window of ``X`` has no near neighbour in a recording without ``X``; a habit does, as close as the background's
-    windows have. Novelty of a group: the median over its windows of the distance to the nearest window of the
-    recordings that do not declare ``X``; the group keeps its name when that is at least :data:`NOVELTY` times the
-    same median over the background's windows of the other recordings. Classes declared in every recording are not
+    A window of ``X`` has no near neighbour among the background's windows of a recording without ``X``; a habit
+    does, as close as the background's own windows have. Novelty of a group: the median over its windows of the
+    distance to the nearest background window of the recordings that do not declare ``X``; the group keeps its name
+    when that is at least :data:`NOVELTY` times the same median over the background's windows of the other
+    recordings. Only the background is the reference: another manoeuvre of those recordings may move like ``X``
+    (a hand moving right to straight and one moving straight to left). Classes declared in every recording are not
     tested (no recording lacks them).
     """
     background_windows = np.isin(labels, [n.cluster for n in names if n.name == background])
@@ -154,7 +156,7 @@ def rename_habits(pooled: np.ndarray, recording: np.ndarray, labels: np.ndarray,
         if n.name == background or not without or n.rule in ("empty", "named by the user"):
             continue
         members = labels == n.cluster
-        reference = np.isin(recording, without)
+        reference = np.isin(recording, without) & background_windows
         own = _median_nearest(pooled, members & ~reference, reference)
         usual = _median_nearest(pooled, background_windows & ~reference, reference)
         if np.isfinite(own) and np.isfinite(usual) and own < NOVELTY * usual:

@@ -15,8 +15,8 @@ from spotfree.classify.neighbours import NearestColumnsClassifier
 from spotfree.classify.src import SRCClassifier
 from spotfree.errors import InputError
 
-METHODS = {"crc": CRCClassifier, "kcrc": KernelCRCClassifier, "src": SRCClassifier, "bsrc": BlockSparseClassifier,
-           "nearest": NearestColumnsClassifier}
+METHODS = {"crc": CRCClassifier, "kcrc": KernelCRCClassifier, "src": SRCClassifier,
+           "bsrc": BlockSparseClassifier, "nearest": NearestColumnsClassifier}
 
 DEFAULT_METHOD = "kcrc"
 """The method used when none is named: kernel CRC_RLS. It labels the braking tests of the evaluation better than
@@ -35,5 +35,5 @@ def make_classifier(method: str, **params):
     return cls(**params)
 
 
-__all__ = ["DEFAULT_METHOD", "METHODS", "UNKNOWN", "BlockSparseClassifier", "CRCClassifier", "KernelCRCClassifier", "NearestColumnsClassifier",
-           "ResidualClassifier", "SRCClassifier", "make_classifier"]
+__all__ = ["DEFAULT_METHOD", "METHODS", "UNKNOWN", "BlockSparseClassifier", "CRCClassifier", "KernelCRCClassifier",
+           "NearestColumnsClassifier", "ResidualClassifier", "SRCClassifier", "make_classifier"]

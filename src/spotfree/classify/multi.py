@@ -94,8 +94,9 @@ class MultiModelStream:
         Classifiers already fitted by :func:`~spotfree.classify.batch.dictionary_classifier`.
     """
 
-    def __init__(self, models: Mapping[str, DictionaryModel], method: str = DEFAULT_METHOD, smoothing: int | None = None,
-                 max_gap: float = MAX_GAP, classifiers: Mapping[str, object] | None = None):
+    def __init__(self, models: Mapping[str, DictionaryModel], method: str = DEFAULT_METHOD,
+                 smoothing: int | None = None, max_gap: float = MAX_GAP,
+                 classifiers: Mapping[str, object] | None = None):
         _check_models(models)
         first = next(iter(models.values()))
         if first.features != "ride":
