@@ -141,13 +141,13 @@ def rename_habits(pooled: np.ndarray, recording: np.ndarray, labels: np.ndarray,
     ``recording`` and ``labels``: each window's recording and cluster.
 
     A group enriched in the recordings of ``X`` may be one rider's habit (a brisker acceleration) instead of ``X``.
-    A window of ``X`` has no near neighbour among the background's windows of a recording without ``X``; a habit
-    does, as close as the background's own windows have. Novelty of a group: the median over its windows of the
-    distance to the nearest background window of the recordings that do not declare ``X``; the group keeps its name
-    when that is at least :data:`NOVELTY` times the same median over the background's windows of the other
-    recordings. Only the background is the reference: another manoeuvre of those recordings may move like ``X``
-    (a hand moving right to straight and one moving straight to left). Classes declared in every recording are not
-    tested (no recording lacks them).
+    The reference are the windows, in the recordings without ``X``, of the classes declared wherever ``X`` is (its
+    companions: the background, and normal braking for sudden braking): a window of ``X`` has no near neighbour
+    among them, a habit does, as close as the background's own windows have. Novelty of a group: the median over its
+    windows of the distance to the nearest reference window; the group keeps its name when that is at least
+    :data:`NOVELTY` times the same median over the background's windows of the other recordings. Other manoeuvres
+    of those recordings are no reference: they may move like ``X`` (a hand moving right to straight and one moving
+    straight to left). Classes declared in every recording are not tested (no recording lacks them).
     """
     background_windows = np.isin(labels, [n.cluster for n in names if n.name == background])
     out = list(names)
@@ -156,7 +156,8 @@ def rename_habits(pooled: np.ndarray, recording: np.ndarray, labels: np.ndarray,
         if n.name == background or not without or n.rule in ("empty", "named by the user"):
             continue
         members = labels == n.cluster
-        reference = np.isin(recording, without) & background_windows
+        companions = {c for c in set.intersection(*(set(d) for d in declared if n.name in d)) if c != n.name}
+        reference = np.isin(recording, without) & np.isin(labels, [m.cluster for m in names if m.name in companions])
         own = _median_nearest(pooled, members & ~reference, reference)
         usual = _median_nearest(pooled, background_windows & ~reference, reference)
         if np.isfinite(own) and np.isfinite(usual) and own < NOVELTY * usual:
