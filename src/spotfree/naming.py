@@ -21,8 +21,9 @@ for it: those declaring ``X`` where ``X`` is the most specific declared class (d
 A cluster present in recordings that share no declared class cannot be any one class and goes to the background.
 
 4. **Novelty** (:func:`rename_habits`, needs the windows). A cluster enriched where ``X`` is declared may be one
-   rider's habit (a brisker acceleration) rather than ``X``: its windows then have near neighbours in the recordings
-   without ``X``, which windows of ``X`` cannot have. Such a cluster goes to the background.
+   rider's habit (a brisker acceleration) rather than ``X``: its windows then have near neighbours among the
+   background's windows (and those of the other classes declared wherever ``X`` is) in the recordings without
+   ``X``, which windows of ``X`` cannot have. Such a cluster goes to the background.
 """
 
 from __future__ import annotations
@@ -130,8 +131,9 @@ def _enrichment(share: np.ndarray, inside: list[int], lacking: list[int]) -> flo
 
 NOVELTY = 2.0
 """Novelty a group must have to keep a name given by enrichment (:func:`rename_habits`). Measured on the training
-rides of the evaluation (seeds 1 and 4, where habits had been named sudden braking): groups of sudden braking lay
-3.5 to 6 times as far from the normal-braking ride as the background's windows, the habit groups 0.9 to 1.0 times."""
+rides of the evaluation (seeds 1 and 4, where habits had been named sudden braking) as the median distance of a
+group's windows to the nearest window of the other ride, over the same for the background: groups of sudden braking
+3.5 to 6, the habit groups 0.9 to 1.0."""
 
 
 def rename_habits(pooled: np.ndarray, recording: np.ndarray, labels: np.ndarray, names: list[ClusterName],
