@@ -74,3 +74,11 @@ def test_bad_declarations_are_clear_errors(experiments):
         train(experiments, TrainingConfig(window=100_000))
     with pytest.raises(InputError, match="no column"):
         train(experiments, TrainingConfig(channels=("pitch", "speedometer")))
+
+
+def test_a_class_every_recording_declares_and_no_cluster_takes_is_explained(experiments):
+    both_normal = [TrainingExperiment(experiments[0].recording, NB), TrainingExperiment(experiments[1].recording, NB)]
+    result = train(both_normal, TrainingConfig(seed=0))
+    assert "normal-braking" not in result.model.classes
+    warning = next(w for w in result.warnings if "'normal-braking' was given no cluster" in w)
+    assert "every recording declares it" in warning and "--name CLUSTER=normal-braking" in warning

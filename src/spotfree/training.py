@@ -131,7 +131,7 @@ def train(experiments: list[TrainingExperiment], config: TrainingConfig | None =
     kept, margins = _purify(windows, names_per_window, config, say)
     classes = sorted({n for per in names_per_window for n in per[per != ""]})
     missing = sorted({c for d in declared for c in d} - set(classes))
-    warnings += [f"declared class '{c}' was given no cluster; the model cannot recognise it" for c in missing]
+    warnings += [_missing_class(c, declared) for c in missing]
     columns, column_class, column_source, column_margin = [], [], [], []
     for r, (w, per, keep, margin) in enumerate(zip(windows, names_per_window, kept, margins)):
         for k in np.flatnonzero(keep):
@@ -169,6 +169,15 @@ def train(experiments: list[TrainingExperiment], config: TrainingConfig | None =
     )
     return TrainingResult(model, names, levels, names_per_window, [w.ends for w in windows], kept, column_source,
                           warnings)
+
+
+def _missing_class(name: str, declared: list[list[str]]) -> str:
+    """The warning for a declared class that no cluster took, with why when every recording declares it."""
+    warning = f"declared class '{name}' was given no cluster; the model cannot recognise it"
+    if all(name in d for d in declared):
+        warning += (": every recording declares it, so no recording can show what it is not; add a recording "
+                    f"without {name}, or name its cluster from the summary and the figure with --name CLUSTER={name}")
+    return warning
 
 
 def _validate(experiments: list[TrainingExperiment], config: TrainingConfig) -> None:
