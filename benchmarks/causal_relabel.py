@@ -6,7 +6,8 @@ the last sample of a window, so it answers half a window late at every change of
 training of ``spotfree evaluate`` (seed by seed), then builds a second dictionary from the same training windows,
 each window named by the (kept, named) window centred on its last sample; windows that straddle a change are
 allowed in, which the trained dictionary drops. Both dictionaries label the evaluation's tests causally with
-kernel CRC_RLS. No ground truth is read for either; the tests' truth only scores them.
+kernel CRC_RLS; also printed is the median delay from each true onset of sudden braking to its label
+(:mod:`spotfree.classify.latency`). No ground truth is read for either; the tests' truth only scores them.
 
     python benchmarks/causal_relabel.py --seeds 0 2 3
 """
@@ -20,6 +21,7 @@ from dataclasses import replace
 import numpy as np
 
 from spotfree.classify.batch import classify_recording, dictionary_classifier
+from spotfree.classify.latency import decision_latency
 from spotfree.evaluation.protocol import SCENARIOS, Protocol, simulate, train_dictionary
 from spotfree.windows import ChannelScaling, recording_windows
 
@@ -57,8 +59,8 @@ def main() -> None:
     args = parser.parse_args()
     warnings.simplefilter("ignore")
     print("| seed | dictionary | columns per class | normal-braking | sudden-braking | cruising | all tests | "
-          "sudden labels in normal tests |")
-    print("|---:|---|---|---:|---:|---:|---:|---:|")
+          "sudden labels in normal tests | sudden-braking onsets: median causal delay (s) |")
+    print("|---:|---|---|---:|---:|---:|---:|---:|---:|")
     for seed in args.seeds:
         protocol = Protocol(seed=seed)
         data = simulate(protocol)
@@ -77,7 +79,10 @@ def main() -> None:
                 if scenario == "normal-braking":
                     false_sudden = int(np.sum(label == "sudden-braking"))
             counts = "/".join(str(int((model.column_class == i).sum())) for i in range(len(model.classes)))
-            print(f"| {seed} | {name} | {counts} | {' | '.join(cells)} | {100 * right / total:.2f} | {false_sudden} |")
+            delay = decision_latency(model, data["sudden-braking"].test, "kcrc")["causal"].get("sudden-braking")
+            onset = "-" if delay is None or delay.median is None else f"{delay.median:+.2f}"
+            print(f"| {seed} | {name} | {counts} | {' | '.join(cells)} | {100 * right / total:.2f} | {false_sudden} "
+                  f"| {onset} |")
 
 
 if __name__ == "__main__":
