@@ -101,6 +101,19 @@ class ResidualClassifier(ClassifierMixin, BaseEstimator):
         """Class residuals of validated windows ``X`` ``(n, d)``."""
         raise NotImplementedError
 
+    def _one_window(self, y, d: int) -> np.ndarray:
+        """``y`` as one float window of ``d`` values for ``predict_one``, or a clear error."""
+        y = np.asarray(y, dtype=float)
+        if y.shape != (d,):
+            raise InputError(f"{type(self).__name__}.predict_one takes one window of shape ({d},) (window length "
+                             f"times channels, as the dictionary was trained), got shape {y.shape}")
+        return y
+
+    def _not_finite(self) -> InputError:
+        """The error of ``predict_one`` for a window holding NaN or infinity."""
+        return InputError(f"{type(self).__name__}.predict_one: the window holds NaN or infinity; give finite values "
+                          "(cut windows inside gap-free stretches)")
+
     def _window_norms(self, X: np.ndarray) -> np.ndarray:
         """``||y||`` of each window in the space the residuals are measured in (the rejection ratio's divisor)."""
         return np.linalg.norm(X, axis=1)

@@ -104,14 +104,9 @@ class CRCClassifier(ResidualClassifier):
         except AttributeError:
             check_is_fitted(self, "residual_operators_")
             raise
-        y = np.asarray(y, dtype=float)
-        if y.shape != (operator.shape[1],):
-            raise InputError(f"CRCClassifier.predict_one takes one window of shape ({operator.shape[1]},) (window "
-                             f"length times channels, as the dictionary was trained), got shape {y.shape}")
-        best, ratio = crc_window(operator, len(self.classes_), y)
+        best, ratio = crc_window(operator, len(self.classes_), self._one_window(y, operator.shape[1]))
         if best < 0:
-            raise InputError("CRCClassifier.predict_one: the window holds NaN or infinity; give finite values "
-                             "(cut windows inside gap-free stretches)")
+            raise self._not_finite()
         if self.reject is not None and ratio > self.reject:
             return UNKNOWN
         return self.classes_[best]

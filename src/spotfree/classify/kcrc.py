@@ -103,16 +103,12 @@ class KernelCRCClassifier(ResidualClassifier):
         except AttributeError:
             check_is_fitted(self, "crc_")
             raise
-        y = np.asarray(y, dtype=float)
-        if y.shape != (landmarks.shape[1],):
-            raise InputError(f"KernelCRCClassifier.predict_one takes one window of shape ({landmarks.shape[1]},)"
-                             f" (window length times channels, as the dictionary was trained), got shape {y.shape}")
         phi = np.empty(len(self.normalisation_))
-        norm2 = kernel_features(landmarks, self.normalisation_, self.gamma_, y, phi)
-        best, ratio = crc_window(crc._operator, len(self.classes_), phi) if norm2 >= 0 else (-1, np.nan)
-        if best < 0:
-            raise InputError("KernelCRCClassifier.predict_one: the window holds NaN or infinity; give finite values "
-                             "(cut windows inside gap-free stretches)")
+        norm2 = kernel_features(landmarks, self.normalisation_, self.gamma_, self._one_window(y, landmarks.shape[1]),
+                                phi)
+        if norm2 < 0:
+            raise self._not_finite()
+        best, ratio = crc_window(crc._operator, len(self.classes_), phi)
         if self.reject is not None and kernel_residual(ratio, norm2) > self.reject:
             return UNKNOWN
         return self.classes_[best]

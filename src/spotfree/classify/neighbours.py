@@ -66,13 +66,9 @@ class NearestColumnsClassifier(ResidualClassifier):
 
     def predict_one(self, y):
         """Class of one window ``y`` ``(d,)`` by the compiled loop (same residuals as :meth:`predict`)."""
-        y = np.asarray(y, dtype=float)
-        if y.shape != (self.atoms_.shape[1],):
-            raise InputError(f"NearestColumnsClassifier.predict_one takes one window of shape "
-                             f"({self.atoms_.shape[1]},) (window length times channels), got {y.shape}")
+        y = self._one_window(y, self.atoms_.shape[1])
         if not np.all(np.isfinite(y)):
-            raise InputError("NearestColumnsClassifier.predict_one: the window holds NaN or infinity; give finite "
-                             "values (labels stop at gaps)")
+            raise self._not_finite()
         if self.reject is not None:
             return super().predict_one(y)
         return self.classes_[_nearest_class(y, self.atoms_, self.class_start_, int(self.n_neighbors))]
