@@ -49,8 +49,8 @@ def main() -> None:
         pur = "/".join(f"{purity[c]:.2f}" if c in purity else "-" for c in CLASSES)
         cols = "/".join(str(columns.get(c, 0)) for c in CLASSES)
         for method in METHODS:
-            clf = dictionary_classifier(model, method)
             for alignment in ("causal", "centred"):
+                clf = dictionary_classifier(model, method, causal=alignment == "causal")
                 cells, right, total, false_sudden = [], 0, 0, ""
                 for scenario in SCENARIOS:
                     test = data[scenario].test

@@ -30,6 +30,22 @@ def test_round_trip_keeps_every_field(tmp_path):
     assert loaded.metadata() == model.metadata()
 
 
+def test_causal_columns_round_trip_and_are_checked(tmp_path):
+    model = _model()
+    model.causal_dictionary, model.causal_column_class = model.dictionary[:, :4] * 2, [1, 0, 1, 1]
+    model.__post_init__()
+    model.save(tmp_path / "c.npz")
+    loaded = DictionaryModel.load(tmp_path / "c.npz")
+    np.testing.assert_array_equal(loaded.causal_dictionary, model.causal_dictionary)
+    np.testing.assert_array_equal(loaded.columns(causal=True)[1], [1, 0, 1, 1])
+    np.testing.assert_array_equal(loaded.columns(causal=False)[1], model.column_class)
+    np.testing.assert_array_equal(_model().columns(causal=True)[1], _model().column_class)  # none: the others
+    with pytest.raises(InputError, match="go together"):
+        DictionaryModel(**{**vars(_model()), "causal_column_class": [0]})
+    with pytest.raises(InputError, match="causal dictionary"):
+        DictionaryModel(**{**vars(_model()), "causal_dictionary": np.zeros((10, 2)), "causal_column_class": [0, 5]})
+
+
 def test_same_model_gives_the_same_bytes(tmp_path):
     _model().save(tmp_path / "a.npz")
     _model().save(tmp_path / "b.npz")

@@ -82,3 +82,20 @@ def test_a_class_every_recording_declares_and_no_cluster_takes_is_explained(expe
     assert "normal-braking" not in result.model.classes
     warning = next(w for w in result.warnings if "'normal-braking' was given no cluster" in w)
     assert "every recording declares it" in warning and "--name CLUSTER=normal-braking" in warning
+
+
+def test_causal_columns_are_named_by_the_state_their_window_ends_in(experiments, evidence):
+    """Causal classification (batch and stream) uses the columns named at their window's end; centred, the others."""
+    from spotfree.classify.batch import classify_recording, dictionary_classifier
+    from spotfree.classify.stream import RideClassifier
+
+    model = evidence.model
+    assert model.causal_dictionary is not None and set(model.causal_column_class) == set(range(len(model.classes)))
+    ride = simulate_scenario("sudden-braking", repeats=2, seed=5).select_experiment(2)
+    causal = classify_recording(model, ride).label
+    assert (causal == classify_recording(model, ride, classifier=dictionary_classifier(model, causal=True)).label).all()
+    assert (causal != classify_recording(model, ride, classifier=dictionary_classifier(model)).label).any()
+    stream = RideClassifier(model)
+    acc, gyr, speed = ride.array(["ax", "ay", "az"]), ride.array(["gx", "gy", "gz"]), ride.channels["speed"]
+    streamed = np.array([stream.update(a, w, t, v) or "" for a, w, t, v in zip(acc, gyr, ride.time, speed)])
+    np.testing.assert_array_equal(streamed, causal)

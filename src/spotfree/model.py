@@ -4,6 +4,8 @@ A model file is a NumPy ``.npz`` archive holding
 
 * ``dictionary``  ``(d, N)`` float: the training windows kept as pure class representatives (one per column),
 * ``column_class`` ``(N,)`` int: index into ``classes`` of every column,
+* ``causal_dictionary`` ``(d, M)`` and ``causal_column_class`` ``(M,)`` (optional): the columns for causal
+  classification, each named by the class at its window's last sample instead of its centre,
 * ``scale``       ``(c,)`` float: the per-channel scale the windows were divided by,
 * ``metadata``    a JSON string (schema version, classes, channels, rate, window, step, normalisation, feature
   pipeline, training parameters and the training summary).
@@ -49,6 +51,8 @@ class DictionaryModel:
     orientation: str = "default"
     parameters: dict = field(default_factory=dict)
     summary: dict = field(default_factory=dict)
+    causal_dictionary: np.ndarray | None = None
+    causal_column_class: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         self.scale = np.asarray(self.scale, dtype=float)
@@ -63,6 +67,22 @@ class DictionaryModel:
             raise InputError("model scale must give one scale per channel")
         if len(self.column_class) and not 0 <= self.column_class.min() <= self.column_class.max() < len(self.classes):
             raise InputError("model column_class indexes a class that is not in classes")
+        if (self.causal_dictionary is None) != (self.causal_column_class is None):
+            raise InputError("model causal_dictionary and causal_column_class go together")
+        if self.causal_dictionary is not None:
+            self.causal_dictionary = np.asarray(self.causal_dictionary, dtype=float)
+            self.causal_column_class = np.asarray(self.causal_column_class, dtype=int)
+            if self.causal_dictionary.ndim != 2 or self.causal_dictionary.shape[0] != d or \
+                    self.causal_column_class.shape != (self.causal_dictionary.shape[1],) or \
+                    (len(self.causal_column_class) and not 0 <= self.causal_column_class.min()
+                     <= self.causal_column_class.max() < len(self.classes)):
+                raise InputError(f"model causal dictionary must have {d} rows and one class of classes per column")
+
+    def columns(self, causal: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """``(dictionary, column_class)``: the causal columns when ``causal`` and the model has them."""
+        if causal and self.causal_dictionary is not None:
+            return self.causal_dictionary, self.causal_column_class
+        return self.dictionary, self.column_class
 
     def metadata(self) -> dict:
         return {
@@ -87,12 +107,15 @@ class DictionaryModel:
         fd, tmp = tempfile.mkstemp(prefix=path.name, suffix=".tmp.npz", dir=path.parent if str(path.parent) else ".")
         os.close(fd)
         try:
+            causal = ({} if self.causal_dictionary is None else
+                      {"causal_dictionary": self.causal_dictionary, "causal_column_class": self.causal_column_class})
             np.savez_compressed(
                 tmp,
                 dictionary=self.dictionary,
                 column_class=self.column_class,
                 scale=self.scale,
                 metadata=np.array(json.dumps(self.metadata(), sort_keys=True)),
+                **causal,
             )
             os.replace(tmp, path)
         finally:
@@ -109,6 +132,7 @@ class DictionaryModel:
             with np.load(path, allow_pickle=False) as archive:
                 meta = json.loads(str(archive["metadata"]))
                 arrays = {k: archive[k] for k in ("dictionary", "column_class", "scale")}
+                arrays.update({k: archive[k] for k in ("causal_dictionary", "causal_column_class") if k in archive.files})
         except (OSError, ValueError, KeyError, json.JSONDecodeError) as exc:
             raise InputError(f"{path}: not a spotfree model file ({exc})") from None
         if meta.get("schema_version") != SCHEMA_VERSION:

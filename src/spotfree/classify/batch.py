@@ -119,10 +119,12 @@ def model_features(model: DictionaryModel, rec: Recording) -> Recording:
     return rec
 
 
-def dictionary_classifier(model: DictionaryModel, method: str = DEFAULT_METHOD, **params):
-    """Classifier ``method`` fitted on the model's dictionary columns (with the affine row), one atom per column."""
-    atoms = with_affine_row(model.dictionary, model_affine(model)).T
-    return make_classifier(method, **params).fit(atoms, np.asarray(model.classes)[model.column_class])
+def dictionary_classifier(model: DictionaryModel, method: str = DEFAULT_METHOD, causal: bool = False, **params):
+    """Classifier ``method`` fitted on the model's dictionary columns (with the affine row), one atom per column;
+    ``causal``: on its causal columns when it has them (:meth:`DictionaryModel.columns`)."""
+    dictionary, column_class = model.columns(causal)
+    atoms = with_affine_row(dictionary, model_affine(model)).T
+    return make_classifier(method, **params).fit(atoms, np.asarray(model.classes)[column_class])
 
 
 def model_affine(model: DictionaryModel) -> float:
@@ -150,7 +152,7 @@ def classify_recording(model: DictionaryModel, rec: Recording, method: str = DEF
             f"{rec.source}: no gap-free stretch is as long as the model's window ({model.window} samples = "
             f"{model.window / model.rate:.2f} s); nothing to classify"
         )
-    clf = classifier if classifier is not None else dictionary_classifier(model, method)
+    clf = classifier if classifier is not None else dictionary_classifier(model, method, causal=not centred)
     scaling = ChannelScaling(tuple(model.channels), model.scale)
     windows = recording_windows(feats, tuple(model.channels), model.window, model.step, scaling,
                                 model.normalisation)

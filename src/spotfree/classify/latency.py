@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from spotfree.classify import DEFAULT_METHOD
-from spotfree.classify.batch import Labels, classify_recording, dictionary_classifier
+from spotfree.classify.batch import Labels, classify_recording
 from spotfree.errors import InputError
 from spotfree.io.recording import Recording
 from spotfree.model import DictionaryModel
@@ -80,11 +80,9 @@ def decision_latency(model: DictionaryModel, rec: Recording, method: str = DEFAU
     ``truth["label"]`` holds the ground truth."""
     if "label" not in rec.truth:
         raise InputError(f"{rec.source}: no 'label' column; decision latency needs the ground truth")
-    clf = dictionary_classifier(model, method)
     return {
         alignment: onset_latency(
-            classify_recording(model, rec, method, centred=alignment == "centred", smoothing=smoothing,
-                               classifier=clf),
+            classify_recording(model, rec, method, centred=alignment == "centred", smoothing=smoothing),
             rec.truth["label"], tolerance)
         for alignment in ("causal", "centred")
     }

@@ -110,7 +110,7 @@ class MultiModelStream:
         self.max_gap = max_gap
         self._features = FeatureStream(first.rate, first.orientation, derived=True)
         self._values = np.zeros(len(PRODUCED))
-        fitted = [dictionary_classifier(m, method) if classifiers.get(n) is None else classifiers[n]
+        fitted = [dictionary_classifier(m, method, causal=True) if classifiers.get(n) is None else classifiers[n]
                   for n, m in models.items()]
         picks = [np.array([PRODUCED.index(c) for c in m.channels]) for m in models.values()]
         self._ring = ModelRing(list(models.values()), picks, len(PRODUCED), fitted, check_smoothing(smoothing))

@@ -58,7 +58,7 @@ class RideClassifier:
         self.method = method
         self.smoothing = check_smoothing(smoothing)
         self.max_gap = max_gap
-        self.classifier_ = classifier if classifier is not None else dictionary_classifier(model, method)
+        self.classifier_ = classifier if classifier is not None else dictionary_classifier(model, method, causal=True)
         self._features = None
         self._pick = np.arange(len(model.channels))  # where the model's channels sit in a feature vector
         if model.features == "ride":

@@ -74,7 +74,7 @@ def crc_runs(model: DictionaryModel, data: dict[str, ScenarioData], method: str 
     out = {}
     for alignment in ALIGNMENTS:
         start = time.perf_counter()
-        clf = dictionary_classifier(model, method)
+        clf = dictionary_classifier(model, method, causal=alignment == "causal")
         runs = MethodRuns(f"{METHODS[method]} ({alignment})", time.perf_counter() - start)
         for name, scenario in data.items():
             start = time.perf_counter()
@@ -91,7 +91,7 @@ def method_runs(model: DictionaryModel, data: dict[str, ScenarioData], target: i
     out = {}
     for method, name in METHODS.items():
         start = time.perf_counter()
-        clf = dictionary_classifier(model, method)
+        clf = dictionary_classifier(model, method, causal=True)
         runs = MethodRuns(name, time.perf_counter() - start)
         for scenario_name, scenario in data.items():
             stride = max(1, math.ceil(_window_count(scenario, model.window) / target))

@@ -146,7 +146,7 @@ def run_ride(ride: Ride, store: str, out: str, models: dict[str, DictionaryModel
     if store not in _STORES:
         _STORES[store] = RideStore(store)
     if config not in _CLASSIFIERS:
-        _CLASSIFIERS[config] = {name: dictionary_classifier(m) for name, m in models.items()}
+        _CLASSIFIERS[config] = {name: dictionary_classifier(m, causal=True) for name, m in models.items()}
     try:
         tables = process_ride(ride, _STORES[store].samples(ride.ride_id), models, config, _CLASSIFIERS[config])
     except InputError as exc:

@@ -88,7 +88,7 @@ def process_ride(ride: Ride, samples: dict[str, np.ndarray], models: dict[str, D
     measured = rec.valid() & np.all(np.isfinite(rec.array(list(IMU_CHANNELS))), axis=1)
     labels = {}
     for name, model in models.items():
-        clf = classifiers.get(name) or dictionary_classifier(model)
+        clf = classifiers.get(name) or dictionary_classifier(model, causal=True)
         labels[name] = classify_recording(model, feats if name == BRAKING_MODEL else rec, classifier=clf).label
     decel = -feats.channels["acc_long"]
     speed, distance, events = _assist(rec, labels[BRAKING_MODEL], decel, measured)

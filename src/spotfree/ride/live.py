@@ -94,7 +94,7 @@ def pipeline_spec(model: DictionaryModel, classifier=None) -> dict:
     if model.orientation not in PAGE_ORIENTATIONS:
         raise InputError(f"the page pipeline implements the orientation filters {', '.join(PAGE_ORIENTATIONS)}, "
                          f"not {model.orientation!r}; serve a model trained with one of them")
-    clf = classifier if classifier is not None else dictionary_classifier(model)
+    clf = classifier if classifier is not None else dictionary_classifier(model, causal=True)
     kernel = None
     if isinstance(clf, KernelCRCClassifier):
         kernel = {"gamma": clf.gamma_, "m": len(clf.landmarks_), "features": len(clf.normalisation_),

@@ -127,7 +127,7 @@ class RideService:
         self.assistant = assistant or assistant_factory(model)
         self.store = store
         self.model_name = model_name
-        self.classifier = dictionary_classifier(model)
+        self.classifier = dictionary_classifier(model, causal=True)
         rule = self.assistant()
         self.spec = {**pipeline_spec(model, self.classifier),
                      "warnings": {"dangerous": list(rule.dangerous), "min_duration": rule.min_duration,
