@@ -9,6 +9,8 @@ from sklearn.utils.estimator_checks import check_estimator
 from spotfree.classify import METHODS, UNKNOWN, make_classifier
 from spotfree.errors import InputError
 
+from classify_fixtures import amplitude_data
+
 # decision_function returns residuals (smaller is better), as the paper ranks classes; scikit-learn's checks of
 # larger-is-better scores therefore do not apply.
 RESIDUAL_CONVENTION = {
@@ -97,6 +99,14 @@ def test_bad_input_is_a_clear_error(method):
         clf.predict_one(test[0, :39])
     with pytest.raises(InputError, match="reject"):
         make_classifier(method, reject=-1).fit(X, y)
+
+
+@pytest.mark.parametrize("method", ["kcrc", "nearest"])
+def test_amplitude_aware_methods_separate_classes_that_crc_confuses(method):
+    X, y, test, truth, _ = amplitude_data(1)
+    assert (make_classifier(method).fit(X, y).predict(test) == truth).all()
+    crc = make_classifier("crc").fit(X, y).predict(test)
+    assert np.mean(crc == truth) < 0.9  # one shape at two amplitudes is one subspace
 
 
 def test_unknown_method_names_the_valid_ones():
