@@ -66,6 +66,20 @@ def test_compiled_crc_with_rejection_equals_the_batch_labels(model, raw, method)
     assert 0.1 < np.mean(labels == UNKNOWN) < 0.9
 
 
+def test_blocks_of_samples_give_the_labels_of_one_sample_at_a_time(model, raw):
+    feats = ride_features(raw.select_experiment(2).take(slice(0, 300)), derived=True)
+    other = truth_model(raw.select_experiment(1), channels=("acc_x", "lean"), window=9, step=2)
+    models = [model, other]
+    picks = [np.array([PRODUCED.index(c) for c in m.channels]) for m in models]
+    classifiers = [dictionary_classifier(model, "kcrc"), dictionary_classifier(other, "crc")]
+    one, blocks = (ModelRing(models, picks, len(PRODUCED), classifiers) for _ in range(2))
+    values = feats.array(list(PRODUCED))
+    want = [one.push(np.ascontiguousarray(row)) for row in values]
+    got = [labels for k in range(0, len(values), 7) for labels in blocks.push_block(values[k:k + 7])]
+    assert got == want
+    assert got[5] == [None, None] and got[20][0] is not None and len({g[0] for g in got[20:]}) > 1
+
+
 def test_a_classifier_without_a_compiled_path_gets_the_same_windows_and_labels(model, raw):
     ride = raw.select_experiment(2).take(slice(0, 160))
     stream = RideClassifier(model, method="nearest")

@@ -122,6 +122,10 @@ def test_stream_equals_causal_batch(orientation):
     np.testing.assert_allclose(online, batch, rtol=0, atol=1e-12)
     stream.reset()
     np.testing.assert_allclose(stream.update(dev_acc[0], dev_gyr[0]), batch[0], atol=1e-12)
+    stream.reset()
+    rows = np.column_stack([dev_acc, dev_gyr, np.full(len(dev_acc), np.nan)])
+    blocks = np.vstack([stream.update_block(rows[k:k + 9]) for k in range(0, len(rows), 9)])
+    np.testing.assert_array_equal(blocks, online)
 
 
 def test_zero_phase_changes_only_the_accelerations():

@@ -163,6 +163,16 @@ def ring_step(ring, cursor, models, picks, scales, operators, kernels, windows, 
             model.code = best
 
 
+@numba.njit(cache=True, nogil=True)
+def ring_block(ring, cursor, models, picks, scales, operators, kernels, windows, values, codes):  # pragma: no cover
+    """:func:`ring_step` for every row of ``values`` ``(n, F)``; ``codes`` ``(n, models)`` receives each model's
+    ``code`` after each row."""
+    for k in range(values.shape[0]):
+        ring_step(ring, cursor, models, picks, scales, operators, kernels, windows, values[k])
+        for m in range(models.shape[0]):
+            codes[k, m] = models[m].code
+
+
 class ModelRing:
     """The windows of several models over one stream of feature vectors (see the module docstring).
 
@@ -228,6 +238,7 @@ class ModelRing:
         self._views = [self._windows[r["y"]:r["y"] + r["d"]] for r in self.models_]
         self._codes = self.models_["code"]
         self._votes = [MajorityVote(smoothing) for _ in models] if smoothing else None
+        self._block = self._votes is None and bool(self.models_["compiled"].all())
         self.reset()
 
     def reset(self) -> None:
@@ -253,6 +264,26 @@ class ModelRing:
         if self._votes is None:
             return list(labels)
         return [vote.update(label) for vote, label in zip(self._votes, labels)]
+
+
+    def push_block(self, values: np.ndarray) -> list[list[str | None]]:
+        """:meth:`push` for every row of ``values`` ``(n, width)``: one list of labels per row. One compiled call
+        when every model runs compiled and nothing is smoothed."""
+        if not self._block:
+            return [self.push(row) for row in np.asarray(values, dtype=float)]
+        values = np.ascontiguousarray(values, dtype=float)
+        codes = np.empty((len(values), len(self.models_)), dtype=np.int64)
+        ring_block(self._ring, self._cursor, self.models_, self._picks, self._scales, self._operators, self._kernels,
+                   self._windows, values, codes)
+        labels, out = self._labels, []
+        for row in codes.tolist():
+            for m, code in enumerate(row):
+                if code >= 0:
+                    labels[m] = self._names[m][code]
+                elif code == NOT_FINITE:
+                    raise InputError("streaming classification: a window holds NaN or infinity; give finite samples")
+            out.append(list(labels))
+        return out
 
 
 def _window_predictor(classifier):

@@ -106,6 +106,34 @@ class RideClassifier:
         self._values[self._pick] = x
         return self._ring.push(self._values)[0]
 
+    def update_features_block(self, x: np.ndarray, t: np.ndarray) -> list[str | None]:
+        """:meth:`update_features` for every row of ``x`` ``(n, channels)`` at the times ``t`` ``(n,)`` (s): the label
+        at each row, from one compiled call per segment when every value is finite."""
+        x = np.asarray(x, dtype=float)
+        t = np.asarray(t, dtype=float)
+        if x.ndim != 2 or x.shape[1:] != self._pick.shape or t.shape != x.shape[:1]:
+            raise InputError(f"update_features_block needs rows of {len(self._pick)} values "
+                             f"({','.join(self.model.channels)}) and one time per row, got shapes {x.shape}, "
+                             f"{t.shape}")
+        if not np.isfinite(x).all():
+            return [self.update_features(row, s) for row, s in zip(x, t.tolist())]
+        values = np.zeros((len(x), len(self._values)))
+        values[:, self._pick] = x
+        return self.update_produced_block(values, t)
+
+    def update_produced_block(self, values: np.ndarray, t: np.ndarray,
+                              runs: list[tuple[slice, bool]] | None = None) -> list[str | None]:
+        """The label at each row of ``values`` ``(n, len(PRODUCED))`` (finite feature vectors of every
+        :data:`PRODUCED` channel, as :class:`~spotfree.signal.features.FeatureStream` gives them with ``derived``)
+        at the times ``t`` (s); ``runs``: :func:`segment_runs` of ``t`` if the caller has them."""
+        labels: list[str | None] = []
+        for rows, fresh in runs if runs is not None else segment_runs(t, self._time, self.max_gap):
+            if fresh:
+                self.reset()
+            labels += [row[0] for row in self._ring.push_block(values[rows])]
+        self._time = float(t[-1])
+        return labels
+
     def _starts_segment(self, t: float | None, finite: bool) -> bool:
         """Reset when this sample starts a new segment (time step, see the module docstring) or is not finite;
         True when it is not finite (a gap: no label)."""
@@ -117,3 +145,12 @@ class RideClassifier:
             self.reset()
         return not finite
 
+
+def segment_runs(t: np.ndarray, previous: float | None, max_gap: float) -> list[tuple[slice, bool]]:
+    """The rows of the sample times ``t`` split where a new segment starts (a step from the sample before, or from
+    ``previous`` for the first row, that is not in ``(0, max_gap]`` s): ``(rows, starts a new segment)`` per run."""
+    times = t.tolist()  # a batch is a few samples: plain floats beat array calls
+    starts = [k for k in range(1, len(times)) if not 0 < times[k] - times[k - 1] <= max_gap]
+    first = previous is not None and not 0 < times[0] - previous <= max_gap
+    bounds = [0, *starts, len(times)]
+    return [(slice(a, b), first if a == 0 else True) for a, b in zip(bounds, bounds[1:])]

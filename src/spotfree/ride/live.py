@@ -20,10 +20,10 @@ import scipy.signal
 
 from spotfree.classify.batch import dictionary_classifier, model_affine
 from spotfree.classify.kcrc import KernelCRCClassifier
-from spotfree.classify.stream import MAX_GAP, RideClassifier
+from spotfree.classify.stream import MAX_GAP, RideClassifier, segment_runs
 from spotfree.errors import InputError
 from spotfree.model import DictionaryModel
-from spotfree.ride.records import FEATURE_COLUMNS
+from spotfree.ride.records import FEATURE_COLUMNS, SAMPLE_COLUMNS
 from spotfree.signal.butterworth import butter_lowpass
 from spotfree.signal.complementary import pi_complementary_design
 from spotfree.signal.features import LONG_CUTOFF, FeatureStream, lean_coefficients
@@ -70,6 +70,30 @@ class LiveRide:
             return nan, self._classifier.update_features(nan[self._pick], t)
         feats = self._features.update(acc, gyr, speed)
         return feats, self._classifier.update_features(feats[self._pick], t)
+
+
+    def update_block(self, table: np.ndarray) -> tuple[np.ndarray, list[str | None]]:
+        """:meth:`update` for every row of a sample table ``(n, 10)`` in
+        :data:`~spotfree.ride.records.SAMPLE_COLUMNS` order (``time ax ay az gx gy gz lat lon speed``): features
+        ``(n, len(FEATURE_COLUMNS))`` and one label per row, from one compiled call per segment for the features
+        and one for the windows when the IMU values are finite."""
+        table = np.asarray(table, dtype=float)
+        if not math.isfinite(table[:, 1:7].sum()):  # NaN or infinity somewhere (or an overflow): sample by sample
+            rows = [self.update(r[0], r[1:4], r[4:7], r[9]) for r in table.tolist()]
+            return np.array([f for f, _ in rows]), [label for _, label in rows]
+        t = table[:, 0]
+        runs = segment_runs(t, self._time, self.max_gap)
+        feats = np.empty((len(table), len(FEATURE_COLUMNS)))
+        for rows, fresh in runs:
+            if fresh:
+                self._features.reset()
+            feats[rows] = self._features.update_block(table[rows], _IMU_COLUMNS)
+        self._time = float(t[-1])
+        return feats, self._classifier.update_produced_block(feats, t, runs)
+
+
+_IMU_COLUMNS = np.array([SAMPLE_COLUMNS.index(c) for c in ("ax", "ay", "az", "gx", "gy", "gz", "speed")])
+"""Where :meth:`LiveRide.update_block` finds the IMU values and the GPS speed in a sample table."""
 
 
 def _sections(sos: np.ndarray) -> dict:

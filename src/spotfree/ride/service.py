@@ -226,12 +226,9 @@ class RideService:
             if check_rate:
                 ride.bucket.take(len(table), f"ride {ride_id}")
             n = len(table)
-            feats = np.empty((n, len(FEATURE_COLUMNS)))
-            labels: list[str | None] = []
+            feats, labels = ride.live.update_block(table)
             warnings = []
-            for k, (t, ax, ay, az, gx, gy, gz, lat, lon, speed) in enumerate(table.tolist()):
-                feats[k], label = ride.live.update(t, (ax, ay, az), (gx, gy, gz), speed)
-                labels.append(label)
+            for (t, _, _, _, _, _, _, lat, lon, speed), label in zip(table.tolist(), labels):
                 status = ride.assistant.update(t, label, lat, lon, speed)
                 if status.warning is not None:
                     warnings.append(vars(status.warning))

@@ -38,6 +38,8 @@ Derived channels (``derived=True``), :data:`DERIVED_CHANNELS`:
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from scipy.signal import lfilter
 
@@ -46,7 +48,8 @@ from spotfree.io.recording import ACC_CHANNELS, GYRO_CHANNELS, IMU_CHANNELS, Rec
 from spotfree.signal.butterworth import butter_lowpass, lowpass, sections_and_zi
 from spotfree.signal.frame import GRAVITY, MOUNT, device_to_vehicle_axes, gravity_free_level
 from spotfree.signal.orientation import GravityPI, PaperAttitude, attitude_filter
-from spotfree.signal.recursions import FEATURE_PARAMETERS, FEATURE_STATE, ride_features_update
+from spotfree.signal.recursions import (FEATURE_PARAMETERS, FEATURE_STATE, ride_features_block,
+                                       ride_features_update)
 from spotfree.signal.speed_aided import speed_aided_acceleration, speed_aided_parameters
 
 FEATURE_CHANNELS = ("roll", "pitch", "pitch_rate", "acc_x", "acc_y", "acc_z")
@@ -146,6 +149,12 @@ _ATTITUDE_KINDS = {"default": 0, "paper": 1}
 
 
 def feature_parameters(rate: float, orientation: str = "default") -> np.ndarray:
+    """:func:`_feature_parameters` (a fresh copy; the filter designs are computed once per rate and attitude)."""
+    return _feature_parameters(float(rate), orientation).copy()
+
+
+@functools.lru_cache(maxsize=16)
+def _feature_parameters(rate: float, orientation: str) -> np.ndarray:
     """The :data:`~spotfree.signal.recursions.FEATURE_PARAMETERS` of the causal ride features at ``rate`` Hz with
     ``orientation``, one record in an array (numba takes a one-element array faster than a record)."""
     array = np.zeros(1, FEATURE_PARAMETERS)
@@ -193,6 +202,20 @@ class FeatureStream:
         3-vectors in the device frame, ``speed`` (m/s) the GPS speed on a fix, NaN otherwise."""
         self.step(*imu_floats(acc, gyr), float(speed), self._out)
         return self._out[:self._width].copy()
+
+    def update_block(self, rows: np.ndarray, columns: np.ndarray = np.arange(7)) -> np.ndarray:
+        """:meth:`update` over ``rows`` ``(n, k)`` of one segment whose ``columns`` (7 indices) hold ``ax ay az``
+        (m/s^2), ``gx gy gz`` (rad/s) and the GPS ``speed`` (m/s or NaN); IMU values finite. Features ``(n, 6)``
+        (``(n, 13)`` with ``derived``); one compiled call for the attitude filters the kernel runs itself."""
+        rows = np.asarray(rows, dtype=float)
+        out = np.empty((len(rows), len(self._out)))
+        if self._attitude is None:
+            ride_features_block(self.parameters_, self.state_, self._start, rows, columns, out)
+            self._start = False
+        else:
+            for k, row in enumerate(rows[:, columns].tolist()):
+                self.step(*row, out[k])
+        return out[:, :self._width]
 
     def step(self, a0: float, a1: float, a2: float, w0: float, w1: float, w2: float, speed: float,
              out: np.ndarray) -> None:

@@ -346,3 +346,15 @@ def ride_features_step(p, s, start, a0, a1, a2, w0, w1, w2, speed, roll, pitch, 
 def ride_features_update(p, s, start, a0, a1, a2, w0, w1, w2, speed, roll, pitch, out):  # pragma: no cover
     """:func:`ride_features_step` on one-element record arrays."""
     ride_features_step(p[0], s[0], start, a0, a1, a2, w0, w1, w2, speed, roll, pitch, out)
+
+
+@numba.njit(cache=True, nogil=True)
+def ride_features_block(p, s, start, rows, columns, out):  # pragma: no cover - compiled
+    """:func:`ride_features_step` over ``rows`` ``(n, k)`` whose ``columns`` (7 indices) hold ``a0 a1 a2 w0 w1 w2
+    speed``, into ``out`` ``(n, 13)``, on one-element record arrays; ``start`` applies to the first row. Attitude
+    kinds 0 and 1 only."""
+    c = columns
+    for k in range(rows.shape[0]):
+        r = rows[k]
+        ride_features_step(p[0], s[0], start and k == 0, r[c[0]], r[c[1]], r[c[2]], r[c[3]], r[c[4]], r[c[5]],
+                           r[c[6]], 0.0, 0.0, out[k])
