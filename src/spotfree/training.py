@@ -25,7 +25,8 @@ Output: a :class:`~spotfree.model.DictionaryModel` whose columns are windows kep
    tested; a group that a known class explains takes that name. Groups that stay are split in two by OSC again and
    each half is checked the same way (the paper's second clustering of the sudden-stop experiment, which
    separates the normal braking hidden around each sudden stop).
-5. Purification: windows within ``margin`` windows of a change of name straddle two states and are dropped, and so
+5. Purification: a window named a class that its recording does not declare is dropped (the group it belongs to
+   is mixed there); windows within ``margin`` windows of a change of name straddle two states and are dropped, and so
    are windows that lie nearer to another name than to their own (leave-run-out: a run of windows is compared with
    the kept windows outside it; :func:`_run_margins`, mean distance to the 5 nearest windows of each name, which
    keeps amplitude where a linear representation would scale it away). The checks of steps 4 and 5 give each class
@@ -254,6 +255,8 @@ def _evidence_recipe(windows, declared, config, say):
                                              explained[1], []))
     split = np.cumsum([0] + [w.matrix.shape[1] for w in windows])
     per_recording = [per_window[split[r]:split[r + 1]].astype(str) for r in range(len(windows))]
+    for per, classes in zip(per_recording, declared):
+        per[~np.isin(per, classes)] = ""  # a recording holds only the classes it declares
     levels = [[labels[split[r]:split[r + 1]] for r in range(len(windows))],
               [level2[split[r]:split[r + 1]] for r in range(len(windows))]]
     return per_recording, levels, names, []
