@@ -26,8 +26,12 @@ not, and costs the same per sample (the CRC_RLS operator is ``(C d, d)`` whateve
 The largest N with p99 batch-to-ack under 100 ms (and nothing lost) is printed; the run stops at the first N whose
 p99 exceeds ten times that or that loses a sample.
 
+``--floor`` runs the same phones against ``benchmarks/serve_floor.py``: the same web stack answering every batch
+at once and storing nothing, the part of the server's CPU that no work on the batch can remove ("rows stored" is
+then the acknowledged samples).
+
     python benchmarks/serve_load.py [--phones 10,25,50,100,200,500] [--seconds 15] [--batch 0.25] [--clients 2]
-                                    [--workers 0] [--sync full]
+                                    [--workers 0] [--sync full] [--floor]
 """
 
 from __future__ import annotations
@@ -68,12 +72,12 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def _start_server(folder: Path, model: Path, sync: str, workers: int) -> tuple[subprocess.Popen, str]:
+def _start_server(folder: Path, model: Path, sync: str, workers: int, floor: bool) -> tuple[subprocess.Popen, str]:
     port = _free_port()
-    server = subprocess.Popen([sys.executable, "-m", "spotfree.cli", "serve", "--port", str(port), "--database",
-                               str(folder / "rides.db"), "--model", str(model), "--sync", sync,
-                               "--workers", str(workers)],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    command = ([sys.executable, str(Path(__file__).with_name("serve_floor.py")), "--port", str(port)] if floor else
+               [sys.executable, "-m", "spotfree.cli", "serve", "--port", str(port), "--database",
+                str(folder / "rides.db"), "--model", str(model), "--sync", sync, "--workers", str(workers)])
+    server = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     url = f"http://127.0.0.1:{port}"
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline:
@@ -219,9 +223,9 @@ def _stream(url: str, server_pid: int, tokens: list[str], seconds: float, batch:
 
 
 def run(phones: int, seconds: float, batch: float, rows: np.ndarray, rate: float, model: Path,
-        sync: str = "full", clients: int = 1, workers: int = 0) -> dict:
+        sync: str = "full", clients: int = 1, workers: int = 0, floor: bool = False) -> dict:
     with tempfile.TemporaryDirectory() as folder:
-        server, url = _start_server(Path(folder), model, sync, workers)
+        server, url = _start_server(Path(folder), model, sync, workers, floor)
         try:
             tokens = asyncio.run(_devices(url, phones, rows))
             crowd, server_cpu, client_cpu, wall = _stream(url, server.pid, tokens, seconds, batch, rows, rate,
@@ -229,8 +233,11 @@ def run(phones: int, seconds: float, batch: float, rows: np.ndarray, rate: float
         finally:
             server.send_signal(signal.SIGINT)
             server.wait(30)
-        with sqlite3.connect(Path(folder) / "rides.db") as db:
-            stored = db.execute("SELECT COUNT(*) FROM samples").fetchone()[0] - 100  # less the warm-up ride
+        if floor:  # nothing is stored: count what was acknowledged
+            stored = None
+        else:
+            with sqlite3.connect(Path(folder) / "rides.db") as db:
+                stored = db.execute("SELECT COUNT(*) FROM samples").fetchone()[0] - 100  # less the warm-up ride
     ack = np.concatenate([p["ack_ms"] for p in crowd])
     warn = np.concatenate([p["warn_ms"] for p in crowd])
     return {"phones": phones, "batches": sum(p["sent"] for p in crowd), "acked": len(ack),
@@ -238,7 +245,8 @@ def run(phones: int, seconds: float, batch: float, rows: np.ndarray, rate: float
             "p50": float(np.percentile(ack, 50)), "p99": float(np.percentile(ack, 99)), "max": float(ack.max()),
             "warnings": len(warn), "warn_p50": float(np.percentile(warn, 50)) if len(warn) else math.nan,
             "warn_p99": float(np.percentile(warn, 99)) if len(warn) else math.nan,
-            "acked_samples": sum(p["acked"] for p in crowd), "stored": stored,
+            "acked_samples": sum(p["acked"] for p in crowd),
+            "stored": sum(p["acked"] for p in crowd) if stored is None else stored,
             "server_cores": server_cpu / wall, "client_cores": client_cpu / wall,
             "server_ms": 1000.0 * server_cpu / max(len(ack), 1)}
 
@@ -251,6 +259,8 @@ def main() -> None:
     parser.add_argument("--sync", default="full", choices=("full", "normal"), help="spotfree serve --sync")
     parser.add_argument("--clients", type=int, default=2, help="client processes the phones are spread over")
     parser.add_argument("--workers", type=int, default=0, help="spotfree serve --workers (ride worker processes)")
+    parser.add_argument("--floor", action="store_true",
+                        help="run the phones against benchmarks/serve_floor.py (the web stack alone) instead")
     args = parser.parse_args()
     raw = rides(seed=1, repeats=2)
     rows = recording_rows(raw.select_experiment(2))
@@ -258,7 +268,7 @@ def main() -> None:
     print(f"# serve_load: {platform.node()} {platform.machine()}, {os.cpu_count()} cores, Python "
           f"{platform.python_version()}, {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC")
     print(f"# {args.seconds:g} s per N, {rate:g} Hz, batches of {args.batch:g} s, SQLite synchronous={args.sync.upper()}, "
-          f"spotfree serve --workers {args.workers}, phones in {args.clients} client process(es); latency in ms from sending a batch to its acknowledgement; "
+          f"{'the web stack alone (benchmarks/serve_floor.py)' if args.floor else f'spotfree serve --workers {args.workers}'}, phones in {args.clients} client process(es); latency in ms from sending a batch to its acknowledgement; "
           "server and client CPU in cores (CPU s per s of streaming); load avg: 1-minute, after the run")
     print("| phones | load avg | server CPU | server ms/batch | client CPU | batches sent | acked | refused | p50 | p99 | max | warnings "
           "| warn p50 | warn p99 | samples acked | rows stored |")
@@ -268,7 +278,8 @@ def main() -> None:
         model = Path(folder) / "model.npz"
         truth_model(raw.select_experiment(1)).save(model)
         for phones in (int(n) for n in args.phones.split(",")):
-            r = run(phones, args.seconds, args.batch, rows, rate, model, args.sync, args.clients, args.workers)
+            r = run(phones, args.seconds, args.batch, rows, rate, model, args.sync, args.clients, args.workers,
+                    args.floor)
             print(f"| {r['phones']} | {os.getloadavg()[0]:.1f} | {r['server_cores']:.2f} | {r['server_ms']:.2f} | {r['client_cores']:.2f} "
                   f"| {r['batches']} | {r['acked']} | {r['refused']} | {r['p50']:.1f} | {r['p99']:.1f} "
                   f"| {r['max']:.0f} | {r['warnings']} | {r['warn_p50']:.1f} | {r['warn_p99']:.1f} "
