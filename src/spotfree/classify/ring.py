@@ -265,7 +265,6 @@ class ModelRing:
             return list(labels)
         return [vote.update(label) for vote, label in zip(self._votes, labels)]
 
-
     def push_block(self, values: np.ndarray) -> list[list[str | None]]:
         """:meth:`push` for every row of ``values`` ``(n, width)``: one list of labels per row. One compiled call
         when every model runs compiled and nothing is smoothed."""

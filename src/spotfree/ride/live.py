@@ -71,7 +71,6 @@ class LiveRide:
         feats = self._features.update(acc, gyr, speed)
         return feats, self._classifier.update_features(feats[self._pick], t)
 
-
     def update_block(self, table: np.ndarray) -> tuple[np.ndarray, list[str | None]]:
         """:meth:`update` for every row of a sample table ``(n, 10)`` in
         :data:`~spotfree.ride.records.SAMPLE_COLUMNS` order (``time ax ay az gx gy gz lat lon speed``): features
