@@ -114,3 +114,26 @@ def test_serve_refuses_an_unknown_sync_mode_before_starting(tmp_path):
     assert result.exit_code == 2
     assert "--sync off: use full or normal" in result.output
     assert list(tmp_path.iterdir()) == []
+
+
+def test_train_writes_a_model_its_summary_and_its_figure(tmp_path):
+    from spotfree.model import DictionaryModel
+    from spotfree.training import TrainingConfig
+
+    normal, sudden = tmp_path / "normal.csv", tmp_path / "sudden.csv"
+    for scenario, path in (("normal-braking", normal), ("sudden-braking", sudden)):
+        assert runner.invoke(app, ["simulate", scenario, "-o", str(path), "--repeats", "1"]).exit_code == 0
+    declared = ["--experiment", f"{normal}@1=cruising,normal-braking",
+                "--experiment", f"{sudden}@1=cruising,normal-braking,sudden-braking"]
+    result = runner.invoke(app, ["train", "-o", str(tmp_path / "m.npz"), *declared])
+    assert result.exit_code == 0, result.output
+    assert "how it was named" in result.output and "columns per class: cruising" in result.output
+    assert (tmp_path / "m.png").stat().st_size > 0
+    model = DictionaryModel.load(tmp_path / "m.npz")
+    assert model.parameters["max_columns"] == TrainingConfig().max_columns
+    assert {"cruising", "sudden-braking"} <= set(model.classes)
+
+    result = runner.invoke(app, ["train", "-o", str(tmp_path / "few.npz"), *declared, "--max-columns", "20"])
+    assert result.exit_code == 0, result.output
+    few = DictionaryModel.load(tmp_path / "few.npz")
+    assert np.bincount(few.column_class).max() <= 20 < np.bincount(model.column_class).max()

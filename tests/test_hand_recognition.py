@@ -178,3 +178,19 @@ def test_command_latency_from_true_onsets():
     lat = command_latencies(t, command, state, label)
     assert lat.posture.tolist() == ["left"] and lat.latency == pytest.approx([0.1])
     assert np.isnan(command_latencies(t, np.array(["stop"] * 12), state, label).latency[0])
+
+
+def test_dropping_the_hold_class_drops_its_causal_columns_too():
+    from spotfree.hand.recognition import HOLD, _without
+    from spotfree.model import DictionaryModel
+
+    classes = ["a-to-b", HOLD, "b-to-a"]
+    columns = np.arange(12.0).reshape(2, 6)
+    model = DictionaryModel(classes=classes, channels=["x"], rate=20.0, window=2, step=1, normalisation="scale",
+                            scale=np.ones(1), dictionary=columns, column_class=np.array([0, 1, 2, 2, 1, 0]),
+                            causal_dictionary=columns[:, ::-1], causal_column_class=np.array([0, 1, 2, 2, 1, 0]))
+    out = _without(model, HOLD)
+    assert out.classes == ["a-to-b", "b-to-a"]
+    np.testing.assert_array_equal(out.dictionary, columns[:, [0, 2, 3, 5]])
+    np.testing.assert_array_equal(out.causal_dictionary, columns[:, ::-1][:, [0, 2, 3, 5]])
+    assert out.column_class.tolist() == out.causal_column_class.tolist() == [0, 1, 1, 0]

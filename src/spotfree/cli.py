@@ -114,6 +114,7 @@ def train(
     affine: float = typer.Option(6.0, "--affine", help="constant row appended to windows for clustering (0: none)"),
     clustering: str = typer.Option("kmeans", "--clustering",
                                    help="kmeans | osc (the paper's Ordered Subspace Clustering)"),
+    max_columns: int = typer.Option(600, "--max-columns", min=1, help="dictionary columns kept per class"),
     seed: int = typer.Option(0, "--seed"),
     figure: Optional[Path] = typer.Option(None, "--figure", help="diagnostic figure (default: MODEL.png)"),
 ) -> None:
@@ -129,7 +130,7 @@ def train(
     config = TrainingConfig(
         channels=tuple(c.strip() for c in channels.split(",")) if channels else DEFAULT_CHANNELS,
         window=window, step=step, recipe=recipe, background=background, overrides=_parse_names(name),
-        extra_clusters=extra_clusters, affine=affine, clustering=clustering, seed=seed,
+        extra_clusters=extra_clusters, affine=affine, clustering=clustering, max_columns=max_columns, seed=seed,
     )
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=err,
                   transient=True) as bar:

@@ -77,4 +77,4 @@ def default_model(progress: Callable[[str], None] | None = None) -> DictionaryMo
     model = train_default_model(progress)
     path.parent.mkdir(parents=True, exist_ok=True)
     model.save(path)
-    return model
+    return DictionaryModel.load(path)  # the file's copy, as every later call returns: the same digest
