@@ -137,3 +137,5 @@ def test_train_writes_a_model_its_summary_and_its_figure(tmp_path):
     assert result.exit_code == 0, result.output
     few = DictionaryModel.load(tmp_path / "few.npz")
     assert np.bincount(few.column_class).max() <= 20 < np.bincount(model.column_class).max()
+    refused = runner.invoke(app, ["train", "-o", str(tmp_path / "none.npz"), *declared, "--max-columns", "0"])
+    assert refused.exit_code == 2 and "--max-columns" in refused.output and not (tmp_path / "none.npz").exists()
