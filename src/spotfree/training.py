@@ -145,9 +145,12 @@ def train(experiments: list[TrainingExperiment], config: TrainingConfig | None =
             column_class.append(classes.index(per[k]))
             column_source.append((r, int(w.ends[k])))
             column_margin.append(margin[k])
-    columns, column_class, column_source, capped = _cap(np.array(columns).T, np.array(column_class), column_source,
-                                                        np.array(column_margin), len(classes), config.max_columns,
-                                                        config.min_margin)
+    if not columns:
+        raise InputError("training kept no window; the recordings may be too short or the classes inseparable")
+    chosen, capped = _cap(np.array(column_class), np.array(column_margin), len(classes), config.max_columns,
+                          config.min_margin)
+    columns, column_class = np.array(columns).T[:, chosen], np.array(column_class)[chosen]
+    column_source = [column_source[k] for k in chosen]
     warnings += [f"class '{classes[i]}': no column reached the margin {config.min_margin:g}; its {n} columns are "
                  "less confident" for i, n in capped]
     causal = _causal_columns(windows, names_per_window, kept, classes, depth, config)
@@ -392,15 +395,15 @@ def _causal_columns(windows, names_per_window, kept, classes, depth, config):
                 column_class.append(classes.index(per[k + shift]))
     if not columns:
         return None
-    columns, column_class, _, _ = _cap(np.array(columns).T, np.array(column_class), [None] * len(columns),
-                                       np.ones(len(columns)), len(classes), config.max_columns, 0.0)
-    return columns, column_class
+    chosen, _ = _cap(np.array(column_class), np.ones(len(columns)), len(classes), config.max_columns, 0.0)
+    return np.array(columns).T[:, chosen], np.array(column_class)[chosen]
 
 
-def _cap(columns, column_class, column_source, column_margin, n_classes, max_columns, min_margin):
-    """Per class, the columns with a margin of at least ``min_margin`` (all of the class's columns when none has),
-    at most ``max_columns`` of them evenly spread over the order they were found in (recording, then time). Also
-    returns ``(class, columns)`` for the classes that fell back to their less confident columns."""
+def _cap(column_class, column_margin, n_classes, max_columns, min_margin) -> tuple[np.ndarray, list[tuple[int, int]]]:
+    """The index of the columns to keep, in the order they were found in (recording, then time): per class, those
+    with a margin of at least ``min_margin`` (all of the class's columns when none has), at most ``max_columns`` of
+    them evenly spread over that order. Also ``(class, columns kept)`` for the classes that fell back to their less
+    confident columns."""
     chosen, fallback = [], []
     for i in range(n_classes):
         index = np.flatnonzero(column_class == i)
@@ -413,10 +416,7 @@ def _cap(columns, column_class, column_source, column_margin, n_classes, max_col
             index = index[np.linspace(0, len(index) - 1, max_columns).round().astype(int)]
         chosen.append(index)
     chosen = np.sort(np.concatenate(chosen)) if chosen else np.empty(0, dtype=int)
-    if columns.size == 0:
-        raise InputError("training kept no window; the recordings may be too short or the classes inseparable")
-    return (columns[:, chosen], column_class[chosen], [column_source[k] for k in chosen],
-            [(i, int((column_class[chosen] == i).sum())) for i in fallback])
+    return chosen, [(i, int((column_class[chosen] == i).sum())) for i in fallback]
 
 
 def dictionary_purity(result: TrainingResult, experiments: list[TrainingExperiment]) -> dict[str, float]:
