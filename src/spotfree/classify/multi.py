@@ -22,7 +22,7 @@ from spotfree.classify import DEFAULT_METHOD
 from spotfree.classify.batch import classify_recording, dictionary_classifier
 from spotfree.classify.ring import ModelRing
 from spotfree.classify.smoothing import check_smoothing
-from spotfree.classify.stream import MAX_GAP, PRODUCED
+from spotfree.classify.stream import MAX_GAP, PRODUCED, starts_segment
 from spotfree.errors import InputError
 from spotfree.io.checks import write_text
 from spotfree.io.recording import Recording
@@ -131,7 +131,7 @@ class MultiModelStream:
         a0, a1, a2, w0, w1, w2 = imu_floats(acc, gyr)
         if t is not None:
             previous, self._time = self._time, float(t)
-            if previous is not None and not 0 < self._time - previous <= self.max_gap:
+            if starts_segment(previous, self._time, self.max_gap):
                 self.reset()
         if not math.isfinite(a0 + a1 + a2 + w0 + w1 + w2):
             self.reset()

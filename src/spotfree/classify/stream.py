@@ -140,17 +140,23 @@ class RideClassifier:
         jump = False
         if t is not None:
             previous, self._time = self._time, float(t)
-            jump = previous is not None and not 0 < self._time - previous <= self.max_gap
+            jump = starts_segment(previous, self._time, self.max_gap)
         if jump or not finite:
             self.reset()
         return not finite
+
+
+def starts_segment(previous: float | None, t: float, max_gap: float) -> bool:
+    """Whether a sample at ``t`` (s) after one at ``previous`` (None: none yet) starts a new segment: a time step
+    that is not in ``(0, max_gap]``."""
+    return previous is not None and not 0 < t - previous <= max_gap
 
 
 def segment_runs(t: np.ndarray, previous: float | None, max_gap: float) -> list[tuple[slice, bool]]:
     """The rows of the sample times ``t`` split where a new segment starts (a step from the sample before, or from
     ``previous`` for the first row, that is not in ``(0, max_gap]`` s): ``(rows, starts a new segment)`` per run."""
     times = t.tolist()  # a batch is a few samples: plain floats beat array calls
-    starts = [k for k in range(1, len(times)) if not 0 < times[k] - times[k - 1] <= max_gap]
-    first = previous is not None and not 0 < times[0] - previous <= max_gap
+    starts = [k for k in range(1, len(times)) if starts_segment(times[k - 1], times[k], max_gap)]
+    first = starts_segment(previous, times[0], max_gap)
     bounds = [0, *starts, len(times)]
     return [(slice(a, b), first if a == 0 else True) for a, b in zip(bounds, bounds[1:])]

@@ -20,7 +20,7 @@ import scipy.signal
 
 from spotfree.classify.batch import dictionary_classifier, model_affine
 from spotfree.classify.kcrc import KernelCRCClassifier
-from spotfree.classify.stream import MAX_GAP, RideClassifier, segment_runs
+from spotfree.classify.stream import MAX_GAP, RideClassifier, segment_runs, starts_segment
 from spotfree.errors import InputError
 from spotfree.model import DictionaryModel
 from spotfree.ride.records import FEATURE_COLUMNS, SAMPLE_COLUMNS
@@ -63,7 +63,7 @@ class LiveRide:
         values = (*acc, *gyr)
         finite = all(math.isfinite(v) for v in values)
         previous, self._time = self._time, float(t)
-        if not finite or (previous is not None and not 0 < self._time - previous <= self.max_gap):
+        if not finite or starts_segment(previous, self._time, self.max_gap):
             self._features.reset()
         if not finite:
             nan = np.full(len(FEATURE_COLUMNS), np.nan)

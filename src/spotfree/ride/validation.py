@@ -65,8 +65,6 @@ def sample_batch(samples: Mapping[str, Sequence[float]] | np.ndarray, last_time:
     if _passes(table, -math.inf if last_time is None else float(last_time)):
         return _checked(table)
     check_times(table[:, 0], last_time, where)
-    if _within_limits(table):
-        return _checked(table)
     for names, bound, unit in ((ACC_CHANNELS, MAX_ACCELERATION, "m/s^2"), (GYRO_CHANNELS, MAX_ROTATION, "rad/s")):
         for name in names:
             column = table[:, SAMPLE_COLUMNS.index(name)]
@@ -91,15 +89,6 @@ _UPPER = np.array([np.finfo(float).max, *[MAX_ACCELERATION] * 3, *[MAX_ROTATION]
 _OPTIONAL = np.array([name in GPS_COLUMNS for name in SAMPLE_COLUMNS])
 _NO_FIX = [None] * MAX_BATCH
 _LAT, _LON = SAMPLE_COLUMNS.index("lat"), SAMPLE_COLUMNS.index("lon")
-
-
-def _within_limits(table: np.ndarray) -> bool:
-    """Whether every row passes the value checks of :func:`sample_batch` (finite values within bounds, GPS columns
-    NaN or within bounds, lat and lon present together), in a few array operations; the checks that name the
-    first failing field and row run only when this is False."""
-    nan = np.isnan(table)
-    ok = ((table >= _LOWER) & (table <= _UPPER)) | (nan & _OPTIONAL)
-    return bool(ok.all()) and bool((nan[:, _LAT] == nan[:, _LON]).all())
 
 
 def _passes(table: np.ndarray, last_time: float) -> bool:
