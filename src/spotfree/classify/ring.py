@@ -253,14 +253,7 @@ class ModelRing:
         its newest window, held between windows (None before the first), majority-voted when smoothing."""
         ring_step(self._ring, self._cursor, self.models_, self._picks, self._scales, self._operators, self._kernels,
                   self._windows, values)
-        labels = self._labels
-        for m, code in enumerate(self._codes.tolist()):
-            if code >= 0:
-                labels[m] = self._names[m][code]
-            elif code == IN_PYTHON:
-                labels[m] = self._predict[m](self._views[m])
-            elif code == NOT_FINITE:
-                raise InputError("streaming classification: a window holds NaN or infinity; give finite samples")
+        labels = self._update_labels(self._codes.tolist())
         if self._votes is None:
             return list(labels)
         return [vote.update(label) for vote, label in zip(self._votes, labels)]
@@ -274,15 +267,19 @@ class ModelRing:
         codes = np.empty((len(values), len(self.models_)), dtype=np.int64)
         ring_block(self._ring, self._cursor, self.models_, self._picks, self._scales, self._operators, self._kernels,
                    self._windows, values, codes)
-        labels, out = self._labels, []
-        for row in codes.tolist():
-            for m, code in enumerate(row):
-                if code >= 0:
-                    labels[m] = self._names[m][code]
-                elif code == NOT_FINITE:
-                    raise InputError("streaming classification: a window holds NaN or infinity; give finite samples")
-            out.append(list(labels))
-        return out
+        return [list(self._update_labels(row)) for row in codes.tolist()]
+
+    def _update_labels(self, codes: list[int]) -> list[str | None]:
+        """The held labels after one sample whose per-model ``codes`` :func:`ring_step` set (see :data:`MODEL`)."""
+        labels = self._labels
+        for m, code in enumerate(codes):
+            if code >= 0:
+                labels[m] = self._names[m][code]
+            elif code == IN_PYTHON:
+                labels[m] = self._predict[m](self._views[m])
+            elif code == NOT_FINITE:
+                raise InputError("streaming classification: a window holds NaN or infinity; give finite samples")
+        return labels
 
 
 def _window_predictor(classifier):
