@@ -15,7 +15,7 @@ Measured per N over ``--seconds`` s of streaming:
   ``batch - 1/rate`` s for the first sample of a batch, 0 for the last; that wait is the page's choice, not load;
 * batch-to-warning latency: the same for the batches whose acknowledgement carries a warning;
 * nothing lost: after the phones stop and every acknowledgement is in, the server is stopped and the samples
-  rows in its SQLite file are counted against the acknowledged samples;
+  in its SQLite file are counted against the acknowledged samples;
 * CPU: user + system seconds of the server's process tree and of the client processes over the streaming, per
   second (cores) and per acknowledged batch (ms). Server, clients and other jobs share the machine's cores; the
   1-minute load average after each N is printed, since other jobs move the tail.
@@ -45,7 +45,6 @@ import os
 import platform
 import signal
 import socket
-import sqlite3
 import subprocess
 import sys
 import tempfile
@@ -62,6 +61,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from classify_fixtures import rides, truth_model  # noqa: E402
 from spotfree.ride.records import SAMPLE_COLUMNS  # noqa: E402
 from spotfree.ride.sources import recording_rows  # noqa: E402
+from spotfree.ride.store import RideStore  # noqa: E402
 
 LIMIT_MS = 100.0
 
@@ -236,8 +236,8 @@ def run(phones: int, seconds: float, batch: float, rows: np.ndarray, rate: float
         if floor:  # nothing is stored: count what was acknowledged
             stored = None
         else:
-            with sqlite3.connect(Path(folder) / "rides.db") as db:
-                stored = db.execute("SELECT COUNT(*) FROM samples").fetchone()[0] - 100  # less the warm-up ride
+            with RideStore(Path(folder) / "rides.db") as store:  # less the warm-up ride's 100 samples
+                stored = sum(len(store.samples(ride.ride_id)["time"]) for ride in store.rides()) - 100
     ack = np.concatenate([p["ack_ms"] for p in crowd])
     warn = np.concatenate([p["warn_ms"] for p in crowd])
     return {"phones": phones, "batches": sum(p["sent"] for p in crowd), "acked": len(ack),

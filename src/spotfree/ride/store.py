@@ -6,9 +6,9 @@ uses a PostgreSQL server through psycopg 3 (:mod:`spotfree.ride.postgres`). Both
 * ``devices``: ``device_id``, ``name``, ``token_hash`` (SHA-256 of the device's token, :mod:`.tokens`), ``created``;
 * ``rides``: :class:`~spotfree.ride.records.Ride` (ids, vehicle, rider, optional rider descriptors, start and end
   in UNIX seconds, model);
-* ``samples``: one row per raw sample, :data:`~spotfree.ride.records.SAMPLE_COLUMNS` (``time`` is ``t``);
-* ``features``: :data:`~spotfree.ride.records.FEATURE_COLUMNS` at sample times;
-* ``labels``: ``(ride_id, model, t, label)``, read back as one column per model name;
+* ``sample_blocks``: a row per batch of raw samples (:data:`~spotfree.ride.records.SAMPLE_COLUMNS`) with their
+  features (:data:`~spotfree.ride.records.FEATURE_COLUMNS`), ``label_blocks``: a row per batch of one model's
+  labels, read back as one column per model name (the layout: :mod:`.blocks`);
 * ``events``: :class:`~spotfree.ride.records.Event` rows, one per ``(ride, kind, start)``.
 
 Writing needs the device's token: a device writes only to the rides it started, and only while they are open.
@@ -45,36 +45,12 @@ from pathlib import Path
 import numpy as np
 
 from spotfree.errors import InputError, SpotfreeError
-from spotfree.ride import validation
+from spotfree.ride import blocks, validation
 from spotfree.ride.commit import GroupCommit
 from spotfree.ride.records import FEATURE_COLUMNS, RIDER_FIELDS, SAMPLE_COLUMNS, Event, Ride
 from spotfree.ride.tokens import new_token, token_hash
 
-SCHEMA_VERSION = 1
-
-_SAMPLE_SQL = ("t", *SAMPLE_COLUMNS[1:])
 _RIDE_FIELDS = ("ride_id", "device_id", "vehicle", "rider_id", "started", "ended", "model", *RIDER_FIELDS)
-_REAL = "DOUBLE PRECISION"
-
-SCHEMA = (
-    "CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)",
-    "CREATE TABLE IF NOT EXISTS devices (device_id TEXT PRIMARY KEY, name TEXT NOT NULL, "
-    f"token_hash TEXT NOT NULL UNIQUE, created {_REAL} NOT NULL)",
-    "CREATE TABLE IF NOT EXISTS rides (ride_id TEXT PRIMARY KEY, "
-    "device_id TEXT NOT NULL REFERENCES devices (device_id), vehicle TEXT NOT NULL, rider_id TEXT NOT NULL, "
-    f"started {_REAL} NOT NULL, ended {_REAL}, model TEXT, age_band TEXT, gender TEXT, skill TEXT)",
-    "CREATE INDEX IF NOT EXISTS rides_by_device ON rides (device_id)",
-    "CREATE TABLE IF NOT EXISTS samples (ride_id TEXT NOT NULL REFERENCES rides (ride_id), "
-    + ", ".join(f"{c} {_REAL}" + (" NOT NULL" if c in SAMPLE_COLUMNS[:7] or c == "t" else "") for c in _SAMPLE_SQL)
-    + ", PRIMARY KEY (ride_id, t))",
-    "CREATE TABLE IF NOT EXISTS features (ride_id TEXT NOT NULL REFERENCES rides (ride_id), "
-    f"t {_REAL} NOT NULL, " + ", ".join(f"{c} {_REAL}" for c in FEATURE_COLUMNS) + ", PRIMARY KEY (ride_id, t))",
-    "CREATE TABLE IF NOT EXISTS labels (ride_id TEXT NOT NULL REFERENCES rides (ride_id), model TEXT NOT NULL, "
-    f"t {_REAL} NOT NULL, label TEXT, PRIMARY KEY (ride_id, model, t))",
-    "CREATE TABLE IF NOT EXISTS events (ride_id TEXT NOT NULL REFERENCES rides (ride_id), kind TEXT NOT NULL, "
-    f"start_time {_REAL} NOT NULL, end_time {_REAL} NOT NULL, detail TEXT NOT NULL, "
-    "PRIMARY KEY (ride_id, kind, start_time))",
-)
 
 
 class AccessError(SpotfreeError, PermissionError):
@@ -116,15 +92,11 @@ class RideStore:
         self._process_lock = lock if lock is not None else contextlib.nullcontext()
         self._writer = GroupCommit(self._transaction)
         with self._transaction() as db:
-            for statement in SCHEMA:
-                db.execute(statement)
-            _add_feature_columns(db)
-            db.execute("INSERT INTO meta (key, value) VALUES (?, ?) ON CONFLICT (key) DO NOTHING",
-                       ("schema_version", str(SCHEMA_VERSION)))
+            self._feature_set = _open_schema(db)
         version = self._query("SELECT value FROM meta WHERE key = ?", ("schema_version",))[0][0]
-        if int(version) != SCHEMA_VERSION:
+        if int(version) != blocks.SCHEMA_VERSION:
             raise InputError(f"{self.location}: ride store schema version {version}, this spotfree reads "
-                             f"{SCHEMA_VERSION}; open it with a matching spotfree version")
+                             f"{blocks.SCHEMA_VERSION}; open it with a matching spotfree version")
 
     def close(self) -> None:
         """Commit the writes still queued, then close the connection (SQLite: after a checkpoint that folds the
@@ -185,9 +157,9 @@ class RideStore:
     def end_ride(self, token: str, ride_id: str, ended: float | None = None) -> None:
         """Close the ride (``ended`` UNIX seconds, now by default); later writes to it are refused."""
         def write(db):
-            ride = self._own_open_ride(db, token, ride_id)
+            started = self._own_open_ride(db, token, ride_id, "r.started")
             end = clock.time() if ended is None else _epoch(ended, f"ride {ride_id}", "ended")
-            if end < ride.started:
+            if end < started:
                 raise InputError(f"ride {ride_id}: field 'ended' is before the ride started; send a later time")
             db.execute("UPDATE rides SET ended = ? WHERE ride_id = ?", (end, ride_id))
         self._write(write)
@@ -225,18 +197,14 @@ class RideStore:
                       for m, v in (labels or {}).items()}
         event_rows = [_event_row(ride_id, event) for event in events]
 
+        sample_row = blocks.sample_row(ride_id, table, self._feature_set, feature_rows)
+        label_rows = [blocks.label_row(ride_id, model, t, values) for model, values in label_rows.items()]
+
         def write(db) -> int:
-            self._own_open_ride(db, token, ride_id)
-            last = db.execute("SELECT max(t) FROM samples WHERE ride_id = ?", (ride_id,)).fetchone()[0]
-            validation.check_times(t, last, where)
-            db.executemany(_insert("samples", ("ride_id", *_SAMPLE_SQL)), _rows(ride_id, table))
-            if feature_rows is not None:
-                db.executemany(_insert("features", ("ride_id", "t", *FEATURE_COLUMNS)),
-                               _rows(ride_id, np.column_stack([t, feature_rows])))
-            times = t.tolist()
-            for model, values in label_rows.items():
-                db.executemany(_insert("labels", ("ride_id", "model", "t", "label")),
-                               [(ride_id, model, s, v) for s, v in zip(times, values)])
+            validation.check_times(t, self._own_open_ride(db, token, ride_id, blocks.LAST_TIME, (ride_id,)), where)
+            db.execute(blocks.INSERT_SAMPLES, sample_row)
+            for row in label_rows:
+                db.execute(blocks.INSERT_LABELS, row)
             if event_rows:
                 db.executemany(_EVENT_SQL, event_rows)
             return len(t)
@@ -253,13 +221,12 @@ class RideStore:
             raise InputError(f"{where}: labels need 1 to {validation.MAX_BATCH} times in a flat list")
         values = validation.label_batch(labels, len(t), where, model)
 
+        row = blocks.label_row(ride_id, model, t, values)
+
         def write(db) -> int:
-            self._own_open_ride(db, token, ride_id)
-            last = db.execute("SELECT max(t) FROM labels WHERE ride_id = ? AND model = ?",
-                              (ride_id, model)).fetchone()[0]
+            last = self._own_open_ride(db, token, ride_id, blocks.LAST_LABEL_TIME, (ride_id, model))
             validation.check_times(t, last, where)
-            db.executemany(_insert("labels", ("ride_id", "model", "t", "label")),
-                           [(ride_id, model, float(s), v) for s, v in zip(t, values)])
+            db.execute(blocks.INSERT_LABELS, row)
             return len(t)
         return self._write(write)
 
@@ -292,26 +259,32 @@ class RideStore:
         """The ride's raw samples, column by column (:data:`SAMPLE_COLUMNS`; NaN where no GPS fix); only those
         after ``since`` (s) when given, e.g. for a view that polls a live ride."""
         self.ride(ride_id)
-        table = self._table("samples", _SAMPLE_SQL, ride_id, since)
+        rows = self._blocks("n, samples", ride_id, since)
+        table = blocks.samples_table(rows)
+        if since is not None:
+            table = table[table[:, 0] > since]
         return dict(zip(SAMPLE_COLUMNS, table.T))
 
     def features(self, ride_id: str) -> dict[str, np.ndarray]:
         """The ride's features: ``time`` and :data:`FEATURE_COLUMNS` (NaN where none was recorded)."""
         self.ride(ride_id)
-        table = self._table("features", ("t", *FEATURE_COLUMNS), ride_id)
+        sets = dict(self._query("SELECT set_id, columns FROM feature_sets"))
+        table = blocks.features_table(self._blocks("n, samples, feature_set, features", ride_id), sets)
         return dict(zip(("time", *FEATURE_COLUMNS), table.T))
 
     def labels(self, ride_id: str) -> dict[str, np.ndarray]:
         """The ride's labels, one column per model name beside ``time`` (the union of all models' times; an
         object array per model holding None where that model has no label)."""
         self.ride(ride_id)
-        rows = self._query("SELECT model, t, label FROM labels WHERE ride_id = ? ORDER BY t, model", (ride_id,))
-        times = np.unique(np.array([r[1] for r in rows], dtype=float))
+        rows = self._query("SELECT model, n, times, labels FROM label_blocks WHERE ride_id = ? ORDER BY model, t0",
+                           (ride_id,))
+        per_model = {model: blocks.label_lists([r[1:] for r in rows if r[0] == model])
+                     for model in dict.fromkeys(r[0] for r in rows)}
+        times = np.unique(np.concatenate([t for t, _ in per_model.values()])) if per_model else np.empty(0)
         columns: dict[str, np.ndarray] = {"time": times}
-        for model, t, label in rows:
-            if model not in columns:
-                columns[model] = np.full(len(times), None, dtype=object)
-            columns[model][np.searchsorted(times, t)] = label
+        for model, (t, values) in per_model.items():
+            columns[model] = np.full(len(times), None, dtype=object)
+            columns[model][np.searchsorted(times, t)] = values
         return columns
 
     def events(self, ride_id: str) -> list[Event]:
@@ -336,24 +309,28 @@ class RideStore:
         with self._lock:
             return self._db.query(sql, params)
 
-    def _table(self, table: str, columns: Sequence[str], ride_id: str, since: float | None = None) -> np.ndarray:
-        sql = f"SELECT {', '.join(columns)} FROM {table} WHERE ride_id = ?"
-        rows = self._query(sql + " AND t > ? ORDER BY t", (ride_id, since)) if since is not None \
-            else self._query(sql + " ORDER BY t", (ride_id,))
-        return np.array(rows, dtype=float).reshape(len(rows), len(columns))
+    def _blocks(self, columns: str, ride_id: str, since: float | None = None) -> list[tuple]:
+        """``columns`` of the ride's sample blocks in order of time (those ending after ``since`` when given)."""
+        sql = f"SELECT {columns} FROM sample_blocks WHERE ride_id = ?"
+        if since is None:
+            return self._query(sql + " ORDER BY t0", (ride_id,))
+        return self._query(sql + " AND t1 > ? ORDER BY t0", (ride_id, since))
 
-    def _own_open_ride(self, db, token: str, ride_id: str) -> Ride:
-        """The ride, after checking that the token's device started it and that it is still open."""
-        device_id = self.authenticate(token)
-        row = db.execute(f"SELECT {', '.join(_RIDE_FIELDS)} FROM rides WHERE ride_id = ?", (ride_id,)).fetchone()
-        if row is None:
+    def _own_open_ride(self, db, token: str, ride_id: str, value: str = "NULL", params: tuple = ()):
+        """Check in one query that the token's device started the ride and that it is still open; returns the SQL
+        expression ``value`` over the ride's row ``r`` (``params`` its placeholders), e.g. its last stored time."""
+        row = db.execute(f"SELECT r.device_id, r.ended, d.device_id, {value} FROM rides r "
+                         "LEFT JOIN devices d ON d.token_hash = ? WHERE r.ride_id = ?",
+                         (*params, token_hash(token) if isinstance(token, str) else "", ride_id)).fetchone()
+        if row is None or row[2] is None:
+            self.authenticate(token)  # AccessError for a token of no device
             raise NotFoundError(f"ride {ride_id!r} does not exist; start a ride first")
-        ride = Ride(*row)
-        if ride.device_id != device_id:
+        owner, ended, device_id, result = row
+        if owner != device_id:
             raise AccessError(f"ride {ride_id!r} belongs to another device; write only to rides this device started")
-        if ride.ended is not None:
+        if ended is not None:
             raise InputError(f"ride {ride_id!r} has ended; start a new ride")
-        return ride
+        return result
 
 
 class SQLiteConnection:
@@ -388,13 +365,21 @@ class SQLiteConnection:
         self._connection.close()
 
 
-def _add_feature_columns(db) -> None:
-    """Give a store written before a feature channel existed that channel as a column (NULL in its old rows, which
-    keep their values), so that a new spotfree can record into an older file."""
-    present = {column[0].lower() for column in db.execute("SELECT * FROM features LIMIT 0").description}
-    for column in FEATURE_COLUMNS:
-        if column.lower() not in present:
-            db.execute(f"ALTER TABLE features ADD COLUMN {column} {_REAL}")
+def _open_schema(db) -> int | None:
+    """Create the tables of a new store, or rewrite a version-1 store into blocks (:mod:`.blocks`); the id of
+    today's feature columns. A store of another version is left untouched (None)."""
+    db.execute(blocks.SCHEMA[0])
+    row = db.execute("SELECT value FROM meta WHERE key = ?", ("schema_version",)).fetchone()
+    if row is not None and row[0] not in ("1", str(blocks.SCHEMA_VERSION)):
+        return None
+    for statement in blocks.SCHEMA[1:]:
+        db.execute(statement)
+    if row is None:
+        db.execute("INSERT INTO meta (key, value) VALUES (?, ?)", ("schema_version", str(blocks.SCHEMA_VERSION)))
+    elif row[0] == "1":
+        blocks.upgrade_from_v1(db)
+        db.execute("UPDATE meta SET value = ? WHERE key = ?", (str(blocks.SCHEMA_VERSION), "schema_version"))
+    return blocks.feature_set(db, FEATURE_COLUMNS)
 
 
 _EVENT_SQL = ("INSERT INTO events (ride_id, kind, start_time, end_time, detail) VALUES (?, ?, ?, ?, ?) "
@@ -411,17 +396,6 @@ def _event_row(ride_id: str, event: Event) -> tuple:
     if not (np.isfinite(start) and np.isfinite(end) and 0 <= start <= end):
         raise InputError(f"{where}: event {kind!r} from {start!r} to {end!r} s; send 0 <= start <= end")
     return ride_id, kind, start, end, detail
-
-
-def _insert(table: str, columns: Sequence[str]) -> str:
-    return f"INSERT INTO {table} ({', '.join(columns)}) VALUES ({', '.join('?' * len(columns))})"
-
-
-def _rows(ride_id: str, table: np.ndarray) -> list[tuple]:
-    """Rows for an insert: the ride id, then floats with NaN as NULL (SQL has no portable NaN)."""
-    values = table.astype(object)
-    values[np.isnan(table)] = None
-    return [(ride_id, *row) for row in values.tolist()]
 
 
 def _epoch(value: float, where: str, field: str) -> float:
