@@ -109,6 +109,24 @@ def test_speed_distance_location_and_eta_on_a_straight_ride():
     assert KMH == 3.6
 
 
+@pytest.mark.parametrize("size", [1, 5, 37])
+def test_blocks_give_the_warnings_events_and_state_of_one_sample_at_a_time(size):
+    t, lat, lon = _track(speed=4.0, seconds=40)
+    stop = (["cruising"] * 20 + ["sudden-braking"] * 12 + ["normal-braking"] * 70) * 8
+    labels = stop[:len(t)]
+    speed = np.where(np.isfinite(lat), 4.0, np.nan)
+    one, block = RideAssistant(), RideAssistant()
+    for assistant in (one, block):
+        assistant.set_destination(*local_to_geodetic(np.array(200.0), np.array(200.0), ORIGIN))
+    statuses = [one.update(*row) for row in zip(t, labels, lat, lon, speed)]
+    rows = list(zip(t.tolist(), lat.tolist(), lon.tolist(), speed.tolist()))
+    warnings = [w for k in range(0, len(t), size) for w in block.update_block(rows[k:k + size], labels[k:k + size])]
+    assert warnings == [s.warning for s in statuses if s.warning] and len(warnings) == 8
+    assert block.pop_events() == one.pop_events() and len(one.events_) == 7
+    assert block.state() == one.state() and block.state()["distance"] > 100
+    assert block.update_block([], []) == [] and block.state() == one.state()
+
+
 def test_gps_jumps_are_ignored_and_a_lost_track_re_anchors():
     t, lat, lon = _track(speed=3.0, seconds=30)
     fixes = np.flatnonzero(np.isfinite(lat))

@@ -159,6 +159,25 @@ class RideAssistant:
                speed: float = math.nan) -> Status:
         """Take one sample at ``t`` s: the classifier's ``label`` (None before its first window) and the GPS fix
         (``lat``, ``lon`` degrees and ``speed`` m/s, NaN when no fix arrived with this sample)."""
+        warning, event = self._advance(t, label, lat, lon, speed)
+        self._status_ = self._status(self._time, label, warning, event)
+        return self._status_
+
+    def update_block(self, table: list[tuple], labels: list[str | None]) -> list[RideWarning]:
+        """:meth:`update` for each ``(t, lat, lon, speed)`` of ``table`` with its label; the warnings raised, in
+        order. The :class:`Status` (:meth:`state`) is made for the last sample only."""
+        warnings, warning, event = [], None, None
+        for (t, lat, lon, speed), label in zip(table, labels):
+            warning, event = self._advance(t, label, lat, lon, speed)
+            if warning is not None:
+                warnings.append(warning)
+        if table:
+            self._status_ = self._status(self._time, labels[-1], warning, event)
+        return warnings
+
+    def _advance(self, t: float, label: str | None, lat: float, lon: float,
+                 speed: float) -> tuple[RideWarning | None, Event | None]:
+        """One sample's warning and event (None when none), its debouncing and GPS taken."""
         t, speed = float(t), float(speed)
         if not math.isfinite(t) or (self._time is not None and t <= self._time):
             raise InputError(f"ride assistant: sample time {t!r} s is not after {self._time!r} s; "
@@ -176,8 +195,7 @@ class RideAssistant:
             self._gps(t, *fix, speed)
         elif math.isfinite(speed):
             self._speed, self._speed_time = speed, t
-        self._status_ = self._status(t, label, warning, event)
-        return self._status_
+        return warning, event
 
     def state(self) -> dict:
         """The figures of the latest sample (:meth:`Status.figures`); empty before the first sample."""

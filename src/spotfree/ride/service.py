@@ -227,11 +227,7 @@ class RideService:
                 ride.bucket.take(len(table), f"ride {ride_id}")
             n = len(table)
             feats, labels = ride.live.update_block(table)
-            warnings = []
-            for (t, _, _, _, _, _, _, lat, lon, speed), label in zip(table.tolist(), labels):
-                status = ride.assistant.update(t, label, lat, lon, speed)
-                if status.warning is not None:
-                    warnings.append(vars(status.warning))
+            warnings = [vars(w) for w in ride.assistant.update_block(table[:, _ASSISTED].tolist(), labels)]
             events = ride.assistant.pop_events()
             committed = self.store.submit_samples(token, ride_id, table, features=feats,
                                                   labels={self.model_name: labels}, events=events)
@@ -286,6 +282,10 @@ class RideService:
         for loop, queue, wanted in list(self._watchers):
             if wanted is None or wanted == ride_id:
                 loop.call_soon_threadsafe(_offer, queue, message)
+
+
+_ASSISTED = [SAMPLE_COLUMNS.index(c) for c in ("time", "lat", "lon", "speed")]
+"""The sample columns the assistant takes."""
 
 
 def _offer(queue: asyncio.Queue, message: dict) -> None:
