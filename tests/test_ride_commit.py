@@ -19,6 +19,7 @@ from spotfree.errors import InputError
 from spotfree.ride import RideStore
 from spotfree.ride import validation
 from spotfree.ride.commit import GroupCommit
+from spotfree.ride.store import AccessError, NotFoundError, SQLiteConnection
 from spotfree.ride.records import SAMPLE_COLUMNS
 
 
@@ -55,6 +56,84 @@ def test_batches_of_a_ride_commit_in_submission_order_with_their_events(tmp_path
         assert [(e.kind, e.start) for e in store.events(ride)] == [("sudden-braking", 3.0)]
     with RideStore(tmp_path / "rides.db") as again:  # close committed everything
         assert len(again.samples(ride)["time"]) == 40
+
+
+def test_a_group_of_rides_is_written_in_one_insert_per_table(tmp_path):
+    with RideStore(tmp_path / "rides.db") as store:
+        rides = [_ride(store) for _ in range(20)]
+        statements = []
+        store._db._connection.set_trace_callback(statements.append)
+        with store._lock:
+            futures = [store.submit_samples(token, ride, batch(0.0, 5), labels={"m": ["cruising"] * 5})
+                       for token, ride in rides]
+        assert [f.result(timeout=60) for f in futures] == [5] * 20
+        inserts = [s for s in statements if s.startswith("INSERT INTO sample_blocks")]
+        assert len(inserts) <= 2 and sum(s.count("), (") + 1 for s in inserts) == 20
+        assert all(list(store.labels(ride)["m"]) == ["cruising"] * 5 for _, ride in rides)
+
+
+def test_foreign_and_ended_rides_in_a_group_are_refused_alone_and_named(store):
+    rides = [_ride(store) for _ in range(6)]
+    store.end_ride(*rides[1])
+    with store._lock:
+        futures = [store.submit_samples(token, ride, batch(0.0, 5)) for token, ride in rides]
+        futures.append(store.submit_samples(rides[2][0], rides[3][1], batch(1.0, 5)))  # another device's ride
+        futures.append(store.submit_samples("no-such-token", rides[4][1], batch(1.0, 5)))
+        futures.append(store.submit_samples(rides[5][0], "no-such-ride", batch(1.0, 5)))
+    wait(futures, timeout=60)
+    with pytest.raises(InputError, match="has ended"):
+        futures[1].result()
+    with pytest.raises(AccessError, match="belongs to another device"):
+        futures[6].result()
+    with pytest.raises(AccessError, match="unknown device token"):
+        futures[7].result()
+    with pytest.raises(NotFoundError, match="does not exist"):
+        futures[8].result()
+    assert [futures[k].result() for k in (0, 2, 3, 4, 5)] == [5] * 5
+    assert [len(store.samples(ride)["time"]) for _, ride in rides] == [5, 0, 5, 5, 5, 5]
+
+
+def test_together_runs_consecutive_writes_in_order_and_falls_back_to_each_alone(tmp_path):
+    db = SQLiteConnection(str(tmp_path / "x.db"), "full")
+    db.query("CREATE TABLE t (x INTEGER UNIQUE)", ())
+    entered, gate = threading.Event(), threading.Event()
+
+    @contextmanager
+    def transaction():
+        entered.set()
+        gate.wait(30)  # the first group waits here until everything below is queued
+        with db.transaction() as cursor:
+            yield cursor
+
+    class Insert:
+        def __init__(self, x):
+            self.x = x
+
+        def __call__(self, db):
+            db.execute("INSERT INTO t VALUES (?)", (self.x,))
+            return self.x
+
+    calls = []
+
+    def together(db, writes):
+        calls.append([w.x for w in writes])
+        db.executemany("INSERT INTO t VALUES (?)", [(w.x,) for w in writes])  # all or, on a duplicate, nothing
+        return [(True, w.x) for w in writes]
+
+    writer = GroupCommit(transaction)
+    first = writer.submit(Insert(0))
+    assert entered.wait(30)  # the writer holds the first write alone; the rest queue behind it
+    futures = [writer.submit(Insert(x), together) for x in (1, 2)]
+    futures.append(writer.submit(lambda db: db.execute("INSERT INTO t VALUES (10)") and 10))
+    futures += [writer.submit(Insert(x), together) for x in (3, 3, 4)]  # a duplicate: each alone then
+    gate.set()
+    wait([first, *futures], timeout=30)
+    assert first.result() == 0 and calls == [[1, 2], [3, 3, 4]]
+    assert [f.result() for f in futures[:4]] == [1, 2, 10, 3] and futures[5].result() == 4
+    with pytest.raises(sqlite3.IntegrityError):
+        futures[4].result()
+    writer.close()
+    assert sorted(x for (x,) in db.query("SELECT x FROM t", ())) == [0, 1, 2, 3, 4, 10]
 
 
 def test_a_failed_commit_fails_every_write_of_its_group(tmp_path):

@@ -189,7 +189,11 @@ def numbers(table: pd.DataFrame, column: str, source: str, decimal: str = ".") -
     cells = table[column].astype(str).str.strip()
     if decimal == ",":
         cells = cells.str.replace(",", ".", regex=False)
-    values = pd.to_numeric(cells.where(cells != "", "nan"), errors="coerce").to_numpy(dtype=float)
+    filled = cells.where(cells != "", "nan")
+    try:  # exact parsing: pandas 3's to_numeric may round the last bit of a double
+        values = filled.to_numpy(dtype=float)
+    except ValueError:  # a cell is not a number: find it below
+        values = pd.to_numeric(filled, errors="coerce").to_numpy(dtype=float)
     bad = np.isinf(values) | (np.isnan(values) & ~cells.str.lower().isin(["", "nan"]).to_numpy())
     if bad.any():
         row = int(np.flatnonzero(bad)[0])

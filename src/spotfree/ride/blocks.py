@@ -54,10 +54,22 @@ SCHEMA = (
 INSERT_SAMPLES = ("INSERT INTO sample_blocks (ride_id, t0, t1, n, samples, feature_set, features) "
                   "VALUES (?, ?, ?, ?, ?, ?, ?)")
 INSERT_LABELS = "INSERT INTO label_blocks (ride_id, model, t0, t1, n, times, labels) VALUES (?, ?, ?, ?, ?, ?, ?)"
-LAST_TIME = "(SELECT t1 FROM sample_blocks WHERE ride_id = ? ORDER BY t0 DESC LIMIT 1)"
-"""The ride's last sample time (SQL expression; parameter: the ride id)."""
-LAST_LABEL_TIME = "(SELECT t1 FROM label_blocks WHERE ride_id = ? AND model = ? ORDER BY t0 DESC LIMIT 1)"
-"""A model's last label time on a ride (SQL expression; parameters: the ride id and the model)."""
+LAST_TIME = "(SELECT b.t1 FROM sample_blocks b WHERE b.ride_id = r.ride_id ORDER BY b.t0 DESC LIMIT 1)"
+"""The last sample time of the ride ``r`` (SQL expression over a row ``r`` of ``rides``)."""
+LAST_LABEL_TIME = ("(SELECT b.t1 FROM label_blocks b WHERE b.ride_id = r.ride_id AND b.model = ? "
+                   "ORDER BY b.t0 DESC LIMIT 1)")
+"""A model's last label time on the ride ``r`` (SQL expression; parameter: the model)."""
+ROWS_PER_INSERT = 64
+"""Rows per multi-row INSERT in :func:`insert_rows` (fewer distinct statements for the statement cache)."""
+
+
+def insert_rows(db, sql: str, rows: Sequence[tuple]) -> None:
+    """Run the one-row ``INSERT ... VALUES (?, ...)`` ``sql`` for all ``rows`` as multi-row INSERTs of at most
+    :data:`ROWS_PER_INSERT` rows: one statement (one step of the database) per chunk instead of per row."""
+    head, _, values = sql.partition(" VALUES ")
+    for start in range(0, len(rows), ROWS_PER_INSERT):
+        chunk = rows[start:start + ROWS_PER_INSERT]
+        db.execute(f"{head} VALUES {', '.join([values] * len(chunk))}", [v for row in chunk for v in row])
 
 
 def feature_set(db, columns: Sequence[str]) -> int:

@@ -7,6 +7,11 @@ queued by then (at most ``max_group``), and runs them between one ``BEGIN`` and 
 the exception; the others commit. While a commit waits on the disk (an fsync, milliseconds), the next writes queue
 up, so under load one fsync carries many writes: ``k`` writes cost one transaction instead of ``k``.
 
+Writes of one kind may also be run together: consecutive writes submitted with the same ``together`` function
+are handed to it in one call (inside one savepoint), so that ``k`` of them cost a few statements instead of ``k``
+times a few. It returns one ``(ok, value)`` per write, a refused write changing nothing; if it raises, its
+savepoint is rolled back and each of those writes is run alone as above, which names the one at fault.
+
 Durability is that of the connection: a future resolves after ``COMMIT`` has returned, so with SQLite
 ``synchronous=FULL`` (or PostgreSQL's ``synchronous_commit=on``) a resolved write is on disk. A failed ``COMMIT``
 fails every write of its group.
@@ -14,6 +19,7 @@ fails every write of its group.
 
 from __future__ import annotations
 
+import itertools
 import queue
 import threading
 from collections.abc import Callable, Iterator
@@ -46,16 +52,18 @@ class GroupCommit:
         self.groups = 0
         """Transactions committed (for benchmarks: writes per transaction = writes / groups)."""
 
-    def submit(self, write: Callable[[Any], Any]) -> Future:
+    def submit(self, write: Callable[[Any], Any],
+               together: Callable[[Any, list], list[tuple[bool, Any]]] | None = None) -> Future:
         """Queue ``write(cursor)``; the future holds its return value once the transaction holding it has
-        committed, or its exception (the write then changed nothing)."""
+        committed, or its exception (the write then changed nothing). ``together(cursor, writes)``, when given,
+        runs this write with the consecutive writes that share it (see the module docstring)."""
         future: Future = Future()
         if self._thread is None:
             with self._start:
                 if self._thread is None:
                     self._thread = threading.Thread(target=self._run, name="spotfree-commit", daemon=True)
                     self._thread.start()
-        self._queue.put((write, future))
+        self._queue.put((write, together, future))
         return future
 
     def close(self) -> None:
@@ -66,7 +74,7 @@ class GroupCommit:
                 self._thread.join()
                 self._thread = None
 
-    def _pending(self) -> Iterator[tuple[Callable, Future] | None]:
+    def _pending(self) -> Iterator[tuple[Callable, Callable | None, Future] | None]:
         yield self._queue.get()
         for _ in range(self.max_group - 1):
             try:
@@ -84,26 +92,51 @@ class GroupCommit:
             if stop:
                 return
 
-    def _commit(self, group: list[tuple[Callable, Future]]) -> None:
-        results: list[tuple[Future, bool, Any]] = []
+    def _commit(self, group: list[tuple[Callable, Callable | None, Future]]) -> None:
+        outcomes: list[tuple[bool, Any]] = []
         try:
             with self._transaction() as cursor:
-                for write, future in group:
-                    cursor.execute("SAVEPOINT write")
-                    try:
-                        value, ok = write(cursor), True
-                    except BaseException as exc:  # the caller gets it; the others go on
-                        cursor.execute("ROLLBACK TO SAVEPOINT write")
-                        value, ok = exc, False
-                    cursor.execute("RELEASE SAVEPOINT write")
-                    results.append((future, ok, value))
+                for together, run in itertools.groupby(group, key=lambda item: item[1]):
+                    writes = [write for write, _, _ in run]
+                    if together is None:
+                        outcomes += [_alone(cursor, write) for write in writes]
+                    else:
+                        outcomes += _together(cursor, together, writes)
         except BaseException as exc:
-            for _, future in group:
+            for _, _, future in group:
                 future.set_exception(exc)
             return
         self.groups += 1
-        for future, ok, value in results:
+        for (_, _, future), (ok, value) in zip(group, outcomes):
             if ok:
                 future.set_result(value)
             else:
                 future.set_exception(value)
+
+
+def _alone(cursor, write: Callable) -> tuple[bool, Any]:
+    """``write(cursor)`` in its own savepoint, rolled back if it raises."""
+    cursor.execute("SAVEPOINT write")
+    try:
+        outcome = True, write(cursor)
+    except BaseException as exc:  # the caller gets it; the others go on
+        cursor.execute("ROLLBACK TO SAVEPOINT write")
+        outcome = False, exc
+    cursor.execute("RELEASE SAVEPOINT write")
+    return outcome
+
+
+def _together(cursor, together: Callable, writes: list[Callable]) -> list[tuple[bool, Any]]:
+    """``together(cursor, writes)`` in one savepoint; each write alone if it raises."""
+    cursor.execute("SAVEPOINT together")
+    try:
+        outcomes = together(cursor, writes)
+    except Exception:
+        cursor.execute("ROLLBACK TO SAVEPOINT together")
+        outcomes = None
+    cursor.execute("RELEASE SAVEPOINT together")
+    if outcomes is None:
+        return [_alone(cursor, write) for write in writes]
+    if len(outcomes) != len(writes):
+        raise RuntimeError(f"{together!r} gave {len(outcomes)} outcomes for {len(writes)} writes")
+    return outcomes

@@ -40,6 +40,7 @@ import uuid
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import Future
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -197,18 +198,11 @@ class RideStore:
                       for m, v in (labels or {}).items()}
         event_rows = [_event_row(ride_id, event) for event in events]
 
-        sample_row = blocks.sample_row(ride_id, table, self._feature_set, feature_rows)
-        label_rows = [blocks.label_row(ride_id, model, t, values) for model, values in label_rows.items()]
-
-        def write(db) -> int:
-            validation.check_times(t, self._own_open_ride(db, token, ride_id, blocks.LAST_TIME, (ride_id,)), where)
-            db.execute(blocks.INSERT_SAMPLES, sample_row)
-            for row in label_rows:
-                db.execute(blocks.INSERT_LABELS, row)
-            if event_rows:
-                db.executemany(_EVENT_SQL, event_rows)
-            return len(t)
-        return self._writer.submit(write)
+        write = _SampleWrite(self, token, token_hash(token) if isinstance(token, str) else "", ride_id, t,
+                             blocks.sample_row(ride_id, table, self._feature_set, feature_rows),
+                             [blocks.label_row(ride_id, model, t, values) for model, values in label_rows.items()],
+                             event_rows)
+        return self._writer.submit(write, _write_together)
 
     def append_labels(self, token: str, ride_id: str, model: str, time: Sequence[float],
                       labels: Sequence[str | None]) -> int:
@@ -224,7 +218,7 @@ class RideStore:
         row = blocks.label_row(ride_id, model, t, values)
 
         def write(db) -> int:
-            last = self._own_open_ride(db, token, ride_id, blocks.LAST_LABEL_TIME, (ride_id, model))
+            last = self._own_open_ride(db, token, ride_id, blocks.LAST_LABEL_TIME, (model,))
             validation.check_times(t, last, where)
             db.execute(blocks.INSERT_LABELS, row)
             return len(t)
@@ -331,6 +325,70 @@ class RideStore:
         if ended is not None:
             raise InputError(f"ride {ride_id!r} has ended; start a new ride")
         return result
+
+
+@dataclass(slots=True)
+class _SampleWrite:
+    """A batch of samples for the writer thread (:meth:`RideStore.submit_samples`): checked but for what needs the
+    store (the token's ride, still open, times after its last stored sample); its rows ready to insert."""
+
+    store: RideStore
+    token: str
+    token_hash: str
+    ride_id: str
+    t: np.ndarray
+    sample_row: tuple
+    label_rows: list[tuple]
+    event_rows: list[tuple]
+
+    def __call__(self, db) -> int:
+        """Write this batch alone: InputError, AccessError or NotFoundError name what is wrong."""
+        last = self.store._own_open_ride(db, self.token, self.ride_id, blocks.LAST_TIME)
+        validation.check_times(self.t, last, f"ride {self.ride_id}")
+        db.execute(blocks.INSERT_SAMPLES, self.sample_row)
+        for row in self.label_rows:
+            db.execute(blocks.INSERT_LABELS, row)
+        if self.event_rows:
+            db.executemany(_EVENT_SQL, self.event_rows)
+        return len(self.t)
+
+
+class _Unclear(Exception):
+    """A write of a group that only running it alone can judge (an unknown, ended or foreign ride)."""
+
+
+def _write_together(db, writes: list[_SampleWrite]) -> list[tuple[bool, object]]:
+    """Write several rides' batches in a few statements: one query finds every ride's owner, state and last time,
+    the times are checked here, then one multi-row insert per table. A batch whose times are refused changes
+    nothing; any other refusal raises :class:`_Unclear`, and the group commit then runs each batch alone."""
+    rides = list(dict.fromkeys(w.ride_id for w in writes))
+    known: dict[str, list] = {}
+    for start in range(0, len(rides), blocks.ROWS_PER_INSERT):
+        part = rides[start:start + blocks.ROWS_PER_INSERT]
+        rows = db.execute(f"SELECT r.ride_id, r.ended, d.token_hash, {blocks.LAST_TIME} FROM rides r "
+                          f"JOIN devices d ON d.device_id = r.device_id WHERE r.ride_id IN "
+                          f"({', '.join('?' * len(part))})", part).fetchall()
+        known.update((ride_id, [ended, owner, last]) for ride_id, ended, owner, last in rows)
+    outcomes, samples, labels, events = [], [], [], []
+    for write in writes:
+        ended, owner, last = known.get(write.ride_id, (None, None, None))
+        if owner is None or owner != write.token_hash or ended is not None:
+            raise _Unclear(write.ride_id)
+        try:
+            validation.check_times(write.t, last, f"ride {write.ride_id}")
+        except InputError as exc:
+            outcomes.append((False, exc))
+            continue
+        known[write.ride_id][2] = float(write.t[-1])
+        samples.append(write.sample_row)
+        labels += write.label_rows
+        events += write.event_rows
+        outcomes.append((True, len(write.t)))
+    blocks.insert_rows(db, blocks.INSERT_SAMPLES, samples)
+    blocks.insert_rows(db, blocks.INSERT_LABELS, labels)
+    if events:
+        db.executemany(_EVENT_SQL, events)
+    return outcomes
 
 
 class SQLiteConnection:
