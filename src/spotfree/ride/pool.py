@@ -25,6 +25,7 @@ from concurrent.futures import Future
 
 from spotfree.errors import SpotfreeError
 from spotfree.model import DictionaryModel
+from spotfree.ride import collector
 from spotfree.ride.assistant import RideAssistant
 from spotfree.ride.live import LiveRide
 from spotfree.ride.service import RideService
@@ -207,6 +208,7 @@ def _serve(pipe, service_args: tuple) -> None:  # pragma: no cover - runs in the
     except Exception as exc:
         answer(-1, False, exc)
         return
+    collector.settle()
     answer(-1, True, None)
     methods = {"open": service._open_ride, "close": service._close_ride, "destination": service.set_destination,
                "resume": service.resume, "submit": service._submit}

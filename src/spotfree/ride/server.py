@@ -10,6 +10,7 @@ from typing import Callable
 
 from spotfree.errors import InputError
 from spotfree.model import DictionaryModel
+from spotfree.ride import collector
 from spotfree.ride.api import create_app
 from spotfree.ride.service import RideService
 from spotfree.ride.store import RideStore
@@ -76,6 +77,7 @@ def run_server(host: str, port: int, database: str, https: bool, replay: str | N
         tls = {"ssl_certfile": str(cert), "ssl_keyfile": str(key)}
     scheme = "https" if https else "http"
     say(f"spotfree serve: {scheme}://{host}:{port}/ (phone), /rider, /operator; rides recorded in {database}")
+    collector.settle()  # no full garbage collection pauses while serving (spotfree.ride.collector)
     # no per-message compression: a batch or an acknowledgement is under a few kB, and deflating each one cost
     # an eighth of the server's CPU under load (BENCHMARKS.md)
     try:
