@@ -139,3 +139,9 @@ def test_train_writes_a_model_its_summary_and_its_figure(tmp_path):
     assert np.bincount(few.column_class).max() <= 20 < np.bincount(model.column_class).max()
     refused = runner.invoke(app, ["train", "-o", str(tmp_path / "none.npz"), *declared, "--max-columns", "0"])
     assert refused.exit_code == 2 and "--max-columns" in refused.output and not (tmp_path / "none.npz").exists()
+    assert model.parameters["nesting"] == [["sudden-braking", "normal-braking"]]
+    plain = runner.invoke(app, ["train", "-o", str(tmp_path / "plain.npz"), *declared, "--nested", "none"])
+    assert plain.exit_code == 0 and DictionaryModel.load(tmp_path / "plain.npz").parameters["nesting"] == []
+    refused = runner.invoke(app, ["train", "-o", str(tmp_path / "bad.npz"), *declared, "--nested", "sudden-braking"])
+    assert refused.exit_code == 2 and "--nested 'sudden-braking': write INNER=OUTER" in refused.output
+    assert not (tmp_path / "bad.npz").exists()

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from spotfree.errors import InputError
-from spotfree.naming import background_class, name_clusters, presence_matrix, rename_habits
+from spotfree.naming import background_class, name_clusters, name_nested, presence_matrix, rename_habits
 
 NB = ["cruising", "normal-braking"]
 SB = ["cruising", "normal-braking", "sudden-braking"]
@@ -71,3 +71,36 @@ def test_a_riders_habit_enriched_like_a_manoeuvre_goes_to_the_background():
     renamed = rename_habits(pooled, recording, labels, names, declared, "cruising")
     assert [n.name for n in renamed] == ["cruising", "cruising", "cruising", "sudden-braking"]
     assert "not novel" in renamed[2].rule
+
+
+def _nested_case():
+    """Both rides cruise at 0 (cluster 0) and brake at -1 (cluster 1, as often in both: no enrichment); the
+    sudden-braking ride also stops hard at -3 (cluster 2) and its rider accelerates at +1 (cluster 3, shared)."""
+    rng = np.random.default_rng(1)
+    parts = [(0, 0, 0.0, 80), (0, 1, -1.0, 15), (0, 3, 1.0, 15), (1, 0, 0.0, 80), (1, 1, -1.0, 15),
+             (1, 3, 1.0, 15), (1, 2, -3.0, 10)]
+    pooled = np.vstack([level + 0.2 * rng.normal(size=(n, 8)) for _, _, level, n in parts]).T
+    recording = np.concatenate([np.full(n, r) for r, _, _, n in parts])
+    labels = np.concatenate([np.full(n, j) for _, j, _, n in parts])
+    names = name_clusters(presence_matrix(labels, recording, 4, 2), [NB, SB], "cruising")
+    assert [n.name for n in names] == ["cruising", "cruising", "sudden-braking", "cruising"]
+    return pooled, recording, labels, names
+
+
+def test_a_class_the_specific_one_passes_through_takes_the_shared_group_nearest_to_it():
+    pooled, recording, labels, names = _nested_case()
+    nested = name_nested(pooled, recording, labels, names, [NB, SB], "cruising",
+                         [("sudden-braking", "normal-braking")])
+    assert [n.name for n in nested] == ["cruising", "normal-braking", "sudden-braking", "cruising"]
+    assert "passes through normal-braking" in nested[1].rule and 0 < nested[1].confidence < 1
+
+
+@pytest.mark.parametrize("nesting, declared", [
+    ((), (NB, SB)),  # no pair given: declarations alone do not make a class nested
+    ([("sudden-braking", "normal-braking")], (["cruising"], ["cruising", "sudden-braking"])),  # outer undeclared
+    ([("sudden-braking", "normal-braking")], (NB, ["cruising", "sudden-braking"])),  # inner where outer is not
+])
+def test_nesting_needs_the_pair_and_declarations_that_agree_with_it(nesting, declared):
+    pooled, recording, labels, names = _nested_case()
+    nested = name_nested(pooled, recording, labels, names, [list(d) for d in declared], "cruising", nesting)
+    assert [n.name for n in nested] == [n.name for n in names]

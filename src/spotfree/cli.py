@@ -115,6 +115,9 @@ def train(
     clustering: str = typer.Option("kmeans", "--clustering",
                                    help="kmeans | osc (the paper's Ordered Subspace Clustering)"),
     max_columns: int = typer.Option(600, "--max-columns", min=1, help="dictionary columns kept per class"),
+    nested: Optional[list[str]] = typer.Option(
+        None, "--nested", help="INNER=OUTER: a manoeuvre of class INNER passes through class OUTER (default: "
+        "sudden-braking=normal-braking); --nested none for no such pair"),
     seed: int = typer.Option(0, "--seed"),
     figure: Optional[Path] = typer.Option(None, "--figure", help="diagnostic figure (default: MODEL.png)"),
 ) -> None:
@@ -124,13 +127,14 @@ def train(
 
     from spotfree.figures import training_figure
     from spotfree.pipeline import feature_recording
-    from spotfree.training import DEFAULT_CHANNELS, TrainingConfig, TrainingExperiment
+    from spotfree.training import DEFAULT_CHANNELS, NESTING, TrainingConfig, TrainingExperiment
     from spotfree.training import train as train_dictionary
 
     config = TrainingConfig(
         channels=tuple(c.strip() for c in channels.split(",")) if channels else DEFAULT_CHANNELS,
         window=window, step=step, recipe=recipe, background=background, overrides=_parse_names(name),
         extra_clusters=extra_clusters, affine=affine, clustering=clustering, max_columns=max_columns, seed=seed,
+        nesting=NESTING if nested is None else _parse_nesting(nested),
     )
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=err,
                   transient=True) as bar:
@@ -163,6 +167,19 @@ def _parse_experiment(spec: str) -> tuple[str, list[str]]:
     if not sep or not path or not names:
         raise InputError(f"--experiment '{spec}': write PATH=CLASS[,CLASS...], e.g. ride.csv@1=cruising,sudden-braking")
     return path, names
+
+
+def _parse_nesting(specs: list[str]) -> tuple[tuple[str, str], ...]:
+    if [s.strip().lower() for s in specs] == ["none"]:
+        return ()
+    pairs = []
+    for spec in specs:
+        inner, sep, outer = (part.strip() for part in spec.partition("="))
+        if not sep or not inner or not outer or inner == outer:
+            raise InputError(f"--nested '{spec}': write INNER=OUTER with two class names, e.g. "
+                             "sudden-braking=normal-braking, or --nested none")
+        pairs.append((inner, outer))
+    return tuple(pairs)
 
 
 def _parse_names(specs: list[str]) -> dict[int, str]:

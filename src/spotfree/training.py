@@ -22,9 +22,9 @@ Output: a :class:`~spotfree.model.DictionaryModel` whose columns are windows kep
    affine row, two dimensions), so OSC mixes them where k-means does not.
 3. Groups named by evidence across recordings (:mod:`spotfree.naming`): enrichment, then novelty (a group named a
    class must lie away from the recordings without that class, or it is one rider's habit and goes to the
-   background), then nesting (a class that evidence left without a group, declared wherever a more specific class
-   is, takes the shared group nearest to that class: normal braking around sudden braking); the user may override
-   any name.
+   background), then nesting (a class that evidence left without a group and that a more specific class passes
+   through, by the caller's ``nesting`` pairs, takes the shared group nearest to that class: normal braking
+   around sudden braking); the user may override any name.
 4. Nesting: every group named a manoeuvre is checked against the known, less specific classes (background first):
    its windows are classified by CRC against those classes' windows and its own windows outside the run being
    tested; a group that a known class explains takes that name. Groups that stay are split in two by OSC again and
@@ -72,6 +72,9 @@ from spotfree.windows import ChannelScaling, WindowedRecording, recording_window
 
 RECIPES = ("evidence", "paper")
 DEFAULT_CHANNELS = ("acc_long", "pitch_rate")
+NESTING = (("sudden-braking", "normal-braking"),)
+"""Default ``(inner, outer)`` pairs: a manoeuvre of class ``inner`` passes through class ``outer``
+(:func:`spotfree.naming.name_nested`); the paper's sudden stop, which passes through normal braking."""
 
 Progress = Callable[[str], None]
 
@@ -99,6 +102,7 @@ class TrainingConfig:
     affine: float = 6.0
     clustering: str = "kmeans"
     overrides: dict[int, str] = field(default_factory=dict)
+    nesting: tuple[tuple[str, str], ...] = NESTING
     max_columns: int = 600
     min_margin: float = 0.15
     margin: int | None = None
@@ -176,7 +180,7 @@ def train(experiments: list[TrainingExperiment], config: TrainingConfig | None =
                     "clustering": "osc" if config.recipe == "paper" else config.clustering,
                     "affine": config.affine,
                     "train_step": config.train_step, "max_columns": config.max_columns,
-                    "min_margin": config.min_margin},
+                    "min_margin": config.min_margin, "nesting": [list(p) for p in config.nesting]},
         causal_dictionary=None if causal is None else causal[0],
         causal_column_class=None if causal is None else causal[1],
         summary={
@@ -236,7 +240,7 @@ def _evidence_recipe(windows, declared, config, say):
     counts = presence_matrix(labels, recording, labels.max() + 1, len(windows))
     names = name_clusters(counts, declared, background)
     names = rename_habits(pooled, recording, labels, names, declared, background)
-    names = name_nested(pooled, recording, labels, names, declared, background)
+    names = name_nested(pooled, recording, labels, names, declared, background, config.nesting)
     for cluster, name in config.overrides.items():
         if not 0 <= cluster < len(names):
             raise InputError(f"--name {cluster}={name}: there are only clusters 0..{len(names) - 1}")
