@@ -1,6 +1,6 @@
 """Hand posture and gesture recognition on held-out simulated people: the paper's six test runs, in report form.
 
-Usage: python benchmarks/hand_eval.py [--train-people 4] [--test-people 6] [--seed 0]
+Usage: python benchmarks/hand_eval.py [--train-people 8] [--test-people 6] [--seed 0]
        python benchmarks/hand_eval.py --grid     stage 1 alone for several channel sets and windows, scored on six
                                                  development people (seed 1, people 201..), not the test people
 Prints Markdown (accuracy per run, mode and stage, collars, where gestures are lost, confusion matrices, command
@@ -15,6 +15,7 @@ import datetime
 from classifier_timing import machine
 
 from spotfree.hand.evaluation import evaluate_hand, hand_report, state_grid
+from spotfree.sim.hand import TRAINING_PEOPLE
 
 GRID = [(("speed", "turn", "flex"), 4), (("speed", "turn"), 4), (("speed", "turn"), 5), (("speed", "turn"), 6)]
 """Stage-1 settings compared by --grid: (channels, window in samples)."""
@@ -22,7 +23,7 @@ GRID = [(("speed", "turn", "flex"), 4), (("speed", "turn"), 4), (("speed", "turn
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--train-people", type=int, default=4)
+    parser.add_argument("--train-people", type=int, default=TRAINING_PEOPLE)
     parser.add_argument("--test-people", type=int, default=6)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--grid", action="store_true", help="compare stage-1 settings on development people")

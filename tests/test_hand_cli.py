@@ -80,3 +80,14 @@ def test_a_log_that_is_not_a_training_protocol_and_a_missing_model_are_refused(f
     result = runner.invoke(app, ["hand", "run", str(tmp_path / "none.npz"), str(files / "test.jsonl"),
                                  "-o", str(tmp_path / "o.csv")])
     assert result.exit_code == 2 and "no such model file" in result.output
+
+
+def test_hand_train_simulates_the_library_s_number_of_training_people_by_default():
+    import inspect
+
+    from spotfree.cli import hand_train
+    from spotfree.hand.evaluation import evaluate_hand
+    from spotfree.sim.hand import TRAINING_PEOPLE
+
+    assert inspect.signature(hand_train).parameters["people"].default.default == TRAINING_PEOPLE
+    assert inspect.signature(evaluate_hand).parameters["train_people"].default == TRAINING_PEOPLE

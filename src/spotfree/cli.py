@@ -326,7 +326,8 @@ def hand_train(
     output: Path = typer.Option(..., "-o", "--output", help="model file to write (.npz; two siblings go next to it)"),
     logs: Optional[list[Path]] = typer.Argument(None, metavar="[LOG.jsonl ...]",
                                                 help="training-protocol logs (none: simulate one)"),
-    people: int = typer.Option(4, "--people", min=1, help="simulated people when no LOG is given"),
+    people: int = typer.Option(8, "--people", min=1, help="simulated people when no LOG is given "
+                               "(spotfree.sim.hand.TRAINING_PEOPLE)"),
     seed: int = typer.Option(0, "--seed", help="seed of the simulation and of the clustering"),
 ) -> None:
     """Train the two-stage posture / gesture recogniser without spotting."""

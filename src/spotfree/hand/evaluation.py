@@ -37,7 +37,7 @@ from spotfree.hand.features import FEATURES
 from spotfree.hand.log import frames_to_recording
 from spotfree.hand.recognition import STATES, HandLabels, HandModel, HandRecognizer, declared, features_of, \
     recognise, session_tasks, train_hand
-from spotfree.sim.hand import GESTURES, POSTURES, simulate_hands
+from spotfree.sim.hand import GESTURES, POSTURES, TRAINING_PEOPLE, simulate_hands
 from spotfree.training import TrainingConfig, TrainingExperiment, train
 
 PAPER = {"labels": 5850, "accuracy": 1.0, "runs": 6}
@@ -74,7 +74,7 @@ class HandEvaluation:
     settings: dict = field(default_factory=dict)
 
 
-def evaluate_hand(train_people: int = 4, test_people: int = 6, seed: int = 0, rounds: int = 3,
+def evaluate_hand(train_people: int = TRAINING_PEOPLE, test_people: int = 6, seed: int = 0, rounds: int = 3,
                   progress=None) -> HandEvaluation:
     """Train on simulated people ``1 .. train_people``, test on ``test_people`` held-out people (module docstring)."""
     say = progress or (lambda message: None)
