@@ -13,7 +13,11 @@ Measured per N over ``--seconds`` s of streaming:
 * batch-to-ack latency: from sending a batch to receiving its acknowledgement, which the server sends after the
   batch is classified, assisted and committed. A sample also waits on the phone until its batch is sent: up to
   ``batch - 1/rate`` s for the first sample of a batch, 0 for the last; that wait is the page's choice, not load;
-* batch-to-warning latency: the same for the batches whose acknowledgement carries a warning;
+* sample-to-warning latency: from the moment the sample that raises a warning is taken to the acknowledgement
+  that carries the warning. As the page does, a phone sends its batch at once when that sample is taken (it runs
+  the same pipeline and gets the same labels), so the sample does not wait for the rest of its batch: each phone's
+  warning samples are found beforehand with the server's own ride pipeline and assistant
+  (:func:`_warning_samples`), and its batches are cut after them;
 * nothing lost: after the phones stop and every acknowledgement is in, the server is stopped and the samples
   in its SQLite file are counted against the acknowledged samples;
 * CPU: user + system seconds of the server's process tree and of the client processes over the streaming, per
@@ -59,7 +63,11 @@ from websockets.asyncio.client import connect
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from classify_fixtures import rides, truth_model  # noqa: E402
+from spotfree.classify.batch import dictionary_classifier  # noqa: E402
+from spotfree.model import DictionaryModel  # noqa: E402
+from spotfree.ride.live import LiveRide  # noqa: E402
 from spotfree.ride.records import SAMPLE_COLUMNS  # noqa: E402
+from spotfree.ride.service import assistant_factory  # noqa: E402
 from spotfree.ride.sources import recording_rows  # noqa: E402
 from spotfree.ride.store import RideStore  # noqa: E402
 
@@ -92,14 +100,37 @@ def _start_server(folder: Path, model: Path, sync: str, workers: int, floor: boo
     raise RuntimeError("spotfree serve did not answer within 60 s")
 
 
-class Phone:
-    """One simulated phone: its batches as JSON text (encoded before the run), what it sent and what came back."""
+def _warning_samples(model: DictionaryModel, rows: np.ndarray) -> set[int]:
+    """Indices of the samples of ``rows`` (a ride from its start) at which the server's pipeline and assistant
+    raise a warning (:class:`~spotfree.ride.live.LiveRide`, :func:`~spotfree.ride.service.assistant_factory`)."""
+    live, assistant = LiveRide(model, dictionary_classifier(model, causal=True)), assistant_factory(model)()
+    _, labels = live.update_block(rows)
+    warned = assistant.update_block(rows[:, [SAMPLE_COLUMNS.index(c) for c in ("time", "lat", "lon", "speed")]]
+                                    .tolist(), labels)
+    return {int(np.searchsorted(rows[:, 0], w.time)) for w in warned}
 
-    def __init__(self, token: str, rows: np.ndarray, per_batch: int, n_batches: int):
+
+def batch_ends(n_samples: int, per_batch: int, warns: set[int]) -> list[int]:
+    """The index after the last sample of every batch: every ``per_batch`` samples, and right after a sample that
+    warns (the page's rule)."""
+    ends, last = [], 0
+    for k in range(n_samples):
+        if k + 1 - last >= per_batch or k in warns:
+            ends.append(k + 1)
+            last = k + 1
+    return ends
+
+
+class Phone:
+    """One simulated phone: its batches as JSON text (encoded before the run) with the offset (s from its start) at
+    which each is sent, what it sent and what came back."""
+
+    def __init__(self, token: str, rows: np.ndarray, ends: list[int], rate: float):
         self.token = token
-        self.messages = [json.dumps({"type": "batch", "seq": k, "samples": {
-            name: [None if math.isnan(v) else float(v) for v in rows[k * per_batch:(k + 1) * per_batch, j]]
-            for j, name in enumerate(SAMPLE_COLUMNS)}}) for k in range(n_batches)]
+        starts = [0, *ends[:-1]]
+        self.messages = [(end / rate, json.dumps({"type": "batch", "seq": k, "samples": {
+            name: [None if math.isnan(v) else float(v) for v in rows[a:end, j]]
+            for j, name in enumerate(SAMPLE_COLUMNS)}})) for k, (a, end) in enumerate(zip(starts, ends))]
         self.sent: dict[int, float] = {}
         self.acked = 0
         self.ack_ms: list[float] = []
@@ -112,11 +143,11 @@ class Phone:
         json.loads(await ws.recv())
         return ws
 
-    async def ride(self, ws, start: float, batch: float) -> None:
+    async def ride(self, ws, start: float) -> None:
         receiver = asyncio.create_task(self._receive(ws))
         loop = asyncio.get_running_loop()
-        for k, message in enumerate(self.messages):
-            await asyncio.sleep(max(0.0, start + (k + 1) * batch - loop.time()))
+        for k, (offset, message) in enumerate(self.messages):
+            await asyncio.sleep(max(0.0, start + offset - loop.time()))
             self.sent[k] = time.perf_counter()
             await ws.send(message)
         deadline = time.perf_counter() + 30
@@ -143,23 +174,23 @@ class Phone:
                 "refused": self.refused}
 
 
-async def _crowd(url: str, phones: list[Phone], spread: float, batch: float, barrier) -> float:
+async def _crowd(url: str, phones: list[Phone], spread: float, barrier) -> float:
     """Connect every phone and start its ride, wait for the other client processes, then stream; the CPU seconds
     this process spent streaming."""
     sockets = [await p.connect(url) for p in phones]
     await asyncio.to_thread(barrier.wait)
     cpu = time.process_time()
     start = asyncio.get_running_loop().time() + 0.5
-    await asyncio.gather(*(p.ride(ws, start + spread * k / len(phones), batch)
+    await asyncio.gather(*(p.ride(ws, start + spread * k / len(phones))
                            for k, (p, ws) in enumerate(zip(phones, sockets))))
     return time.process_time() - cpu
 
 
-def _client(url: str, jobs: list[tuple[str, np.ndarray]], per_batch: int, n_batches: int, spread: float,
-            batch: float, barrier, results) -> None:
+def _client(url: str, jobs: list[tuple[str, np.ndarray, list[int]]], rate: float, spread: float, barrier,
+            results) -> None:
     """One client process: its share of the phones on one event loop; their results onto ``results``."""
-    phones = [Phone(token, rows, per_batch, n_batches) for token, rows in jobs]
-    cpu = asyncio.run(_crowd(url, phones, spread, batch, barrier))
+    phones = [Phone(token, rows, ends, rate) for token, rows, ends in jobs]
+    cpu = asyncio.run(_crowd(url, phones, spread, barrier))
     results.put((cpu, [p.result() for p in phones]))
 
 
@@ -192,22 +223,22 @@ def _cpu_seconds(pid: int) -> float:
 
 
 def _stream(url: str, server_pid: int, tokens: list[str], seconds: float, batch: float, rows: np.ndarray,
-            rate: float, clients: int) -> tuple[list[dict], float, float, float]:
+            rate: float, clients: int, model: DictionaryModel) -> tuple[list[dict], float, float, float]:
     """Run the phones in ``clients`` processes; their results, and the CPU seconds of the server and of the
     clients over the streaming, and its wall-clock seconds."""
     rng = np.random.default_rng(0)
-    span = int((seconds + 1) * rate)
+    span = int(seconds * rate)
+    per_batch = round(batch * rate)
     jobs = []
     for token in tokens:
         offset = int(rng.integers(0, len(rows) - span))
         part = rows[offset:offset + span].copy()
         part[:, 0] -= part[0, 0]
-        jobs.append((token, part))
+        jobs.append((token, part, batch_ends(span, per_batch, _warning_samples(model, part))))
     context = multiprocessing.get_context("spawn")
     barrier, results = context.Barrier(clients + 1), context.Queue()
-    per_batch, n_batches = round(batch * rate), int(seconds / batch)
-    workers = [context.Process(target=_client, args=(url, jobs[c::clients], per_batch, n_batches, batch, batch,
-                                                     barrier, results)) for c in range(clients)]
+    workers = [context.Process(target=_client, args=(url, jobs[c::clients], rate, batch, barrier, results))
+               for c in range(clients)]
     for w in workers:
         w.start()
     barrier.wait()
@@ -229,7 +260,7 @@ def run(phones: int, seconds: float, batch: float, rows: np.ndarray, rate: float
         try:
             tokens = asyncio.run(_devices(url, phones, rows))
             crowd, server_cpu, client_cpu, wall = _stream(url, server.pid, tokens, seconds, batch, rows, rate,
-                                                          clients)
+                                                          clients, DictionaryModel.load(model))
         finally:
             server.send_signal(signal.SIGINT)
             server.wait(30)
@@ -268,7 +299,8 @@ def main() -> None:
     print(f"# serve_load: {platform.node()} {platform.machine()}, {os.cpu_count()} cores, Python "
           f"{platform.python_version()}, {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC")
     print(f"# {args.seconds:g} s per N, {rate:g} Hz, batches of {args.batch:g} s, SQLite synchronous={args.sync.upper()}, "
-          f"{'the web stack alone (benchmarks/serve_floor.py)' if args.floor else f'spotfree serve --workers {args.workers}'}, phones in {args.clients} client process(es); latency in ms from sending a batch to its acknowledgement; "
+          f"{'the web stack alone (benchmarks/serve_floor.py)' if args.floor else f'spotfree serve --workers {args.workers}'}, phones in {args.clients} client process(es); latency in ms from sending a batch to its acknowledgement "
+          "(warn: from taking the sample that warns, whose batch is sent at once); "
           "server and client CPU in cores (CPU s per s of streaming); load avg: 1-minute, after the run")
     print("| phones | load avg | server CPU | server ms/batch | client CPU | batches sent | acked | refused | p50 | p99 | max | warnings "
           "| warn p50 | warn p99 | samples acked | rows stored |")

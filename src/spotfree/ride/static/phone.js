@@ -2,15 +2,16 @@
 // and the same pipeline run locally so labels and warnings go on when the connection drops.
 // One batch is in flight at a time and a batch holds at most MAX_BATCH_SECONDS of samples, so the backlog of a
 // disconnect goes in order and in paced chunks; a batch refused for the rate (429) is sent again when the server
-// says.
+// says. A batch goes every BATCH_SECONDS of samples, or at once when the page's own classifier raises a warning
+// (its labels equal the server's), so that the sample that warns does not wait for the rest of its batch.
 "use strict";
 
 const $ = (id) => document.getElementById(id);
 const BATCH_SECONDS = 0.25, MAX_BATCH_SECONDS = 10;
 const state = {
   spec: null, pipeline: null, warner: null, resampler: null, socket: null, rideId: null, token: null, origin: null,
-  queue: [], seq: 0, inFlight: null, retryTimer: null, fix: null, lastSent: -Infinity, online: false,
-  localLabels: [], serverLabels: [], times: [], warnings: [], localWarnings: [],
+  queue: [], seq: 0, inFlight: null, retryTimer: null, fix: null, lastSent: -Infinity, online: false, urgent: false,
+  localLabels: [], serverLabels: [], times: [], warnings: [], localWarnings: [], batchEnds: [],
 };
 
 class Warner {
@@ -77,7 +78,10 @@ function sample(t, acc, gyr) {
   state.localLabels.push(out.label);
   state.times.push(t);
   const warn = state.warner.update(t, out.label);
-  if (warn) state.localWarnings.push({ kind: warn, time: t });
+  if (warn) {
+    state.localWarnings.push({ kind: warn, time: t });
+    state.urgent = true;
+  }
   if (!state.online) {
     show(out.label, warn);
     if (fix && fix.speed !== null) $("speed").textContent = kmh(fix.speed);
@@ -87,7 +91,8 @@ function sample(t, acc, gyr) {
 }
 
 function due() {
-  return state.queue.length > 0 && state.queue[state.queue.length - 1][0] - state.lastSent >= BATCH_SECONDS;
+  return state.queue.length > 0
+    && (state.urgent || state.queue[state.queue.length - 1][0] - state.lastSent >= BATCH_SECONDS);
 }
 
 function flush() {
@@ -103,6 +108,8 @@ function flush() {
   state.inFlight = { seq: state.seq, n };
   state.socket.send(JSON.stringify({ type: "batch", seq: state.seq, samples }));
   state.lastSent = rows[n - 1][0];
+  state.batchEnds.push(state.lastSent);
+  state.urgent = false;
 }
 
 function onReply(msg) {
