@@ -1,20 +1,26 @@
-"""How much of the braking ground truth any classifier can recover from the ride features: a supervised ceiling.
+"""How much of the simulator's ground truth any classifier can recover from the ride features: a supervised ceiling.
 
-The evaluation's goal is a per-sample accuracy on the simulator's hidden labels. Those labels are thresholds on the
-rider's lean (``spotfree.sim.scenarios.braking_labels``: 0.5 and 2.0 m/s^2 of lean deceleration), a quantity the
-phone sees only through the vehicle's response. This script measures what a strong supervised classifier, given
-every training label, reaches on the same tests, so that spotfree's spotting-free figures can be read against it:
+The evaluations score per-sample accuracy on the simulator's hidden labels. Those labels are thresholds on quantities
+the phone sees only through the vehicle's response (braking: the rider's lean deceleration, 0.5 and 2.0 m/s^2;
+lateral: the yaw rate; road: the surface under the wheels and the vertical acceleration of a kerb strike). This
+script measures what a strong supervised classifier, given every training label, reaches on the same kind of
+tests, so that spotfree's spotting-free figures can be read against it:
 
 * learner: scikit-learn's ``HistGradientBoostingClassifier`` (200 iterations) on the ride feature channels sampled
-  every 2nd sample over a context of ``--before`` samples before and ``--after`` after each labelled sample
-  (``--after 0``: causal, as the phone; ``--after > 0``: centred, offline);
-* training: either the evaluation's protocol (experiment 1 of the normal- and of the sudden-braking file of each
-  test seed: two riders) or ``--riders many``: all 21 rides of seeds 100-103 (84 riders);
-* tests: the evaluation's tests of each seed in ``--seeds`` (experiments 2-7 of the braking files, all 7 cruising
-  rides), every sample that has a full context, scored against the hidden label; "away" leaves out the samples
-  within 0.5 s of a label change.
+  every 2nd sample over a context of ``before`` samples before and ``after`` after each labelled sample
+  (``after`` 0: causal, as the phone; above 0: centred, offline);
+* ``--model braking``: the protocol of ``spotfree evaluate``; tests: experiments 2-7 of the normal- and
+  sudden-braking files and all 7 cruising rides of each seed in ``--seeds``; "protocol" training: experiment 1 of
+  the normal- and of the sudden-braking file of the same seed (two riders, as spotfree's training); scored per
+  scenario;
+* ``--model lateral`` or ``road``: the protocol of ``benchmarks/lateral_road.py``; tests: experiments 5-7 of the
+  model's scenario; "protocol" training: its experiments 1-4 of the same seed; scored per true class;
+* ``--riders many``: trained instead on all 7 rides of every scenario file of seeds 100-103 (braking: 84 riders) or
+  of the model's scenario of seeds 100-105 (42 riders);
+* "away": leaving out the samples within 0.5 s of a label change.
 
-    python benchmarks/supervised_ceiling.py [--seeds 0 1] [--channels acc_long,pitch_rate] [--riders protocol|many]
+    python benchmarks/supervised_ceiling.py [--model braking] [--seeds 0 1] [--channels acc_long,pitch_rate]
+                                            [--riders protocol|many] [--contexts 20:0,40:0,20:20]
 """
 
 from __future__ import annotations
@@ -29,10 +35,12 @@ import numpy as np
 from sklearn.ensemble import HistGradientBoostingClassifier
 
 from spotfree.signal.features import ride_features
-from spotfree.sim.scenarios import simulate_scenario
+from spotfree.sim.scenarios import CLASSES, simulate_scenario
 
-SCENARIOS = ("normal-braking", "sudden-braking", "cruising")
-TRAINING_SEEDS = (100, 101, 102, 103)
+BRAKING = ("normal-braking", "sudden-braking", "cruising")
+CHANNELS = {"braking": "acc_long,pitch_rate", "lateral": "yaw_rate,roll_rate,roll,acc_y",
+            "road": "vib_x,vib_y,vib_z,acc_z"}
+"""Default channels per model: the braking model's own, and for the other two the union of those their grids tried."""
 STRIDE = 2
 """Samples between the context's taps."""
 AWAY = 10
@@ -68,47 +76,60 @@ def _rows(cache, rides, channels, before, after):
     return np.vstack(x), np.concatenate(y), np.array(scenario), np.concatenate(distance)
 
 
-def _tests(seed: int):
-    return [(seed, name, range(1, 8) if name == "cruising" else range(2, 8)) for name in SCENARIOS]
+def _protocol(model: str, seed: int) -> tuple[list, list]:
+    """(training rides, test rides) of one seed, each a list of (seed, scenario, experiments)."""
+    if model == "braking":
+        tests = [(seed, n, range(1, 8) if n == "cruising" else range(2, 8)) for n in BRAKING]
+        return [(seed, n, [1]) for n in BRAKING[:2]], tests
+    return [(seed, model, range(1, 5))], [(seed, model, range(5, 8))]
+
+
+def _many(model: str) -> list:
+    if model == "braking":
+        return [(s, n, range(1, 8)) for s in (100, 101, 102, 103) for n in BRAKING]
+    return [(s, model, range(1, 8)) for s in range(100, 106)]
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--model", choices=tuple(CHANNELS), default="braking")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
-    parser.add_argument("--channels", default="acc_long,pitch_rate")
+    parser.add_argument("--channels", default=None, help="comma-separated (default: per model, see CHANNELS)")
     parser.add_argument("--riders", choices=("protocol", "many"), default="protocol")
     parser.add_argument("--contexts", default="20:0,40:0,20:20", help="before:after pairs, samples")
     args = parser.parse_args()
-    channels = tuple(args.channels.split(","))
+    channels = tuple((args.channels or CHANNELS[args.model]).split(","))
+    groups = BRAKING if args.model == "braking" else CLASSES[args.model]
     print(f"# supervised_ceiling {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; {platform.machine()}, "
           f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}; Python {platform.python_version()}")
-    print(f"# channels {','.join(channels)}; training riders: {args.riders}; test seeds {args.seeds}")
-    print("| context (before:after) | windows | normal-braking | sudden-braking | cruising | all tests | "
-          "all, away from changes | errors within 0.25 s of a change |")
-    print("|---|---|---:|---:|---:|---:|---:|---:|")
+    print(f"# model {args.model}; channels {','.join(channels)}; training riders: {args.riders}; test seeds "
+          f"{args.seeds}; columns: per {'scenario' if args.model == 'braking' else 'true class'}, then all")
+    print(f"| context (before:after) | training | {' | '.join(groups)} | all tests | all, away from changes | "
+          "errors within 0.25 s of a change |")
+    print("|---|---|" + "---:|" * (len(groups) + 3))
     cache: dict = {}
     for context in args.contexts.split(","):
         before, after = (int(v) for v in context.split(":"))
-        hits = {s: [0, 0] for s in SCENARIOS}
+        hits = {g: [0, 0] for g in groups}
         away, late = [0, 0], [0, 0]
-        seeds = [None] if args.riders == "many" else args.seeds
-        for train_seed in seeds:
-            training = ([(s, n, range(1, 8)) for s in TRAINING_SEEDS for n in SCENARIOS] if train_seed is None
-                        else [(train_seed, n, [1]) for n in SCENARIOS[:2]])
+        fits = [(None, args.seeds)] if args.riders == "many" else [(s, [s]) for s in args.seeds]
+        for train_seed, test_seeds in fits:
+            training = _many(args.model) if train_seed is None else _protocol(args.model, train_seed)[0]
             x, y, _, _ = _rows(cache, training, channels, before, after)
-            model = HistGradientBoostingClassifier(max_iter=200, random_state=0).fit(x, y)
-            for test_seed in (args.seeds if train_seed is None else [train_seed]):
-                xt, yt, scen, dist = _rows(cache, _tests(test_seed), channels, before, after)
-                right = model.predict(xt) == yt
-                for s in SCENARIOS:
-                    hits[s][0] += int(right[scen == s].sum())
-                    hits[s][1] += int((scen == s).sum())
+            learner = HistGradientBoostingClassifier(max_iter=200, random_state=0).fit(x, y)
+            for test_seed in test_seeds:
+                xt, yt, scen, dist = _rows(cache, _protocol(args.model, test_seed)[1], channels, before, after)
+                right = learner.predict(xt) == yt
+                group = scen if args.model == "braking" else yt
+                for g in groups:
+                    hits[g][0] += int(right[group == g].sum())
+                    hits[g][1] += int((group == g).sum())
                 away[0] += int(right[dist > AWAY].sum())
                 away[1] += int((dist > AWAY).sum())
                 late[0] += int((~right & (dist <= AWAY // 2)).sum())
                 late[1] += int((~right).sum())
         total = [sum(h[0] for h in hits.values()), sum(h[1] for h in hits.values())]
-        cells = " | ".join(f"{100 * h[0] / h[1]:.2f}" for h in hits.values())
+        cells = " | ".join(f"{100 * h[0] / h[1]:.2f}" if h[1] else "-" for h in hits.values())
         kind = "causal" if after == 0 else "centred"
         print(f"| {before}:{after} ({kind}) | {args.riders} | {cells} | {100 * total[0] / total[1]:.2f} | "
               f"{100 * away[0] / away[1]:.2f} | {100 * late[0] / max(late[1], 1):.0f} % |", flush=True)
