@@ -6,8 +6,10 @@ CRC_RLS, kernel CRC_RLS and the nearest-columns rule on the same dictionary, cau
 dictionary purity and columns per class (cruising / normal / sudden), per-sample accuracy per scenario and over all
 tests, and the sudden-braking labels inside the normal-braking tests (the paper's count: 6 of 7800). The report of
 one seed (``spotfree evaluate``) adds the supervised peers; this shows how much the figures move with the seed.
+``--peers`` also runs the supervised MiniRocket and 1-NN peers of the report (causal windows, every training label;
+needs aeon: ``pip install -e '.[eval]'``) on the same tests.
 
-    python benchmarks/evaluation_seeds.py --seeds 0 1 2 3 4
+    python benchmarks/evaluation_seeds.py --seeds 0 1 2 3 4 [--peers]
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from datetime import datetime, timezone
 import numpy as np
 
 from spotfree.classify.batch import classify_recording, dictionary_classifier
+from spotfree.evaluation.measure import make_peers, peer_runs
 from spotfree.evaluation.protocol import SCENARIOS, Protocol, simulate, train_dictionary
 from spotfree.training import dictionary_purity
 
@@ -31,6 +34,7 @@ CLASSES = ("cruising", "normal-braking", "sudden-braking")
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
+    parser.add_argument("--peers", action="store_true", help="also the supervised MiniRocket and 1-NN peers")
     args = parser.parse_args()
     print(f"# evaluation_seeds {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; {platform.machine()}, "
           f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}; Python {platform.python_version()}, "
@@ -66,6 +70,25 @@ def main() -> None:
                 totals[method, alignment][1] += total
                 print(f"| {seed} | {pur} | {cols} | {method} | {alignment} | {' | '.join(cells)} | "
                       f"{100 * right / total:.2f} | {false_sudden} |")
+        if args.peers:
+            peers = make_peers(model, protocol)
+            peers = {name: peer for name, peer in peers.items() if "ClaSP" not in name}
+            for name, runs in peer_runs(peers, data).items():
+                cells, right, total, false_sudden = [], 0, 0, ""
+                for scenario in SCENARIOS:
+                    label = runs.runs[scenario].decided()
+                    scored = label != ""
+                    hits = int(np.sum(label[scored] == data[scenario].test.truth["label"][scored]))
+                    cells.append(f"{100 * hits / scored.sum():.2f}")
+                    right, total = right + hits, total + int(scored.sum())
+                    if scenario == "normal-braking":
+                        false_sudden = f"{int(np.sum(label == 'sudden-braking'))} of {int(scored.sum())}"
+                key = (name.split(" (")[0], "causal")
+                totals.setdefault(key, [0, 0])
+                totals[key][0] += right
+                totals[key][1] += total
+                print(f"| {seed} | - | - | {key[0]} | causal | {' | '.join(cells)} | {100 * right / total:.2f} | "
+                      f"{false_sudden} |")
     print()
     print("| method | windows | all tests, all seeds |")
     print("|---|---|---:|")
