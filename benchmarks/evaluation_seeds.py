@@ -55,45 +55,38 @@ def main() -> None:
         for method in METHODS:
             for alignment in ("causal", "centred"):
                 clf = dictionary_classifier(model, method, causal=alignment == "causal")
-                cells, right, total, false_sudden = [], 0, 0, ""
-                for scenario in SCENARIOS:
-                    test = data[scenario].test
-                    label = classify_recording(model, test, method, centred=alignment == "centred",
-                                               classifier=clf).label
-                    scored = label != ""
-                    hits = int(np.sum(label[scored] == test.truth["label"][scored]))
-                    cells.append(f"{100 * hits / scored.sum():.2f}")
-                    right, total = right + hits, total + int(scored.sum())
-                    if scenario == "normal-braking":
-                        false_sudden = f"{int(np.sum(label == 'sudden-braking'))} of {int(scored.sum())}"
-                totals[method, alignment][0] += right
-                totals[method, alignment][1] += total
-                print(f"| {seed} | {pur} | {cols} | {method} | {alignment} | {' | '.join(cells)} | "
-                      f"{100 * right / total:.2f} | {false_sudden} |")
+                labels = {s: classify_recording(model, data[s].test, method, centred=alignment == "centred",
+                                                classifier=clf).label for s in SCENARIOS}
+                _report(seed, pur, cols, method, alignment, labels, data, totals)
         if args.peers:
             peers = make_peers(model, protocol)
             peers = {name: peer for name, peer in peers.items() if "ClaSP" not in name}
             for name, runs in peer_runs(peers, data).items():
-                cells, right, total, false_sudden = [], 0, 0, ""
-                for scenario in SCENARIOS:
-                    label = runs.runs[scenario].decided()
-                    scored = label != ""
-                    hits = int(np.sum(label[scored] == data[scenario].test.truth["label"][scored]))
-                    cells.append(f"{100 * hits / scored.sum():.2f}")
-                    right, total = right + hits, total + int(scored.sum())
-                    if scenario == "normal-braking":
-                        false_sudden = f"{int(np.sum(label == 'sudden-braking'))} of {int(scored.sum())}"
-                key = (name.split(" (")[0], "causal")
-                totals.setdefault(key, [0, 0])
-                totals[key][0] += right
-                totals[key][1] += total
-                print(f"| {seed} | - | - | {key[0]} | causal | {' | '.join(cells)} | {100 * right / total:.2f} | "
-                      f"{false_sudden} |")
+                labels = {s: runs.runs[s].decided() for s in SCENARIOS}
+                _report(seed, "-", "-", name.split(" (")[0], "causal", labels, data, totals)
     print()
     print("| method | windows | all tests, all seeds |")
     print("|---|---|---:|")
     for (method, alignment), (right, total) in totals.items():
         print(f"| {method} | {alignment} | {100 * right / total:.2f} |")
+
+
+def _report(seed, pur, cols, method, alignment, labels: dict, data, totals: dict) -> None:
+    """Print one table row for ``labels`` (per scenario, ``""`` where unscored) and add it to ``totals``."""
+    cells, right, total, false_sudden = [], 0, 0, ""
+    for scenario in SCENARIOS:
+        label = labels[scenario]
+        scored = label != ""
+        hits = int(np.sum(label[scored] == data[scenario].test.truth["label"][scored]))
+        cells.append(f"{100 * hits / scored.sum():.2f}")
+        right, total = right + hits, total + int(scored.sum())
+        if scenario == "normal-braking":
+            false_sudden = f"{int(np.sum(label == 'sudden-braking'))} of {int(scored.sum())}"
+    counts = totals.setdefault((method, alignment), [0, 0])
+    counts[0] += right
+    counts[1] += total
+    print(f"| {seed} | {pur} | {cols} | {method} | {alignment} | {' | '.join(cells)} | {100 * right / total:.2f} | "
+          f"{false_sudden} |")
 
 
 if __name__ == "__main__":

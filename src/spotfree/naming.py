@@ -28,8 +28,8 @@ A cluster present in recordings that share no declared class cannot be any one c
    every recording may take no group by enrichment (normal braking when the normal-braking ride brakes no more
    often than the sudden-braking ride, whose stops pass through it). When the caller says that a more specific
    class passes through it, the shared group nearest to that class's windows takes its name (the paper's nesting:
-   its second clustering splits the normal braking off the sudden stops). Measured on the evaluation's protocol, seed 4: no normal-braking group before, 77 columns of
-   purity 0.97 after.
+   its second clustering splits the normal braking off the sudden stops). Measured on the evaluation's protocol,
+   seed 4: no normal-braking group before, 77 columns of purity 0.97 after.
 """
 
 from __future__ import annotations

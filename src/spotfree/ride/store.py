@@ -345,12 +345,17 @@ class _SampleWrite:
         """Write this batch alone: InputError, AccessError or NotFoundError name what is wrong."""
         last = self.store._own_open_ride(db, self.token, self.ride_id, blocks.LAST_TIME)
         validation.check_times(self.t, last, f"ride {self.ride_id}")
-        db.execute(blocks.INSERT_SAMPLES, self.sample_row)
-        for row in self.label_rows:
-            db.execute(blocks.INSERT_LABELS, row)
-        if self.event_rows:
-            db.executemany(_EVENT_SQL, self.event_rows)
+        _insert(db, [self])
         return len(self.t)
+
+
+def _insert(db, writes: list[_SampleWrite]) -> None:
+    """The rows of ``writes`` (checked): one multi-row insert per table, events upserted in order."""
+    blocks.insert_rows(db, blocks.INSERT_SAMPLES, [w.sample_row for w in writes])
+    blocks.insert_rows(db, blocks.INSERT_LABELS, [row for w in writes for row in w.label_rows])
+    events = [row for w in writes for row in w.event_rows]
+    if events:
+        db.executemany(_EVENT_SQL, events)
 
 
 class _Unclear(Exception):
@@ -369,7 +374,7 @@ def _write_together(db, writes: list[_SampleWrite]) -> list[tuple[bool, object]]
                           f"JOIN devices d ON d.device_id = r.device_id WHERE r.ride_id IN "
                           f"({', '.join('?' * len(part))})", part).fetchall()
         known.update((ride_id, [ended, owner, last]) for ride_id, ended, owner, last in rows)
-    outcomes, samples, labels, events = [], [], [], []
+    outcomes, accepted = [], []
     for write in writes:
         ended, owner, last = known.get(write.ride_id, (None, None, None))
         if owner is None or owner != write.token_hash or ended is not None:
@@ -380,14 +385,9 @@ def _write_together(db, writes: list[_SampleWrite]) -> list[tuple[bool, object]]
             outcomes.append((False, exc))
             continue
         known[write.ride_id][2] = float(write.t[-1])
-        samples.append(write.sample_row)
-        labels += write.label_rows
-        events += write.event_rows
+        accepted.append(write)
         outcomes.append((True, len(write.t)))
-    blocks.insert_rows(db, blocks.INSERT_SAMPLES, samples)
-    blocks.insert_rows(db, blocks.INSERT_LABELS, labels)
-    if events:
-        db.executemany(_EVENT_SQL, events)
+    _insert(db, accepted)
     return outcomes
 
 
