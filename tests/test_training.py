@@ -95,6 +95,20 @@ def test_a_class_every_recording_declares_and_no_cluster_takes_is_explained(expe
     assert "every recording declares it" in warning and "--name CLUSTER=normal-braking" in warning
 
 
+def test_causal_columns_include_the_first_windows_of_a_manoeuvre():
+    """A causal column ends where its class begins even though purification dropped the centred window there."""
+    from spotfree.training import _causal_columns
+    from spotfree.windows import WindowedRecording
+
+    names = np.array(["cruising"] * 12 + ["sudden-braking"] * 8 + ["cruising"] * 12, dtype=object).astype(str)
+    matrix = np.arange(len(names), dtype=float)[None, :].repeat(3, axis=0)  # column k holds k
+    windows = [WindowedRecording(matrix, np.arange(len(names)), None)]
+    config = TrainingConfig(window=8, train_step=1)  # shift: 4 windows
+    dictionary, column_class = _causal_columns(windows, [names], ["cruising", "sudden-braking"], 3, config)
+    sudden = np.sort(dictionary[0, column_class == 1]).astype(int)
+    np.testing.assert_array_equal(sudden, np.arange(12 - 4, 20 - 4))
+
+
 def test_causal_columns_are_named_by_the_state_their_window_ends_in(experiments, evidence):
     """Causal classification (batch and stream) uses the columns named at their window's end; centred, the others."""
     from spotfree.classify.batch import classify_recording, dictionary_classifier
