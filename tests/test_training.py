@@ -104,9 +104,13 @@ def test_causal_columns_include_the_first_windows_of_a_manoeuvre():
     matrix = np.arange(len(names), dtype=float)[None, :].repeat(3, axis=0)  # column k holds k
     windows = [WindowedRecording(matrix, np.arange(len(names)), None)]
     config = TrainingConfig(window=8, train_step=1)  # shift: 4 windows
-    dictionary, column_class = _causal_columns(windows, [names], ["cruising", "sudden-braking"], 3, config)
+    kept = [np.abs(np.arange(len(names)) - 12) >= 4]  # purification drops the windows near the change at 12
+    dictionary, column_class = _causal_columns(windows, [names], kept, ["cruising", "sudden-braking"], 3, config)
     sudden = np.sort(dictionary[0, column_class == 1]).astype(int)
     np.testing.assert_array_equal(sudden, np.arange(12 - 4, 20 - 4))
+    config.causal_onsets = False  # only where the centred window was kept: the first four are gone
+    dictionary, column_class = _causal_columns(windows, [names], kept, ["cruising", "sudden-braking"], 3, config)
+    np.testing.assert_array_equal(np.sort(dictionary[0, column_class == 1]).astype(int), np.arange(12, 20 - 4))
 
 
 def test_causal_columns_are_named_by_the_state_their_window_ends_in(experiments, evidence):

@@ -106,6 +106,7 @@ class TrainingConfig:
     max_columns: int = 600
     min_margin: float = 0.15
     margin: int | None = None
+    causal_onsets: bool = True
     seed: int = 0
 
 
@@ -163,7 +164,7 @@ def train(experiments: list[TrainingExperiment], config: TrainingConfig | None =
     column_source = [column_source[k] for k in chosen]
     warnings += [f"class '{classes[i]}': no column reached the margin {config.min_margin:g}; its {n} columns are "
                  "less confident" for i, n in capped]
-    causal = _causal_columns(windows, names_per_window, classes, depth, config)
+    causal = _causal_columns(windows, names_per_window, kept, classes, depth, config)
     model = DictionaryModel(
         classes=classes,
         channels=list(config.channels),
@@ -180,7 +181,8 @@ def train(experiments: list[TrainingExperiment], config: TrainingConfig | None =
                     "clustering": "osc" if config.recipe == "paper" else config.clustering,
                     "affine": config.affine,
                     "train_step": config.train_step, "max_columns": config.max_columns,
-                    "min_margin": config.min_margin, "nesting": [list(p) for p in config.nesting]},
+                    "min_margin": config.min_margin, "nesting": [list(p) for p in config.nesting],
+                    "causal_onsets": config.causal_onsets},
         causal_dictionary=None if causal is None else causal[0],
         causal_column_class=None if causal is None else causal[1],
         summary={
@@ -389,22 +391,22 @@ def _run_margins(pooled, atoms, names, run, k: int = 5) -> np.ndarray:
     return (other - distance[:, own[0]]) / np.maximum(other + distance[:, own[0]], 1e-12)
 
 
-def _causal_columns(windows, names_per_window, classes, depth, config):
+def _causal_columns(windows, names_per_window, kept, classes, depth, config):
     """``(dictionary, column_class)`` for causal classification, or None: every named training window, named by the
     window centred on its last sample (a window's name describes its centre; a causal window labels its end), at
     most ``max_columns`` per class evenly over time. Windows that straddle a change of name come in, named by the
-    state they end in, and so do those ending where purification dropped the centred window (near a change of name):
-    those are the first moments of each manoeuvre, which a causal window must learn to call. Measured
-    (``benchmarks/evaluation_seeds.py``, BENCHMARKS.md), causal kernel CRC_RLS over all tests: requiring the centred
-    window to be kept gave 90.80 % on development seeds 10-14 and 91.44 % on evaluation seeds 0-4, without it
-    91.53 % and 92.57 %. Against centre-named columns (``benchmarks/causal_relabel.py``): sudden braking labelled
-    0.15 to 0.45 s sooner."""
+    state they end in. With ``config.causal_onsets`` so do those ending where purification dropped the centred window
+    (``kept``; near a change of name): the first moments of each manoeuvre, which a causal window must learn to call.
+    Measured (``benchmarks/evaluation_seeds.py``, BENCHMARKS.md), causal kernel CRC_RLS over all tests: without them
+    90.80 % on development seeds 10-14 and 91.44 % on evaluation seeds 0-4, with them 91.53 % and 92.57 %. Against
+    centre-named columns (``benchmarks/causal_relabel.py``): sudden braking labelled 0.15 to 0.45 s sooner."""
     shift = (config.window // 2) // config.train_step
     if shift == 0:
         return None
     columns, column_class = [], []
-    for w, per in zip(windows, names_per_window):
-        for k in np.flatnonzero((per[:len(per) - shift] != "") & (per[shift:] != "")):
+    for w, per, keep in zip(windows, names_per_window, kept):
+        ends_kept = keep[shift:] if not config.causal_onsets else np.ones(len(per) - shift, dtype=bool)
+        for k in np.flatnonzero((per[:len(per) - shift] != "") & (per[shift:] != "") & ends_kept):
             columns.append(w.matrix[:depth, k])
             column_class.append(classes.index(per[k + shift]))
     if not columns:
