@@ -46,6 +46,8 @@ Output: a :class:`~spotfree.model.DictionaryModel` whose columns are windows kep
 6. Causal columns (:func:`_causal_columns`): a window's name describes its centre, but a causal window labels its
    last sample, half a window later. The model also carries the training windows named by the window centred on
    their end, for causal classification (batch, streaming, the page); centred classification uses the others.
+   These include, unless ``causal_onsets`` is off, the windows that end in the first moments of a manoeuvre, where
+   purification drops the centred window.
 
 ``recipe="paper"`` is the paper's procedure taken literally, kept to measure the gain: each recording alone, unit-
 norm windows, split in two, the larger cluster named the background and the smaller the recording's most specific
@@ -405,7 +407,7 @@ def _causal_columns(windows, names_per_window, kept, classes, depth, config):
         return None
     columns, column_class = [], []
     for w, per, keep in zip(windows, names_per_window, kept):
-        ends_kept = keep[shift:] if not config.causal_onsets else np.ones(len(per) - shift, dtype=bool)
+        ends_kept = np.ones(len(per) - shift, dtype=bool) if config.causal_onsets else keep[shift:]
         for k in np.flatnonzero((per[:len(per) - shift] != "") & (per[shift:] != "") & ends_kept):
             columns.append(w.matrix[:depth, k])
             column_class.append(classes.index(per[k + shift]))
