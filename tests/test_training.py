@@ -113,6 +113,35 @@ def test_causal_columns_include_the_first_windows_of_a_manoeuvre():
     np.testing.assert_array_equal(np.sort(dictionary[0, column_class == 1]).astype(int), np.arange(12, 20 - 4))
 
 
+def test_causal_names_give_the_ends_of_a_nested_run_to_the_class_it_passes_through():
+    """Half a window at each end of a sudden-braking run is normal braking for the causal columns; short runs and
+    recordings that do not declare both classes are left alone."""
+    from spotfree.training import _causal_names
+
+    names = np.array(["cruising"] * 12 + ["sudden-braking"] * 12 + ["cruising"] * 4 + ["sudden-braking"] * 8
+                     + ["cruising"] * 4, dtype=object).astype(str)
+    config = TrainingConfig(window=8, train_step=1)  # half a window: 4 windows
+    cut, alone = _causal_names([names, names], [SB, ["cruising", "sudden-braking"]], config)
+    expected = names.copy()
+    expected[12:16] = expected[20:24] = "normal-braking"
+    np.testing.assert_array_equal(cut, expected)
+    np.testing.assert_array_equal(alone, names)
+    assert (names[12:16] == "sudden-braking").all()  # the input is not changed
+
+
+def test_the_model_carries_the_landmarks_its_kernel_classifier_uses(evidence):
+    from dataclasses import replace
+
+    from spotfree.classify.batch import dictionary_classifier
+
+    model = evidence.model
+    assert model.parameters["landmarks"] == 64
+    assert dictionary_classifier(model, "kcrc", causal=True).landmarks == 64
+    assert dictionary_classifier(model, "kcrc", causal=True, landmarks=16).landmarks == 16
+    older = replace(model, parameters={k: v for k, v in model.parameters.items() if k != "landmarks"})
+    assert dictionary_classifier(older, "kcrc", causal=True).landmarks == 32
+
+
 def test_causal_columns_are_named_by_the_state_their_window_ends_in(experiments, evidence):
     """Causal classification (batch and stream) uses the columns named at their window's end; centred, the others."""
     from spotfree.classify.batch import classify_recording, dictionary_classifier

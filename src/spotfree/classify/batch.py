@@ -121,9 +121,12 @@ def model_features(model: DictionaryModel, rec: Recording) -> Recording:
 
 def dictionary_classifier(model: DictionaryModel, method: str = DEFAULT_METHOD, causal: bool = False, **params):
     """Classifier ``method`` fitted on the model's dictionary columns (with the affine row), one atom per column;
-    ``causal``: on its causal columns when it has them (:meth:`DictionaryModel.columns`)."""
+    ``causal``: on its causal columns when it has them (:meth:`DictionaryModel.columns`). Kernel CRC_RLS takes the
+    model's ``parameters["landmarks"]`` unless ``params`` name them (models without it: the classifier's default)."""
     dictionary, column_class = model.columns(causal)
     atoms = with_affine_row(dictionary, model_affine(model)).T
+    if method == "kcrc" and "landmarks" in model.parameters:
+        params.setdefault("landmarks", model.parameters["landmarks"])
     return make_classifier(method, **params).fit(atoms, np.asarray(model.classes)[column_class])
 
 
