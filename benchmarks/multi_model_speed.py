@@ -69,6 +69,7 @@ def load_or_train(folder: Path) -> dict:
     """The models saved in ``folder``, trained and saved there first when any is missing."""
     paths = {name: folder / f"{name}.npz" for name in NAMES}
     if not all(p.exists() for p in paths.values()):
+        folder.mkdir(parents=True, exist_ok=True)
         for name, model in trained_models().items():
             model.save(paths[name])
     return {name: DictionaryModel.load(p) for name, p in paths.items()}
