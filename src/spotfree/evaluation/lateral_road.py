@@ -43,10 +43,11 @@ class ModelSpec:
     max_columns: int = 100
 
     def config(self, seed: int, **changes) -> TrainingConfig:
-        """The :class:`~spotfree.training.TrainingConfig` of this spec (``changes`` override fields)."""
+        """The :class:`~spotfree.training.TrainingConfig` of this spec (``changes`` override fields); names are not
+        aligned to the lean (``timing=None``): these classes are not defined by it."""
         fields = dict(channels=self.channels, window=self.window, train_step=self.train_step,
                       extra_clusters=self.extra_clusters, max_columns=self.max_columns,
-                      background=CLASSES[self.scenario][0], seed=seed)
+                      background=CLASSES[self.scenario][0], timing=None, seed=seed)
         fields.update(changes)
         return TrainingConfig(**fields)
 
