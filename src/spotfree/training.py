@@ -29,7 +29,9 @@ Output: a :class:`~spotfree.model.DictionaryModel` whose columns are windows kep
    its windows are classified by CRC against those classes' windows and its own windows outside the run being
    tested; a group that a known class explains takes that name. Groups that stay are split in two by OSC again and
    each half is checked the same way (the paper's second clustering of the sudden-stop experiment, which
-   separates the normal braking hidden around each sudden stop).
+   separates the normal braking hidden around each sudden stop). Then the names are moved to the timing of the
+   channel that defines the classes (``timing``, default the measured ``lean``; :func:`_align_names`): a window's
+   content shows the vehicle's answer, which follows the rider's lean.
 5. Purification: a window named a class that its recording does not declare is dropped (the group it belongs to
    is mixed there); windows within ``margin`` windows of a change of name straddle two states and are dropped, and so
    are windows that lie nearer to another name than to their own (leave-run-out: a run of windows is compared with
