@@ -160,14 +160,15 @@ def test_names_are_moved_to_the_timing_of_the_lean():
     windows = [WindowedRecording(np.zeros((3, n)), ends, None)]
     declared = [["cruising", "normal-braking"]]
     rides = [SimpleNamespace(recording=SimpleNamespace(channels={"lean": lean}))]
-    (aligned,) = _align_names([names], rides, windows, declared, config, lambda m: None)
+    (aligned,), lag = _align_names([names], rides, windows, declared, config, lambda m: None)
+    assert lag == 3
     assert (np.flatnonzero(aligned == "normal-braking") == np.arange(17, 29)).all()
     assert (aligned[-3:] == "").all()
     config.timing = None
-    np.testing.assert_array_equal(_align_names([names], rides, windows, declared, config, lambda m: None)[0], names)
+    np.testing.assert_array_equal(_align_names([names], rides, windows, declared, config, lambda m: None)[0][0], names)
     config.timing = "lean"
     bare = [SimpleNamespace(recording=SimpleNamespace(channels={}))]
-    np.testing.assert_array_equal(_align_names([names], bare, windows, declared, config, lambda m: None)[0], names)
+    assert _align_names([names], bare, windows, declared, config, lambda m: None)[1] is None
 
 
 def test_causal_columns_are_named_by_the_state_their_window_ends_in(experiments, evidence):

@@ -156,6 +156,10 @@ def train(
     out.print(table)
     out.print("columns per class: " + ", ".join(f"{c} {k}" for c, k in
                                                 result.model.summary["columns_per_class"].items()))
+    aligned = result.model.summary.get("aligned")
+    if aligned:
+        out.print(f"names moved {aligned['seconds']:.2f} s earlier, to the timing of {aligned['channel']} "
+                  f"({aligned['windows']} windows)")
     for warning in result.warnings:
         err.print(f"[bold yellow]warning:[/] {warning}", markup=True)
     out.print(f"figure: {figure}")

@@ -152,9 +152,10 @@ def train(experiments: list[TrainingExperiment], config: TrainingConfig | None =
     say(f"{sum(w.matrix.shape[1] for w in windows)} windows from {len(experiments)} recordings")
     if config.recipe == "paper":
         names_per_window, levels, names, warnings = _paper_recipe(windows, declared, config, say)
+        lag = None
     else:
         names_per_window, levels, names, warnings = _evidence_recipe(windows, declared, config, say)
-        names_per_window = _align_names(names_per_window, experiments, windows, declared, config, say)
+        names_per_window, lag = _align_names(names_per_window, experiments, windows, declared, config, say)
     kept, margins = _purify(windows, names_per_window, config, say)
     classes = sorted({n for per in names_per_window for n in per[per != ""]})
     missing = sorted({c for d in declared for c in d} - set(classes))
@@ -199,6 +200,8 @@ def train(experiments: list[TrainingExperiment], config: TrainingConfig | None =
         summary={
             "clusters": [vars(n) for n in names],
             "columns_per_class": {c: int((column_class == i).sum()) for i, c in enumerate(classes)},
+            "aligned": None if lag is None else {"channel": config.timing, "windows": lag,
+                                                 "seconds": lag * config.train_step / experiments[0].recording.rate},
             "warnings": warnings,
         },
     )
@@ -291,9 +294,10 @@ def _evidence_recipe(windows, declared, config, say):
     return per_recording, levels, names, []
 
 
-def _align_names(names_per_window, experiments, windows, declared, config, say) -> list[np.ndarray]:
-    """``names_per_window`` moved earlier by the lag, 0 to half a window, at which the windows named a manoeuvre
-    best follow the channel ``config.timing`` (unchanged when it is None or a recording lacks it).
+def _align_names(names_per_window, experiments, windows, declared, config, say) -> tuple[list[np.ndarray], int | None]:
+    """``names_per_window`` moved earlier by the lag (returned, in windows), 0 to half a window, at which the windows
+    named a manoeuvre best follow the channel ``config.timing``; unchanged, and lag None, when it is None or a
+    recording lacks it.
 
     The braking classes are what the rider does, the lean (the simulator's labels threshold the deceleration the
     lean asks for); the windows that are clustered show mostly the vehicle's answer, which follows the lean by the
@@ -307,7 +311,7 @@ def _align_names(names_per_window, experiments, windows, declared, config, say) 
     """
     channel = config.timing
     if channel is None or any(channel not in e.recording.channels for e in experiments):
-        return names_per_window
+        return names_per_window, None
     background = background_class(declared, config.background)
     half = (config.window // 2) // config.train_step
     score = np.zeros(half + 1)
@@ -322,7 +326,7 @@ def _align_names(names_per_window, experiments, windows, declared, config, say) 
                   for lag in range(half + 1)]
     lag = int(np.argmax(np.abs(score)))
     say(f"names aligned to {channel}: {lag} windows ({lag * config.train_step} samples) earlier")
-    return [np.r_[per[lag:], np.full(lag, "", dtype=per.dtype)] for per in names_per_window]
+    return [np.r_[per[lag:], np.full(lag, "", dtype=per.dtype)] for per in names_per_window], lag
 
 
 def _explained_by(pooled, recording, per_window, part, cls, known, config):
