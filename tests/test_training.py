@@ -35,13 +35,24 @@ def test_sudden_braking_is_a_small_share_with_confounders(experiments):
     assert any(e for e in sb.truth["event"])
 
 
-@pytest.mark.xfail(strict=True, reason="measured (benchmarks/training_purity.py, seeds 0-7, BENCHMARKS.md): "
-                   "cruising 1.00 on every seed, normal braking 0.67/0.82/0.97/1.00/0.75/0.97/0.94/0.99, sudden "
-                   "braking 1.00/0.85/0.83/1.00/none/0.74/1.00/1.00, every class >= 0.98 on seeds 3 and 7; on this "
-                   "seed (0) normal braking is 0.67: the group that nesting named normal braking holds cruising "
-                   "windows too")
-def test_dictionary_is_pure_and_beats_the_papers_literal_recipe(experiments, evidence):
-    ours = dictionary_purity(evidence, experiments)
+IMPURE = {
+    1: "normal braking 0.82, sudden braking 0.85",
+    2: "normal braking 0.96, sudden braking 0.83",
+    4: "no sudden-braking column",
+    5: "normal braking 0.97, sudden braking 0.74",
+    6: "normal braking 0.92",
+}
+"""Seeds of the protocol where some class is below 0.98 (``benchmarks/training_purity.py --seeds 0 1 2 3 4 5 6 7``,
+BENCHMARKS.md); every class is pure on seeds 0, 3 and 7."""
+
+
+@pytest.mark.parametrize("seed", [
+    pytest.param(s, marks=pytest.mark.xfail(strict=True, reason=f"measured: {IMPURE[s]}") if s in IMPURE else ())
+    for s in range(8)
+])
+def test_dictionary_is_pure_and_beats_the_papers_literal_recipe(seed):
+    experiments = _experiments(seed)
+    ours = dictionary_purity(train(experiments, TrainingConfig(seed=0)), experiments)
     paper = dictionary_purity(train(experiments, TrainingConfig(recipe="paper", seed=0)), experiments)
     print(f"purity per class: evidence {ours}, paper recipe {paper}")
     assert set(ours) == set(SB)
@@ -169,6 +180,22 @@ def test_names_are_moved_to_the_timing_of_the_lean():
     config.timing = "lean"
     bare = [SimpleNamespace(recording=SimpleNamespace(channels={}))]
     assert _align_names([names], bare, windows, declared, config, lambda m: None)[1] is None
+
+
+def test_a_half_of_a_nested_group_shared_by_the_rides_goes_to_the_background():
+    """Seed 0 of the training protocol: nesting named a group normal braking whose halves hold 175 / 39 windows
+    (normal braking, in the ride made for it) and 129 / 149 (cruising, shared); only the shared half is renamed, and
+    only when the other half is enriched."""
+    from spotfree.training import _shared_half
+
+    recording = np.r_[np.zeros(680, dtype=int), np.ones(760, dtype=int)]
+    windows_of = lambda n0, n1, start=0: np.r_[np.arange(start, start + n0), 680 + np.arange(start, start + n1)]
+    enriched, shared = windows_of(175, 39), windows_of(129, 149, start=200)
+    named = _shared_half(recording, shared, enriched, [NB, SB], "cruising", "normal-braking")
+    assert named is not None and named.name == "cruising"
+    assert _shared_half(recording, enriched, shared, [NB, SB], "cruising", "normal-braking") is None
+    assert _shared_half(recording, windows_of(82, 50), windows_of(10, 5, start=100), [NB, SB], "cruising",
+                        "normal-braking") is None  # neither half enriched: the group keeps its name
 
 
 def test_causal_columns_are_named_by_the_state_their_window_ends_in(experiments, evidence):

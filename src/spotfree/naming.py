@@ -52,6 +52,8 @@ class ClusterName:
     rule: str
     confidence: float
     counts: list[int] = field(default_factory=list)
+    nested: bool = False
+    """Named by :func:`name_nested` (nearness to a more specific class), not by evidence across recordings."""
 
 
 def background_class(declared: list[list[str]], background: str | None = None) -> str:
@@ -93,12 +95,7 @@ def name_clusters(
     """Name every cluster from its counts per recording (rules in the module docstring)."""
     n_clusters, n_recordings = counts.shape
     share = counts / counts.sum(axis=0).clip(min=1)
-    n_declaring = {c: sum(c in d for d in declared) for d in declared for c in d}
-    home = {
-        c: [r for r, d in enumerate(declared) if c in d and n_declaring[c] == min(n_declaring[k] for k in d)]
-        for c in n_declaring
-    }
-    lacking = {c: [r for r, d in enumerate(declared) if c not in d] for c in n_declaring}
+    n_declaring, home, lacking = _homes(declared)
     names = []
     for j in range(n_clusters):
         row = counts[j]
@@ -124,6 +121,23 @@ def name_clusters(
             names.append(ClusterName(j, background, f"shared by the recordings, not a declared manoeuvre{note}",
                                      float(max(0.0, 1 - top / enrichment)), row.tolist()))
     return names
+
+
+def _homes(declared: list[list[str]]) -> tuple[dict[str, int], dict[str, list[int]], dict[str, list[int]]]:
+    """Per class: the number of recordings declaring it, its home recordings and the recordings lacking it."""
+    n_declaring = {c: sum(c in d for d in declared) for d in declared for c in d}
+    home = {
+        c: [r for r, d in enumerate(declared) if c in d and n_declaring[c] == min(n_declaring[k] for k in d)]
+        for c in n_declaring
+    }
+    lacking = {c: [r for r, d in enumerate(declared) if c not in d] for c in n_declaring}
+    return n_declaring, home, lacking
+
+
+def class_enrichment(share: np.ndarray, declared: list[list[str]], name: str) -> float:
+    """``E_X`` of the module docstring for class ``name``, from a group's ``share`` of each recording."""
+    _, home, lacking = _homes(declared)
+    return _enrichment(np.asarray(share, dtype=float), home[name], lacking[name]) if home[name] else 0.0
 
 
 def _enrichment(share: np.ndarray, inside: list[int], lacking: list[int]) -> float:
@@ -219,5 +233,5 @@ def name_nested(pooled: np.ndarray, recording: np.ndarray, labels: np.ndarray, n
         out[best.cluster] = ClusterName(
             best.cluster, outer, f"{inner} passes through {outer}: the shared group nearest to {inner} "
             f"(distance {distance[best.cluster]:.2f}, background {distance[largest.cluster]:.2f})",
-            float(1 - distance[best.cluster] / distance[largest.cluster]), best.counts)
+            float(1 - distance[best.cluster] / distance[largest.cluster]), best.counts, nested=True)
     return out
