@@ -37,9 +37,9 @@ def test_sudden_braking_is_a_small_share_with_confounders(experiments):
 
 IMPURE = {
     1: "normal braking 0.82, sudden braking 0.85",
-    2: "normal braking 0.96, sudden braking 0.83",
+    2: "normal braking 0.93, sudden braking 0.92",
     4: "no sudden-braking column",
-    5: "normal braking 0.97, sudden braking 0.74",
+    5: "normal braking 0.97, sudden braking 0.77",
     6: "normal braking 0.92",
 }
 """Seeds of the protocol where some class is below 0.98 (``benchmarks/training_purity.py --seeds 0 1 2 3 4 5 6 7``,
@@ -171,8 +171,8 @@ def test_names_are_moved_to_the_timing_of_the_lean():
     windows = [WindowedRecording(np.zeros((3, n)), ends, None)]
     declared = [["cruising", "normal-braking"]]
     rides = [SimpleNamespace(recording=SimpleNamespace(channels={"lean": lean}))]
-    (aligned,), lag = _align_names([names], rides, windows, declared, config, lambda m: None)
-    assert lag == 3
+    (aligned,), lags = _align_names([names], rides, windows, declared, config, lambda m: None)
+    assert lags == [3]
     assert (np.flatnonzero(aligned == "normal-braking") == np.arange(17, 29)).all()
     assert (aligned[-3:] == "").all()
     config.timing = None

@@ -158,8 +158,8 @@ def train(
                                                 result.model.summary["columns_per_class"].items()))
     aligned = result.model.summary.get("aligned")
     if aligned:
-        out.print(f"names moved {aligned['seconds']:.2f} s earlier, to the timing of {aligned['channel']} "
-                  f"({aligned['windows']} windows)")
+        out.print(f"names moved to the timing of {aligned['channel']}: "
+                  + ", ".join(f"{s:.2f} s" for s in aligned["seconds"]) + " earlier (per recording)")
     for warning in result.warnings:
         err.print(f"[bold yellow]warning:[/] {warning}", markup=True)
     out.print(f"figure: {figure}")
