@@ -70,6 +70,7 @@ from spotfree.classify.crc import CRCClassifier
 from spotfree.classify.neighbours import NearestColumnsClassifier
 from spotfree.cluster.osc import OrderedSubspaceClustering
 from spotfree.errors import InputError
+from spotfree.io.checks import true_runs
 from spotfree.io.recording import Recording
 from spotfree.model import DictionaryModel
 from spotfree.naming import (ENRICHMENT, ClusterName, background_class, class_enrichment, name_clusters,
@@ -520,8 +521,7 @@ def _causal_names(names_per_window, declared, config) -> list[np.ndarray]:
         for inner, outer in config.nesting:
             if inner not in classes or outer not in classes:
                 continue
-            edges = np.diff(np.r_[0, (per == inner).astype(int), 0])
-            for start, stop in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+            for start, stop in true_runs(per == inner):
                 if stop - start > 2 * half:
                     per[start:start + half] = outer
                     per[stop - half:stop] = outer

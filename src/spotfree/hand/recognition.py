@@ -47,7 +47,7 @@ from spotfree.hand.commands import CommandFilter
 from spotfree.hand.features import FEATURES, hand_features
 from spotfree.hand.frames import DIRECTION, NORMAL, VELOCITY
 from spotfree.hand.motion import DIRECTION_RATE, MOTION, NORMAL_RATE, SOURCES, motion_channels, motion_step
-from spotfree.io.checks import write_text
+from spotfree.io.checks import true_runs, write_text
 from spotfree.io.recording import Recording
 from spotfree.model import DictionaryModel
 from spotfree.sim.hand import GESTURES, POSTURES, TRAINING_TASKS
@@ -249,9 +249,7 @@ def _widen(mask: np.ndarray, margin: int) -> np.ndarray:
 
 
 def _longest_run(mask: np.ndarray) -> int:
-    edges = np.diff(np.r_[0, mask.astype(int), 0])
-    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
-    return int((stops - starts).max()) if len(starts) else 0
+    return max((stop - start for start, stop in true_runs(mask)), default=0)
 
 
 def _only(rec: Recording, keep: np.ndarray) -> Recording:
@@ -330,8 +328,7 @@ def vote_stretches(mask: np.ndarray, label: np.ndarray) -> np.ndarray:
     A gesture is one movement from one posture to the next, so one stretch of gesture samples names one gesture:
     the windows at its ends, which hold part of the postures around it, are outvoted by those in its middle."""
     out = np.asarray(label, dtype=object).copy()
-    edges = np.diff(np.r_[0, mask.astype(int), 0])
-    for start, stop in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+    for start, stop in true_runs(mask):
         names, first, counts = np.unique(out[start:stop].astype(str), return_index=True, return_counts=True)
         best = max(range(len(names)), key=lambda k: (counts[k], -first[k]))
         out[start:stop] = names[best]

@@ -285,9 +285,9 @@ def order_and_deduplicate(
 # ---------------------------------------------------------------- missing samples and units
 
 
-def nan_runs(missing: np.ndarray) -> list[tuple[int, int]]:
+def true_runs(mask: np.ndarray) -> list[tuple[int, int]]:
     """``(start, stop)`` index ranges of the True runs of a boolean vector."""
-    edges = np.diff(np.r_[0, missing.astype(np.int8), 0])
+    edges = np.diff(np.r_[0, np.asarray(mask).astype(np.int8), 0])
     return list(zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist()))
 
 
@@ -298,7 +298,7 @@ def fill_short_runs(values: np.ndarray, name: str, source: str, repairs: list[st
     """
     values = np.array(values, dtype=float)
     missing = np.isnan(values)
-    short = [(a, b) for a, b in nan_runs(missing) if b - a <= MAX_FILL_RUN and a > 0 and b < len(values)]
+    short = [(a, b) for a, b in true_runs(missing) if b - a <= MAX_FILL_RUN and a > 0 and b < len(values)]
     if short:
         index = np.arange(len(values))
         fill = np.concatenate([index[a:b] for a, b in short])

@@ -299,7 +299,7 @@ def _snapped(
     if dense:
         missing = np.isnan(np.column_stack([channels[c] for c in dense]))
         invalid = missing.any(axis=1)
-        for a, b in checks.nan_runs(invalid):
+        for a, b in checks.true_runs(invalid):
             names = ",".join(c for c, m in zip(dense, missing[a:b].any(axis=0)) if m)
             start = time[a - 1] if a > 0 else time[0] - 1.0 / rate
             end = time[b] if b < len(time) else time[-1] + 1.0 / rate

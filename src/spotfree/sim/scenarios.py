@@ -31,6 +31,7 @@ import numpy as np
 from scipy.ndimage import maximum_filter1d
 
 from spotfree.errors import InputError
+from spotfree.io.checks import true_runs
 from spotfree.io.recording import Recording
 from spotfree.sim.gps import GpsSpec, gps_fixes
 from spotfree.sim.imu import ImuSpec, read_imu
@@ -101,18 +102,12 @@ def braking_labels(lean_accel: np.ndarray) -> np.ndarray:
                     np.where(decel >= NORMAL_BRAKING, "normal-braking", "cruising"))
 
 
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    """``(start, stop)`` index ranges of the True runs in ``mask``."""
-    edges = np.diff(np.concatenate([[0], mask.astype(int), [0]]))
-    return list(zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist()))
-
-
 def lateral_labels(yaw_rate: np.ndarray, fs: float) -> np.ndarray:
     """``straight`` / ``gentle-turn`` / ``sharp-turn`` / ``slalom`` from the yaw rate (rad/s) sampled at ``fs``."""
     labels = np.full(len(yaw_rate), "straight", dtype=object)
     lobes = []
     for sign in (1.0, -1.0):
-        for i0, i1 in _runs(sign * yaw_rate >= STRAIGHT):
+        for i0, i1 in true_runs(sign * yaw_rate >= STRAIGHT):
             peak = float(np.max(np.abs(yaw_rate[i0:i1])))
             labels[i0:i1] = "sharp-turn" if peak >= SHARP else "gentle-turn"
             lobes.append((i0, i1, sign))
