@@ -95,7 +95,7 @@ def name_clusters(
     """Name every cluster from its counts per recording (rules in the module docstring)."""
     n_clusters, n_recordings = counts.shape
     share = counts / counts.sum(axis=0).clip(min=1)
-    n_declaring, home, lacking = _homes(declared)
+    n_declaring, home, lacking = class_homes(declared)
     names = []
     for j in range(n_clusters):
         row = counts[j]
@@ -123,7 +123,7 @@ def name_clusters(
     return names
 
 
-def _homes(declared: list[list[str]]) -> tuple[dict[str, int], dict[str, list[int]], dict[str, list[int]]]:
+def class_homes(declared: list[list[str]]) -> tuple[dict[str, int], dict[str, list[int]], dict[str, list[int]]]:
     """Per class: the number of recordings declaring it, its home recordings and the recordings lacking it."""
     n_declaring = {c: sum(c in d for d in declared) for d in declared for c in d}
     home = {
@@ -136,7 +136,7 @@ def _homes(declared: list[list[str]]) -> tuple[dict[str, int], dict[str, list[in
 
 def class_enrichment(share: np.ndarray, declared: list[list[str]], name: str) -> float:
     """``E_X`` of the module docstring for class ``name``, from a group's ``share`` of each recording."""
-    _, home, lacking = _homes(declared)
+    _, home, lacking = class_homes(declared)
     return _enrichment(np.asarray(share, dtype=float), home[name], lacking[name]) if home[name] else 0.0
 
 
