@@ -118,6 +118,9 @@ def train(
     nested: Optional[list[str]] = typer.Option(
         None, "--nested", help="INNER=OUTER: a manoeuvre of class INNER passes through class OUTER (default: "
         "sudden-braking=normal-braking); --nested none for no such pair"),
+    inner_quantile: float = typer.Option(
+        0.0, "--inner-quantile", help="keep the inner class's columns at or above this quantile of their margins: a "
+        "purer dictionary, fewer of its windows found by centred labels (0: every confident column)"),
     seed: int = typer.Option(0, "--seed"),
     figure: Optional[Path] = typer.Option(None, "--figure", help="diagnostic figure (default: MODEL.png)"),
 ) -> None:
@@ -134,7 +137,7 @@ def train(
         channels=tuple(c.strip() for c in channels.split(",")) if channels else DEFAULT_CHANNELS,
         window=window, step=step, recipe=recipe, background=background, overrides=_parse_names(name),
         extra_clusters=extra_clusters, affine=affine, clustering=clustering, max_columns=max_columns, seed=seed,
-        nesting=NESTING if nested is None else _parse_nesting(nested),
+        nesting=NESTING if nested is None else _parse_nesting(nested), inner_quantile=inner_quantile,
     )
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=err,
                   transient=True) as bar:
