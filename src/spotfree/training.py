@@ -250,7 +250,8 @@ def _validate(experiments: list[TrainingExperiment], config: TrainingConfig) -> 
     if config.window < 2:
         raise InputError(f"window must be at least 2 samples, got {config.window}")
     if not 0.0 <= config.inner_quantile < 1.0:
-        raise InputError(f"inner_quantile must be at least 0 and below 1, got {config.inner_quantile}")
+        raise InputError(f"inner_quantile (--inner-quantile) must be at least 0 and below 1, "
+                         f"got {config.inner_quantile}")
 
 
 def _cluster(matrix: np.ndarray, n_clusters: int, seed: int, method: str = "osc") -> np.ndarray:
