@@ -168,17 +168,16 @@ def test_names_are_moved_to_the_timing_of_the_lean():
     lean = np.zeros(ends[-1] + 1)
     lean[ends[17:29] - 10] = -1.0  # the lean drops 3 windows before the names say braking
     windows = [WindowedRecording(np.zeros((3, n)), ends, None)]
-    declared = [["cruising", "normal-braking"]]
     rides = [SimpleNamespace(recording=SimpleNamespace(channels={"lean": lean}))]
-    (aligned,), lags = _align_names([names], rides, windows, declared, config, lambda m: None)
+    (aligned,), lags = _align_names([names], rides, windows, "cruising", config, lambda m: None)
     assert lags == [3]
     assert (np.flatnonzero(aligned == "normal-braking") == np.arange(17, 29)).all()
     assert (aligned[-3:] == "").all()
     config.timing = None
-    np.testing.assert_array_equal(_align_names([names], rides, windows, declared, config, lambda m: None)[0][0], names)
+    np.testing.assert_array_equal(_align_names([names], rides, windows, "cruising", config, lambda m: None)[0][0], names)
     config.timing = "lean"
     bare = [SimpleNamespace(recording=SimpleNamespace(channels={}))]
-    assert _align_names([names], bare, windows, declared, config, lambda m: None)[1] is None
+    assert _align_names([names], bare, windows, "cruising", config, lambda m: None)[1] is None
 
 
 def test_a_half_of_a_nested_group_shared_by_the_rides_goes_to_the_background():
@@ -220,7 +219,7 @@ def test_a_manoeuvre_takes_its_columns_only_from_the_recordings_made_for_it(expe
     from spotfree.training import _away_from_home
 
     per = np.array(["cruising", "normal-braking", "sudden-braking", "", "cruising"])
-    away = _away_from_home([per[:2], per], [NB, SB], TrainingConfig())
+    away = _away_from_home([per[:2], per], [NB, SB], "cruising")
     assert away[0].tolist() == [False, False]
     assert away[1].tolist() == [False, True, False, False, False]
     named = np.array(evidence.model.classes)[evidence.model.column_class]

@@ -159,20 +159,20 @@ def train(experiments: list[TrainingExperiment], config: TrainingConfig | None =
     windows = [WindowedRecording(with_affine_row(w.matrix, config.affine), w.ends, w.experiment) for w in windows]
     declared = [list(e.classes) for e in experiments]
     say(f"{sum(w.matrix.shape[1] for w in windows)} windows from {len(experiments)} recordings")
-    if config.recipe == "paper":
-        names_per_window, levels, names, warnings = _paper_recipe(windows, declared, config, say)
-        lag = None
+    refined = config.recipe != "paper"  # the paper's recipe, kept to measure the gain, is taken literally
+    if refined:
+        background = background_class(declared, config.background)
+        names_per_window, levels, names, warnings = _evidence_recipe(windows, declared, background, config, say)
+        names_per_window, lag = _align_names(names_per_window, experiments, windows, background, config, say)
+        away = _away_from_home(names_per_window, declared, background)
     else:
-        names_per_window, levels, names, warnings = _evidence_recipe(windows, declared, config, say)
-        names_per_window, lag = _align_names(names_per_window, experiments, windows, declared, config, say)
+        names_per_window, levels, names, warnings = _paper_recipe(windows, declared, config, say)
+        lag, away = None, [np.zeros(len(per), dtype=bool) for per in names_per_window]
     kept, margins = _purify(windows, names_per_window, config, say)
     classes = sorted({n for per in names_per_window for n in per[per != ""]})
     missing = sorted({c for d in declared for c in d} - set(classes))
     warnings += [_missing_class(c, declared) for c in missing]
     columns, column_class, column_source, column_margin = [], [], [], []
-    refined = config.recipe != "paper"  # the paper's recipe, kept to measure the gain, takes neither refinement
-    away = (_away_from_home(names_per_window, declared, config) if refined
-            else [np.zeros(len(per), dtype=bool) for per in names_per_window])
     for r, (w, per, keep, margin) in enumerate(zip(windows, names_per_window, kept, margins)):
         for k in np.flatnonzero(keep & ~away[r]):
             columns.append(w.matrix[:depth, k])
@@ -265,8 +265,7 @@ def _cluster(matrix: np.ndarray, n_clusters: int, seed: int, method: str = "osc"
     return OrderedSubspaceClustering(n_clusters=n_clusters, random_state=seed).fit(matrix.T).labels_
 
 
-def _evidence_recipe(windows, declared, config, say):
-    background = background_class(declared, config.background)
+def _evidence_recipe(windows, declared, background, config, say):
     n_classes = len({c for d in declared for c in d})
     pooled = np.hstack([w.matrix for w in windows])
     recording = np.concatenate([np.full(w.matrix.shape[1], r) for r, w in enumerate(windows)])
@@ -321,8 +320,8 @@ def _evidence_recipe(windows, declared, config, say):
     return per_recording, levels, names, []
 
 
-def _align_names(names_per_window, experiments, windows, declared, config, say) -> tuple[list[np.ndarray],
-                                                                                         list[int] | None]:
+def _align_names(names_per_window, experiments, windows, background, config, say) -> tuple[list[np.ndarray],
+                                                                                           list[int] | None]:
     """``names_per_window``, each recording's moved earlier by its lag (returned, in windows), 0 to half a window, at
     which its windows named a manoeuvre best follow the channel ``config.timing``; unchanged, and None, when that is
     None or a recording lacks it.
@@ -341,7 +340,6 @@ def _align_names(names_per_window, experiments, windows, declared, config, say) 
     channel = config.timing
     if channel is None or any(channel not in e.recording.channels for e in experiments):
         return names_per_window, None
-    background = background_class(declared, config.background)
     half = (config.window // 2) // config.train_step
     aligned, lags = [], []
     for per, w, e in zip(names_per_window, windows, experiments):
@@ -442,14 +440,13 @@ def _paper_recipe(windows, declared, config, say):
     return per_recording, [level1, level2], names, []
 
 
-def _away_from_home(names_per_window, declared, config) -> list[np.ndarray]:
+def _away_from_home(names_per_window, declared, background) -> list[np.ndarray]:
     """Per recording, its windows named a manoeuvre class of which it is not a home recording (the recordings made
     for the class, :func:`spotfree.naming.class_homes`): there the class is passed through on the way to a more
     specific one, or is a look-alike the clustering grouped with it, so these windows are not its columns (they still
     train the causal columns). Measured on the training test's protocol (``benchmarks/training_purity.py``, seeds
     0-7): the normal-braking columns of the sudden-braking ride were the start of the ride at rest and a stretch of
     cruising on three seeds; without them normal braking is pure (>= 0.98) on seven seeds instead of four."""
-    background = background_class(declared, config.background)
     _, home, _ = class_homes(declared)
     away = []
     for r, per in enumerate(names_per_window):
