@@ -145,3 +145,15 @@ def test_train_writes_a_model_its_summary_and_its_figure(tmp_path):
     refused = runner.invoke(app, ["train", "-o", str(tmp_path / "bad.npz"), *declared, "--nested", "sudden-braking"])
     assert refused.exit_code == 2 and "--nested 'sudden-braking': write INNER=OUTER" in refused.output
     assert not (tmp_path / "bad.npz").exists()
+
+
+def test_train_refuses_an_inner_quantile_outside_0_1_and_keeps_the_model_there(tmp_path):
+    ride = tmp_path / "sb.csv"
+    assert runner.invoke(app, ["simulate", "sudden-braking", "-o", str(ride), "--repeats", "1"]).exit_code == 0
+    model = tmp_path / "m.npz"
+    model.write_bytes(b"an older model")
+    result = runner.invoke(app, ["train", "-o", str(model), "--experiment",
+                                 f"{ride}=cruising,normal-braking,sudden-braking", "--inner-quantile", "1.5"])
+    assert result.exit_code == 2
+    assert "--inner-quantile" in result.output and "got 1.5" in result.output
+    assert model.read_bytes() == b"an older model"
