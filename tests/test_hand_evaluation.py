@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from spotfree.hand.evaluation import _accuracy, _near_change, _places
+from spotfree.hand.evaluation import _accuracy, _near_change, _places, onset_truth
 from spotfree.hand.recognition import HandLabels
 
 
@@ -36,3 +36,16 @@ def test_places_count_from_both_ends_of_every_gesture():
     assert rows.loc["start +0", "offline"] == 0.0 and rows.loc["start +1", "offline"] == 1.0
     assert rows.loc["inside", "samples"] == 2 and rows.loc["end -0", "samples"] == 1
     assert rows.loc["postures", "samples"] == 4 and rows.loc["postures", "speed mm/s"] == 50.0
+
+
+def test_onset_truth_gives_the_slow_ends_of_a_gesture_to_the_postures_around_it():
+    truth_state = np.array(["posture"] * 2 + ["gesture"] * 6 + ["posture"] * 2 + ["gesture"] * 2)
+    truth_label = np.array(["straight"] * 2 + ["straight-to-stop"] * 6 + ["stop"] * 2 + ["stop-to-straight"] * 2)
+    pace = np.array([0, 0, 0.01, 0.3, 0.9, 1.0, 0.4, 0.04, 0, 0, 0.02, 0.03])
+    experiment = np.array([1] * 10 + [2] * 2)
+    state, label = onset_truth(truth_state, truth_label, pace, experiment, 0.05)
+    assert state.tolist() == ["posture"] * 3 + ["gesture"] * 4 + ["posture"] * 5
+    assert label.tolist() == (["straight"] * 3 + ["straight-to-stop"] * 4 + ["stop"] * 3
+                              + ["stop", "straight"])  # a gesture never as fast as c is split in the middle
+    same = onset_truth(truth_state, truth_label, pace, experiment, 0.0)
+    assert same[0].tolist() == truth_state.tolist() and same[1].tolist() == truth_label.tolist()

@@ -51,7 +51,9 @@ def simulated(tmp_path_factory):
 def test_simulated_log_reads_as_one_experiment_per_session_on_a_20_hz_grid(simulated):
     sim, rec = simulated
     assert rec.rate == 20.0 and tuple(rec.channels) == HAND_CHANNELS
-    assert set(rec.truth) == {"state", "label", "person"}
+    assert set(rec.truth) == {"state", "label", "person", "pace"}
+    pace = rec.truth["pace"].astype(float)
+    assert np.all(pace[rec.truth["state"] == "posture"] == 0.0) and pace.max() > 0.99
     assert np.unique(rec.experiment).tolist() == [1, 2]
     for number, part in rec.experiments():
         np.testing.assert_allclose(np.diff(part.time), 0.05, atol=1e-9)

@@ -12,7 +12,8 @@ from spotfree.errors import InputError
 from spotfree.hand.frames import HAND_CHANNELS, frame_message
 from spotfree.hand.log import read_hand_log
 from spotfree.sim.hand import (
-    GESTURES, KNUCKLES, PALM_WIDTH, POSTURES, SEGMENTS, draw_person, fingertips, minimum_jerk, simulate_hands,
+    GESTURES, KNUCKLES, PALM_WIDTH, POSTURES, SEGMENTS, draw_person, fingertips, minimum_jerk, pace,
+    simulate_hands,
 )
 
 
@@ -86,6 +87,25 @@ def test_minimum_jerk_starts_and_ends_at_rest():
     assert abs(velocity[0]) < 1e-3 and abs(velocity[-1]) < 1e-3 and velocity.max() == pytest.approx(1.875, 1e-4)
     assert abs(acceleration[1]) < 1e-2 and abs(acceleration[-2]) < 1e-2
     assert minimum_jerk(np.array([-1.0, 2.0])).tolist() == [0.0, 1.0]
+
+
+@pytest.mark.parametrize("skew", [0.8, 1.0, 1.25])
+def test_pace_is_the_path_speed_over_its_peak(skew):
+    tau = np.linspace(0.0, 1.0, 20001)
+    speed = np.gradient(minimum_jerk(tau**skew), tau)
+    np.testing.assert_allclose(pace(tau, skew), speed / speed.max(), atol=2e-3)
+    assert pace(np.array([0.0, 1.0]), skew).tolist() == [0.0, 0.0]
+
+
+def test_pace_truth_rises_and_falls_once_per_gesture_and_is_zero_in_postures(two):
+    for label, start, count in runs([(f.session, f.truth["label"]) for f in two]):
+        values = np.array([f.truth["pace"] for f in two[start:start + count]])
+        if label[1] in POSTURES:
+            assert np.all(values == 0.0)
+        else:
+            top = int(np.argmax(values))
+            assert values.max() > 0.95 and values[0] < 0.2 and values[-1] < 0.2
+            assert np.all(np.diff(values[:top + 1]) >= 0) and np.all(np.diff(values[top:]) <= 0)
 
 
 def test_tracker_rate_jitter_dropped_frames_and_lost_hands(two):

@@ -13,6 +13,12 @@ the test protocol for each of people ``101 ..`` (never seen in training), per 20
   samples within ``c`` samples of a true change of state left out (as diarisation scoring leaves a collar around
   every reference boundary), since the truth puts the change where the hand starts or stops moving, which no
   sensor sees at once;
+* **from the observable onset**: end to end with the gestures of the truth cut to where the palm moves at
+  least ``c`` of its movement's peak speed (:data:`ONSETS`; the truth's ``pace``, :func:`onset_truth`). Motion
+  studies time a movement's onset and end by such a speed threshold (Botzer and Karniel 2009,
+  doi:10.3389/neuro.20.002.2009, on how onsets are usually detected; 2 % of the peak in the reach-to-grasp
+  kinematics of doi:10.1186/s12984-021-00895-3), whereas the simulator's gesture starts when the
+  movement does, at rest;
 * **where gestures are lost**: end-to-end gesture accuracy by the sample's place in its gesture (first, second,
   ... sample from the start and from the end), beside the measured palm speed there and in postures;
 * **commands**: latency from each true posture onset to its command (:func:`~spotfree.hand.commands.command_latencies`)
@@ -52,6 +58,9 @@ MODES = ("offline", "live")
 COLLARS = (1, 2)
 """Collars (samples on each side of a true change of state left out) of the extra end-to-end figures."""
 
+ONSETS = (0.02, 0.05, 0.10)
+"""Shares of a movement's peak speed at which the end-to-end figures are also scored (:func:`onset_truth`)."""
+
 PLACES = 4
 """Samples from each end of a gesture reported one by one in the table of where gestures are lost."""
 
@@ -65,6 +74,7 @@ class HandEvaluation:
     runs: dict[str, pd.DataFrame]
     accuracy: dict[str, dict[str, float]]
     collars: dict[str, dict[int, dict[str, float]]]
+    onsets: dict[str, dict[float, dict[str, float]]]
     places: pd.DataFrame
     confusion: dict[str, dict[str, pd.DataFrame]]
     latency: dict[str, float]
@@ -95,6 +105,7 @@ def evaluate_hand(train_people: int = TRAINING_PEOPLE, test_people: int = 6, see
         seconds[f"recognition {mode}"] = time.perf_counter() - clock
     streaming = _streaming(model, feats, labels["live"])
     truth_state, truth_label = feats.truth["state"], feats.truth["label"]
+    pace = feats.truth["pace"].astype(float)
     experiment = feats.experiment if feats.experiment is not None else np.ones(len(feats), dtype=int)
     latencies, wrong = [], 0
     runs = {mode: [] for mode in MODES}
@@ -115,6 +126,8 @@ def evaluate_hand(train_people: int = TRAINING_PEOPLE, test_people: int = 6, see
         collars={mode: {c: _accuracy(x.state, x.label, truth_state, truth_label,
                                      ~_near_change(truth_state, experiment, c)) for c in COLLARS}
                  for mode, x in labels.items()},
+        onsets={mode: {c: _accuracy(x.state, x.label, *onset_truth(truth_state, truth_label, pace, experiment, c))
+                       for c in ONSETS} for mode, x in labels.items()},
         places=_places(labels, truth_state, truth_label, experiment, feats.channels["speed"]),
         confusion={mode: _confusions(x, truth_state, truth_label) for mode, x in labels.items()},
         latency={"onsets": int(len(latency)), "reached": float(len(reached) / max(1, len(latency))),
@@ -167,6 +180,22 @@ def _near_change(truth_state: np.ndarray, experiment: np.ndarray, collar: int) -
     return near
 
 
+def onset_truth(truth_state: np.ndarray, truth_label: np.ndarray, pace: np.ndarray, experiment: np.ndarray,
+                threshold: float) -> tuple[np.ndarray, np.ndarray]:
+    """The truth with every gesture cut to its samples from the first to the last whose ``pace`` (the palm's speed
+    over its movement's peak) is at least ``threshold``: the samples before take the posture the gesture leaves
+    (``X`` of ``X-to-Y``), those after the posture it reaches (``Y``); a gesture that never reaches ``threshold``
+    is split in the middle."""
+    state, label = truth_state.astype(object).copy(), truth_label.astype(object).copy()
+    for start, stop in _runs(truth_state == "gesture", experiment):
+        leaves, _, reaches = str(truth_label[start]).partition("-to-")
+        above = np.flatnonzero(pace[start:stop] >= threshold)
+        first, last = (above[0], above[-1] + 1) if len(above) else ((stop - start) // 2,) * 2
+        state[start:start + first] = state[start + last:stop] = "posture"
+        label[start:start + first], label[start + last:stop] = leaves, reaches
+    return state.astype(str), label.astype(str)
+
+
 def _places(labels: dict[str, HandLabels], truth_state, truth_label, experiment, speed) -> pd.DataFrame:
     """Per place in a gesture (``k``-th sample from its start, from its end, or further inside), the number of
     labelled samples, the median measured palm speed (mm/s), and each mode's end-to-end gesture accuracy; a last
@@ -216,6 +245,7 @@ def _accuracy(state, label, truth_state, truth_label, keep=None) -> dict[str, fl
         out[f"end_{s}"] = float((label[true] == truth_label[true]).mean())
         correct += int((label[true] == truth_label[true]).sum())
     out["labels"] = int(labelled.sum())
+    out["gestures"] = int((labelled & (truth_state == "gesture")).sum())
     out["correct"] = correct
     return out
 
@@ -290,7 +320,15 @@ def hand_report(ev: HandEvaluation) -> str:
                   f"{pct(v['end_posture'])} |",
                   f"| gestures, collar {c} ({c / s['rate']:.2f} s) | | {pct(o['end_gesture'])} | "
                   f"{pct(v['end_gesture'])} |"]
-    lines += ["", "A collar of c leaves out the c samples on each side of every true change of state.", ""]
+    lines += ["", "A collar of c leaves out the c samples on each side of every true change of state.", "",
+              "From the observable onset: end to end, with each gesture of the truth taken to start and end where the "
+              "palm moves at c of its movement's peak speed (c = 0: the simulator's truth, from rest to rest):", "",
+              "| c | gesture samples | offline postures | offline gestures | live postures | live gestures |",
+              "|---:|---:|---:|---:|---:|---:|"]
+    for c, (o, v) in [(0.0, (off, live)), *((c, (ev.onsets["offline"][c], ev.onsets["live"][c])) for c in ONSETS)]:
+        lines.append(f"| {100 * c:.0f} % | {o['gestures']:,} | {pct(o['end_posture'])} | {pct(o['end_gesture'])} | "
+                     f"{pct(v['end_posture'])} | {pct(v['end_gesture'])} |")
+    lines.append("")
     lines += ["| mode | run | person | samples | labelled | stage 1 | stage 2 postures | stage 2 gestures "
               "| end to end postures | end to end gestures |",
               "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]

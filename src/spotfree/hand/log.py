@@ -15,8 +15,8 @@ client (:mod:`spotfree.hand.live`) and the simulator write such files. Reading r
   low-pass (the service runs at about 110 frames per second), linear interpolation across holes of at most
   ``max_gap`` s, and longer holes left NaN and reported in ``Recording.gaps``. Extended flags become the fraction
   of the interpolation interval that the finger was extended;
-* ground truth (``truth`` of simulated frames) goes to ``Recording.truth`` columns ``state``, ``label`` and
-  ``person``, taken from the nearest frame.
+* ground truth (``truth`` of simulated frames) goes to ``Recording.truth`` columns ``state``, ``label``,
+  ``person`` and ``pace`` (empty where a frame lacks it), taken from the nearest frame.
 
 Default grid: :data:`HAND_RATE` = 20 Hz, the framework's rate. Its anti-aliasing cut-off, 0.4 x 20 = 8 Hz, keeps
 99.96 % of the velocity energy of a minimum-jerk movement as short as 0.3 s (the fastest posture change of the
@@ -46,7 +46,7 @@ HAND_MAX_GAP = 0.1
 change takes 0.3 s or more, so no posture or gesture can hide in a bridged hole."""
 
 SIDES = ("any", "left", "right")
-TRUTH_KEYS = ("state", "label", "person")
+TRUTH_KEYS = ("state", "label", "person", "pace")
 """Ground-truth columns of a simulated log."""
 
 

@@ -2,7 +2,8 @@
 a Leap Motion-class tracker, which reports frames with tracking noise, jittered timing and lost frames.
 
 :func:`simulate_hands` returns :class:`~spotfree.hand.frames.HandFrame` objects, one session per person, each
-with ground truth ``{"state": "posture"|"gesture", "label": ..., "person": ...}``. Model (docs/hand.md has the
+with ground truth ``{"state": "posture"|"gesture", "label": ..., "person": ..., "pace": ...}`` (``pace``:
+the palm's path speed relative to the movement's peak, :func:`pace`; 0 in a posture). Model (docs/hand.md has the
 numbers and their sources):
 
 * **person** (:func:`draw_person`): hand size (scale of a 85 mm palm), neutral palm position, posture style
@@ -84,6 +85,19 @@ def minimum_jerk(u: np.ndarray) -> np.ndarray:
     """``s(u) = 10 u^3 - 15 u^4 + 6 u^5`` for ``u`` clipped to 0..1: rest to rest with zero end accelerations."""
     u = np.clip(u, 0.0, 1.0)
     return u**3 * (10.0 - 15.0 * u + 6.0 * u**2)
+
+
+def pace(tau: np.ndarray, skew: float) -> np.ndarray:
+    """How fast a movement of speed-profile skew ``skew`` (``gamma``) covers its path at time ``tau`` (0..1) of it,
+    relative to its peak: ``d s(tau^gamma) / d tau = 30 gamma tau^(3 gamma - 1) (1 - tau^gamma)^2``, divided by its
+    maximum over ``tau`` (0 at both ends, 1 at the peak); the truth of where a gesture is observable."""
+    grid = np.linspace(0.0, 1.0, 2001)
+
+    def rate(x: np.ndarray) -> np.ndarray:
+        x = np.clip(x, 0.0, 1.0)
+        return x ** (3.0 * skew - 1.0) * (1.0 - x**skew) ** 2
+
+    return rate(np.asarray(tau, dtype=float)) / rate(grid).max()
 
 
 @dataclass(frozen=True)
@@ -303,13 +317,17 @@ def _session(
     measured = _measure(t, position, velocity, rotation, curl, person, noise, tracker)
     sent = noise.random(len(t)) >= tracker.drop
     lost = _losses(t, noise, tracker)
+    moving = np.array([s.state == "gesture" for s in segments])[which]
+    start, end = np.array([s.start for s in segments])[which], np.array([s.end for s in segments])[which]
+    relative = np.where(moving, pace((t - start) / (end - start), person.skew), 0.0)
     frames = []
     for i in np.flatnonzero(sent):
         seg = segments[which[i]]
         frames.append(HandFrame(
             timestamp=int(round((clock + t[i]) * 1e6)), hands=() if lost[i] else (measured(i),),
             id=first_id + int(i), session=session,
-            truth={"state": seg.state, "label": seg.label, "person": person.number},
+            truth={"state": seg.state, "label": seg.label, "person": person.number,
+                   "pace": round(float(relative[i]), 3)},
         ))
     return frames
 
