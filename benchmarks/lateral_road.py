@@ -17,7 +17,7 @@ import os
 import time
 import warnings
 
-from spotfree.evaluation.lateral_road import MODELS, split, train_and_score
+from spotfree.evaluation.lateral_road import MODELS, spec_split, train_and_score
 from spotfree.sim.scenarios import CLASSES
 
 GRID = {
@@ -48,14 +48,14 @@ def main() -> None:
         print(f"\n{name}: per-class accuracy in the order {', '.join(CLASSES[spec.scenario])}")
         channel_sets, windows = GRID[name]
         for seed in args.dev_seeds:
-            data = split(spec.scenario, seed)
+            data = spec_split(spec, seed)
             print(f"declared per training experiment: {[e.classes for e in data.training]}")
             for channels in channel_sets:
                 for window in windows:
                     start = time.perf_counter()
                     result = train_and_score(spec, data, seed, channels=channels, window=window)
                     print(row(name, seed, channels, window, result, time.perf_counter() - start), flush=True)
-        data = split(spec.scenario, args.test_seed)
+        data = spec_split(spec, args.test_seed)
         start = time.perf_counter()
         result = train_and_score(spec, data, args.test_seed)
         print("test seed, chosen spec:")

@@ -2,7 +2,8 @@
 
 Models: trained spotting-free by :func:`spotfree.training.train` on development seed 100: braking (default
 configuration, experiment 1 of a normal-braking and of a sudden-braking ride), lateral and road
-(:data:`spotfree.evaluation.lateral_road.MODELS`, experiments 1-4 of their files and of the other scenario's); or
+(:data:`spotfree.evaluation.lateral_road.MODELS`, each under its training protocol,
+:func:`~spotfree.evaluation.lateral_road.spec_split`); or
 loaded from ``--models DIR`` (``braking.npz``, ``lateral.npz``, ``road.npz``, written there when missing).
 Data: two simulated lateral rides (seed 7), raw device-frame IMU at 20 Hz with GPS speed on the fixes.
 
@@ -43,7 +44,7 @@ import numpy as np
 from spotfree.classify import DEFAULT_METHOD
 from spotfree.classify.multi import MultiModelStream, classify_models
 from spotfree.classify.stream import RideClassifier
-from spotfree.evaluation.lateral_road import MODELS, split
+from spotfree.evaluation.lateral_road import MODELS, spec_split
 from spotfree.model import DictionaryModel
 from spotfree.signal.features import FeatureStream, ride_features
 from spotfree.sim.scenarios import CLASSES, simulate_scenario
@@ -61,7 +62,7 @@ def trained_models() -> dict:
                                   list(CLASSES[s])) for s in ("normal-braking", "sudden-braking")]
     models = {"braking": train(braking, TrainingConfig(seed=SEED)).model}
     for name, spec in MODELS.items():
-        models[name] = train(split(spec.scenario, SEED).training, spec.config(SEED)).model
+        models[name] = train(spec_split(spec, SEED).training, spec.config(SEED)).model
     return models
 
 

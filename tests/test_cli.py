@@ -9,6 +9,7 @@ import pytest
 from typer.testing import CliRunner
 
 from spotfree.cli import app
+from spotfree.io import read_recording
 
 runner = CliRunner()
 
@@ -77,6 +78,15 @@ def test_simulate_unknown_scenario_exits_2(tmp_path):
     assert result.exit_code == 2
     assert "wheelie" in result.output and "sudden-braking" in result.output
     assert not (tmp_path / "x.csv").exists()
+
+
+def test_simulate_lateral_rides_of_chosen_manoeuvres_and_refuses_unknown_ones(tmp_path):
+    path = tmp_path / "straight.csv"
+    assert runner.invoke(app, ["simulate", "lateral", "-o", str(path), "--repeats", "1", "--manoeuvres",
+                               "none"]).exit_code == 0
+    assert set(read_recording(str(path)).truth["label"]) == {"straight"}
+    result = runner.invoke(app, ["simulate", "lateral", "-o", str(tmp_path / "z.csv"), "--manoeuvres", "zigzag"])
+    assert result.exit_code == 2 and "zigzag" in result.output and not (tmp_path / "z.csv").exists()
 
 
 def test_simulate_is_deterministic_under_the_seed(tmp_path):

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from spotfree.evaluation.lateral_road import MODELS, Split, declared_classes, event_classes, score, split
+from spotfree.evaluation.lateral_road import (KIND_RIDES, MODELS, Split, declared_classes, event_classes, score,
+                                              spec_split, split)
 from spotfree.evaluation.metrics import Score
 from spotfree.training import train
 
@@ -46,3 +47,17 @@ def test_score_counts_every_labelled_sample_of_each_true_class(road_split):
     # every sample but the first window - 1 of the ride is labelled and counted under its true class
     assert overall.total == len(truth) - (model.window - 1)
     assert per_class["smooth"].total == int(np.sum(truth[model.window - 1:] == "smooth"))
+
+
+def test_one_kind_protocol_gives_each_training_rider_one_ride_per_manoeuvre_and_a_straight_one():
+    data = spec_split(MODELS["lateral"], seed=5, repeats=3, n_train=2)
+    assert MODELS["lateral"].one_kind and data.test_experiments == [3]
+    assert len(data.training) == 2 * len(KIND_RIDES["lateral"])
+    assert [e.recording.source for e in data.training[:2]] == ["lateral (gentle) seed 5 experiment 1",
+                                                               "lateral (gentle) seed 5 experiment 2"]
+    assert data.training[-1].recording.source == "lateral (straight) seed 5 experiment 2"
+    for e in data.training:
+        assert e.classes == declared_classes(e.recording.truth["label"], "lateral")
+        assert e.classes[0] == "straight" and len(e.classes) <= 2
+    assert [e.classes for e in data.training[-2:]] == [["straight"], ["straight"]]
+    assert MODELS["lateral"].config(5).single_manoeuvre

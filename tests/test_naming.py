@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from spotfree.errors import InputError
-from spotfree.naming import background_class, name_clusters, name_nested, presence_matrix, rename_habits
+from spotfree.naming import (background_class, name_clusters, name_nested, presence_matrix, rename_habits,
+                             single_manoeuvre_names)
 
 NB = ["cruising", "normal-braking"]
 SB = ["cruising", "normal-braking", "sudden-braking"]
@@ -104,3 +105,24 @@ def test_nesting_needs_the_pair_and_declarations_that_agree_with_it(nesting, dec
     pooled, recording, labels, names = _nested_case()
     nested = name_nested(pooled, recording, labels, names, [list(d) for d in declared], "cruising", nesting)
     assert [n.name for n in nested] == [n.name for n in names]
+
+
+def test_a_group_absent_from_the_straight_rides_takes_the_one_manoeuvre_of_each_recording():
+    declared = [["straight", "gentle"], ["straight", "sharp"], ["straight", "gentle", "sharp"], ["straight"]]
+    # group 0: straight everywhere; group 1: turning windows of every kind, never in the straight-only ride;
+    # group 2: mostly straight-ride windows with a few in the gentle ride
+    labels = np.array([0, 0, 1, 1, 2] + [0, 0, 1, 1, 1] + [0, 1, 1, 0, 0] + [0, 0, 0, 2, 2])
+    recording = np.repeat(np.arange(4), 5)
+    per_window = np.array(["straight"] * 20, dtype=object)
+    out = single_manoeuvre_names(labels, recording, per_window, declared, "straight")
+    assert out.tolist() == (["straight", "straight", "gentle", "gentle", "straight"]
+                            + ["straight", "straight", "sharp", "sharp", "sharp"]
+                            + ["straight", "", "", "straight", "straight"]  # two manoeuvres declared: unnamed
+                            + ["straight"] * 5)
+    named = per_window.copy()
+    named[2] = "slalom"  # a window named otherwise keeps its name
+    assert single_manoeuvre_names(labels, recording, named, declared, "straight")[2] == "slalom"
+    without = [d for d in declared if d != ["straight"]]  # no straight-only recording: nothing changes
+    keep = recording < 3
+    assert single_manoeuvre_names(labels[keep], recording[keep], per_window[keep], without,
+                                  "straight").tolist() == ["straight"] * 15

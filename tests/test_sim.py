@@ -219,6 +219,31 @@ def test_lateral_labels_from_yaw_rate():
     assert labels[int(8.0 * fs)] == "straight" and labels[int(28 * fs)] == "straight"
 
 
+@pytest.mark.parametrize("kinds, allowed", [(("sharp",), {"straight", "sharp-turn"}),
+                                            (("gentle", "slalom"), {"straight", "gentle-turn", "slalom"}),
+                                            ((), {"straight"})])
+def test_lateral_rides_hold_only_the_manoeuvres_asked_for(kinds, allowed):
+    rec = simulate_scenario("lateral", repeats=3, seed=2, manoeuvres=kinds)
+    labels = set(rec.truth["label"])
+    assert labels <= allowed and (len(labels) > 1 or not kinds)
+    assert rec.meta["manoeuvres"] == list(kinds)
+
+
+def test_lateral_rides_with_every_manoeuvre_are_the_default_rides():
+    default = simulate_ride("lateral", 2, repeats=7, seed=4)
+    every = simulate_ride("lateral", 2, repeats=7, seed=4, manoeuvres=("gentle", "sharp", "slalom"))
+    assert default.label.tolist() == every.label.tolist()
+    for name in CHANNELS:
+        np.testing.assert_array_equal(default.channels[name], every.channels[name])
+
+
+def test_manoeuvres_are_refused_outside_lateral_rides_and_when_unknown():
+    with pytest.raises(InputError, match="lateral ride"):
+        simulate_scenario("road", repeats=1, manoeuvres=("gentle",))
+    with pytest.raises(InputError, match="zigzag.*gentle, sharp, slalom"):
+        simulate_scenario("lateral", repeats=1, manoeuvres=("zigzag",))
+
+
 def test_every_experiment_holds_confounders(files):
     for name, rec in files.items():
         for k, part in rec.experiments():

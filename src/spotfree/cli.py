@@ -66,12 +66,16 @@ def simulate(
     repeats: int = typer.Option(7, "--repeats", min=1, help="number of separate experiments (rides)"),
     seed: int = typer.Option(0, "--seed", help="random seed; the same seed gives the same file"),
     rate: float = typer.Option(20.0, "--rate", help="IMU sampling rate, Hz"),
+    manoeuvres: str | None = typer.Option(
+        None, "--manoeuvres", help="lateral only: the kinds of turn the rides hold, comma-separated from gentle, sharp, "
+        "slalom; none for straight rides (default: all three)"),
 ) -> None:
     """Simulate rides of a self-balancing transporter with a tablet on the handlebar."""
     from spotfree.sim.scenarios import simulate_scenario
     from spotfree.io.csvlog import write_csv
 
-    rec = simulate_scenario(scenario, repeats=repeats, seed=seed, rate=rate)
+    kinds = None if manoeuvres is None else tuple(k.strip() for k in manoeuvres.split(",") if k.strip() != "none")
+    rec = simulate_scenario(scenario, repeats=repeats, seed=seed, rate=rate, manoeuvres=kinds)
     write_csv(rec, output)
     out.print(f"wrote {output}: {repeats} experiment(s), {len(rec)} samples at {rate:g} Hz, {rec.duration:.1f} s")
 
@@ -121,6 +125,9 @@ def train(
     inner_quantile: float = typer.Option(
         0.0, "--inner-quantile", help="keep the inner class's columns at or above this quantile of their margins: a "
         "purer dictionary, fewer of its windows found by centred labels (0: every confident column)"),
+    single_manoeuvre: bool = typer.Option(
+        False, "--single-manoeuvre", help="a group absent from the recordings that declare only the background takes, "
+        "in a recording declaring one manoeuvre, that manoeuvre (for one recording per manoeuvre and some without)"),
     seed: int = typer.Option(0, "--seed"),
     figure: Optional[Path] = typer.Option(None, "--figure", help="diagnostic figure (default: MODEL.png)"),
 ) -> None:
@@ -138,6 +145,7 @@ def train(
         window=window, step=step, recipe=recipe, background=background, overrides=_parse_names(name),
         extra_clusters=extra_clusters, affine=affine, clustering=clustering, max_columns=max_columns, seed=seed,
         nesting=NESTING if nested is None else _parse_nesting(nested), inner_quantile=inner_quantile,
+        single_manoeuvre=single_manoeuvre,
     )
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=err,
                   transient=True) as bar:

@@ -31,7 +31,11 @@ Output: a :class:`~spotfree.model.DictionaryModel` whose columns are windows kep
    each half is checked the same way (the paper's second clustering of the sudden-stop experiment, which
    separates the normal braking hidden around each sudden stop); of a group that nesting named, a half that
    evidence calls the background, beside a half enriched for the group's class, goes to the background
-   (:func:`_shared_half`). Then the names are moved to the timing of the
+   (:func:`_shared_half`). On request (``single_manoeuvre``), a group absent from the recordings that declare
+   only the background takes, recording by recording, the one manoeuvre its recording declares
+   (:func:`spotfree.naming.single_manoeuvre_names`; one recording per manoeuvre, as the paper trains, and some
+   without any: the turning windows of gentle turns, sharp turns and slaloms share groups that evidence alone calls
+   the background). Then the names are moved to the timing of the
    channel that defines the classes (``timing``, default the measured ``lean``; :func:`_align_names`): a window's
    content shows the vehicle's answer, which follows the rider's lean.
 5. Purification: a window named a class that its recording does not declare is dropped (the group it belongs to
@@ -77,7 +81,7 @@ from spotfree.io.checks import true_runs
 from spotfree.io.recording import Recording
 from spotfree.model import DictionaryModel
 from spotfree.naming import (ENRICHMENT, ClusterName, background_class, class_enrichment, class_homes,
-                             name_clusters, name_nested, presence_matrix, rename_habits)
+                             name_clusters, name_nested, presence_matrix, rename_habits, single_manoeuvre_names)
 from spotfree.windows import ChannelScaling, WindowedRecording, recording_windows, with_affine_row
 
 RECIPES = ("evidence", "paper")
@@ -104,7 +108,9 @@ class TrainingConfig:
     (:class:`~spotfree.classify.kcrc.KernelCRCClassifier`; None: every atom). ``timing``: the channel whose timing
     defines the classes, which names are aligned to (:func:`_align_names`; None: names as clustered).
     ``inner_quantile``: the inner class of a ``nesting`` pair keeps its columns at or above this quantile of their
-    margins (:func:`_cap`; 0, the default: every confident column)."""
+    margins (:func:`_cap`; 0, the default: every confident column). ``single_manoeuvre``: a group absent from the
+    recordings that declare only the background takes, in a recording declaring one manoeuvre, that manoeuvre's name
+    (:func:`~spotfree.naming.single_manoeuvre_names`)."""
 
     channels: tuple[str, ...] = DEFAULT_CHANNELS
     window: int = 20
@@ -121,6 +127,7 @@ class TrainingConfig:
     max_columns: int = 600
     min_margin: float = 0.15
     inner_quantile: float = 0.0
+    single_manoeuvre: bool = False
     margin: int | None = None
     causal_onsets: bool = True
     landmarks: int | None = 64
@@ -207,6 +214,7 @@ def train(experiments: list[TrainingExperiment], config: TrainingConfig | None =
                     "affine": config.affine,
                     "train_step": config.train_step, "max_columns": config.max_columns,
                     "min_margin": config.min_margin, "inner_quantile": config.inner_quantile,
+                    "single_manoeuvre": config.single_manoeuvre,
                     "nesting": [list(p) for p in config.nesting],
                     "causal_onsets": config.causal_onsets, "landmarks": config.landmarks,
                     "timing": config.timing},
@@ -311,6 +319,8 @@ def _evidence_recipe(windows, declared, background, config, say):
                         names.append(ClusterName(int(level2[part[0]]), background,
                                                  f"nested: part of group {j} {shared.rule}; the other part keeps "
                                                  f"{cls}", shared.confidence, shared.counts))
+    if config.single_manoeuvre:
+        per_window = single_manoeuvre_names(labels, recording, per_window, declared, background)
     split = np.cumsum([0] + [w.matrix.shape[1] for w in windows])
     per_recording = [per_window[split[r]:split[r + 1]].astype(str) for r in range(len(windows))]
     for per, classes in zip(per_recording, declared):

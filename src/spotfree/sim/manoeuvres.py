@@ -38,6 +38,8 @@ from spotfree.sim.vehicle import Road, RiderBody, Vehicle
 
 MAX_SPEED = 20.1 / 3.6
 """Segway PT top speed, m/s (12.5 mi/h)."""
+LATERAL_KINDS = ("gentle", "sharp", "slalom")
+"""The kinds of lateral manoeuvre a lateral ride draws (:func:`lateral`)."""
 LATERAL_LIMIT = 2.0
 """Lateral acceleration ``v r`` riders keep below in turns, m/s^2."""
 SURFACES = ("smooth", "rough-asphalt", "cobblestone")
@@ -546,22 +548,26 @@ def _draw_lateral(kind: str, vehicle: Vehicle, rng: np.random.Generator, v: floa
     return _Lateral(int(rng.integers(4, 9)), rng.uniform(1.1, 2.0), peak, _turn_speed(vehicle, peak, v))
 
 
-def lateral(rider, vehicle, rng, share, near_sudden, rate) -> Programme:
+def lateral(rider, vehicle, rng, share, near_sudden, rate, kinds: tuple[str, ...] = LATERAL_KINDS) -> Programme:
     """Straight riding with gentle turns, sharp turns (slowing down first) and slaloms.
 
     Manoeuvres are drawn until their turning time reaches the share, as long as their time with the slowing down
-    and speeding up around them fits in the ride; high shares favour slaloms over sharp turns.
+    and speeding up around them fits in the ride; high shares favour slaloms over sharp turns. ``kinds``: the
+    kinds of :data:`LATERAL_KINDS` drawn (their odds renormalised; all of them draw as before); none: a straight
+    ride.
     """
     plan = Plan()
     duration = rng.uniform(58.0, 72.0)
     v = max(_cruise_speed(rider, rng) * (1.0 - 0.8 * share), 2.5)  # a course dense with turns is ridden slower
     fixed = v / rider.accel + v / rider.normal_decel + 8.0
-    odds = [0.45, 0.3, 0.25] if share < 0.3 else [0.45, 0.15, 0.4]  # sharp turns cost slowing down
+    odds = np.array([0.45, 0.3, 0.25] if share < 0.3 else [0.45, 0.15, 0.4])  # sharp turns cost slowing down
+    drawn = [k in kinds for k in LATERAL_KINDS]
     need, manoeuvres, busy, cost = share * duration, [], 0.0, 0.0
-    for _ in range(30):
+    for _ in range(30 if any(drawn) else 0):
         if busy >= need and manoeuvres:
             break
-        m = _draw_lateral(str(rng.choice(["gentle", "sharp", "slalom"], p=odds)), vehicle, rng, v)
+        kind = rng.choice(np.array(LATERAL_KINDS)[drawn], p=odds[drawn] / odds[drawn].sum())
+        m = _draw_lateral(str(kind), vehicle, rng, v)
         turning = m.lobes * m.length * (1.0 if m.lobes > 1 else 0.65)  # a lone lobe is straight at its ends
         extra = m.lobes * m.length + (2.0 * (v - m.speed) / 0.6 + 1.5 if m.speed < v - 0.1 else 0.0)
         if busy + turning > max(1.3 * need, 4.0) or cost + extra + 2.0 * (len(manoeuvres) + 2) > duration - fixed:
@@ -569,8 +575,8 @@ def lateral(rider, vehicle, rng, share, near_sudden, rate) -> Programme:
         manoeuvres.append(m)
         busy += turning
         cost += extra
-    if not manoeuvres:
-        manoeuvres.append(_draw_lateral("gentle", vehicle, rng, v))
+    if not manoeuvres and any(drawn):
+        manoeuvres.append(_draw_lateral(LATERAL_KINDS[drawn.index(True)], vehicle, rng, v))
         cost = manoeuvres[0].lobes * manoeuvres[0].length
     gaps = _split(duration - fixed - cost, len(manoeuvres) + 1, rng, 2.0)
     stop_gap = int(np.argmax(gaps)) if rng.random() < 0.5 else -1

@@ -35,7 +35,7 @@ from spotfree.io.checks import true_runs
 from spotfree.io.recording import Recording
 from spotfree.sim.gps import GpsSpec, gps_fixes
 from spotfree.sim.imu import ImuSpec, read_imu
-from spotfree.sim.manoeuvres import PLANS, SURFACES, Programme, draw_rider
+from spotfree.sim.manoeuvres import LATERAL_KINDS, PLANS, SURFACES, Programme, draw_rider
 from spotfree.sim.vehicle import Motion, balance_response, draw_vehicle, simulate_motion
 
 SCENARIOS = ("normal-braking", "sudden-braking", "cruising", "lateral", "road")
@@ -143,9 +143,17 @@ def _share_target(scenario: str, experiment: int, repeats: int, seed: int) -> fl
     return float(lo + (hi - lo) * (slot + jitter) / repeats)
 
 
-def _validate(scenario: str, repeats: int, seed: int, rate: float) -> None:
+def _validate(scenario: str, repeats: int, seed: int, rate: float, manoeuvres: tuple[str, ...] | None = None) -> None:
     if scenario not in SCENARIOS:
         raise InputError(f"simulate: unknown scenario '{scenario}'; choose one of {', '.join(SCENARIOS)}")
+    if manoeuvres is not None:
+        if scenario != "lateral":
+            raise InputError(f"simulate: --manoeuvres chooses the turns of a lateral ride; scenario '{scenario}' has "
+                             "none")
+        unknown = sorted(set(manoeuvres) - set(LATERAL_KINDS))
+        if unknown:
+            raise InputError(f"simulate: unknown lateral manoeuvre(s) {', '.join(unknown)}; choose from "
+                             f"{', '.join(LATERAL_KINDS)}, or none for straight rides")
     if isinstance(repeats, bool) or not isinstance(repeats, (int, np.integer)) or repeats < 1:
         raise InputError(f"simulate: --repeats must be a whole number of at least 1, got {repeats!r}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
@@ -207,13 +215,16 @@ def _ground_truth(scenario: str, programme: Programme, motion: Motion, lean_plan
 
 
 def simulate_ride(scenario: str, experiment: int = 1, *, repeats: int = 7, seed: int = 0,
-                  rate: float = 20.0, habits: dict[str, float] | None = None) -> SimulatedRide:
+                  rate: float = 20.0, habits: dict[str, float] | None = None,
+                  manoeuvres: tuple[str, ...] | None = None) -> SimulatedRide:
     """Experiment ``experiment`` (1..repeats) of ``scenario`` at ``rate`` Hz, with its kinematic truth.
 
     ``habits`` multiplies the drawn rider's habits by factors, e.g. ``{"cruise_speed": 0.9}`` (fields of
     :class:`~spotfree.sim.manoeuvres.Rider` other than ``body``); the other draws are unchanged.
+    ``manoeuvres`` (lateral only): the kinds of :data:`~spotfree.sim.manoeuvres.LATERAL_KINDS` the ride holds,
+    none for a straight ride; None: all of them.
     """
-    _validate(scenario, repeats, seed, rate)
+    _validate(scenario, repeats, seed, rate, manoeuvres)
     if isinstance(experiment, bool) or not isinstance(experiment, (int, np.integer)) or not 1 <= experiment <= repeats:
         raise InputError(f"simulate: experiment must be a whole number from 1 to {repeats}, got {experiment!r}")
     fs = max(200.0, 10.0 * rate)
@@ -228,7 +239,9 @@ def simulate_ride(scenario: str, experiment: int = 1, *, repeats: int = 7, seed:
     heading0 = rider_rng.uniform(0.0, 2.0 * np.pi)
     share = _share_target(scenario, experiment, repeats, seed)
     near_sudden = experiment == min(NEAR_SUDDEN_EXPERIMENT, repeats)
-    programme = PLANS[scenario](rider, vehicle, _rng(seed, scenario, experiment, "programme"), share, near_sudden, fs)
+    kinds = {} if manoeuvres is None else {"kinds": tuple(manoeuvres)}
+    programme = PLANS[scenario](rider, vehicle, _rng(seed, scenario, experiment, "programme"), share, near_sudden, fs,
+                                **kinds)
     road_rng = _rng(seed, scenario, experiment, "road")
     motion = simulate_motion(programme.time, programme.accel + programme.sway, programme.yaw_rate, rider.body,
                              vehicle, lambda distance: programme.road(distance, road_rng),
@@ -271,10 +284,13 @@ def simulate_ride(scenario: str, experiment: int = 1, *, repeats: int = 7, seed:
     )
 
 
-def simulate_scenario(scenario: str, repeats: int = 7, seed: int = 0, rate: float = 20.0) -> Recording:
-    """``repeats`` experiments of ``scenario`` in one Recording (see the module docstring)."""
-    _validate(scenario, repeats, seed, rate)
-    rides = [simulate_ride(scenario, k, repeats=repeats, seed=seed, rate=rate) for k in range(1, repeats + 1)]
+def simulate_scenario(scenario: str, repeats: int = 7, seed: int = 0, rate: float = 20.0,
+                      manoeuvres: tuple[str, ...] | None = None) -> Recording:
+    """``repeats`` experiments of ``scenario`` in one Recording (see the module docstring); ``manoeuvres`` as in
+    :func:`simulate_ride`."""
+    _validate(scenario, repeats, seed, rate, manoeuvres)
+    rides = [simulate_ride(scenario, k, repeats=repeats, seed=seed, rate=rate, manoeuvres=manoeuvres)
+             for k in range(1, repeats + 1)]
     return Recording(
         time=np.concatenate([r.time for r in rides]),
         channels={c: np.concatenate([r.channels[c] for r in rides]) for c in CHANNELS},
@@ -284,6 +300,7 @@ def simulate_scenario(scenario: str, repeats: int = 7, seed: int = 0, rate: floa
         experiment=np.concatenate([np.full(len(r.time), k) for k, r in enumerate(rides, start=1)]),
         meta={
             "scenario": scenario,
+            **({} if manoeuvres is None else {"manoeuvres": list(manoeuvres)}),
             "seed": int(seed),
             "repeats": int(repeats),
             "rate": float(rate),

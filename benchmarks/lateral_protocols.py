@@ -1,0 +1,78 @@
+"""Lateral model: the training protocol of mixed rides against rides of one kind of manoeuvre, per test seed.
+
+For each seed, the lateral model (:data:`spotfree.evaluation.lateral_road.MODELS`) is trained spotting-free under two
+protocols, each from the same four training riders (experiments 1-4) and scored on the same three held-out riders
+(experiments 5-7 of the seed's lateral file, causal labels, per true class):
+
+* ``mixed``: the riders' lateral rides (gentle turns, sharp turns and slaloms in every ride) and road rides, with
+  7 extra groups (the model's protocol before 2026-11-24);
+* ``one kind``: each rider's rides of one kind of manoeuvre and a straight ride
+  (:data:`~spotfree.evaluation.lateral_road.KIND_RIDES`), 15 extra groups, naming rule 6 of
+  :mod:`spotfree.naming` (the model's protocol now); also without that rule.
+
+Each model labels the tests with kernel CRC_RLS (the product's classifier) and with the nearest columns.
+
+Run: ``python benchmarks/lateral_protocols.py [--seeds 0 1 2 3 4 5 6 7 100]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import os
+import time
+import warnings
+from dataclasses import replace
+
+import numpy as np
+
+from spotfree.classify.batch import classify_recording
+from spotfree.evaluation.lateral_road import MODELS, spec_split
+from spotfree.evaluation.metrics import Score, class_accuracy
+from spotfree.sim.scenarios import CLASSES
+from spotfree.training import train
+
+METHODS = ("kcrc", "nearest")
+
+
+def protocols() -> dict[str, tuple]:
+    """Name -> (spec, training changes) of each protocol compared."""
+    spec = MODELS["lateral"]
+    return {"mixed": (replace(spec, one_kind=False, extra_clusters=7), {}),
+            "one kind": (spec, {}),
+            "one kind, no rule 6": (spec, {"single_manoeuvre": False})}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4, 5, 6, 7, 100])
+    args = parser.parse_args()
+    warnings.simplefilter("ignore")
+    print(f"# lateral_protocols {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC: {os.cpu_count()} "
+          f"cores (shared), load average {os.getloadavg()[0]:.1f}")
+    classes = CLASSES["lateral"]
+    print(f"| seed | protocol | labels | {' | '.join(classes)} | all | classes with columns | training s |")
+    print("|---:|---|---|" + "---:|" * (len(classes) + 1) + "---|---:|")
+    overall = {}
+    for seed in args.seeds:
+        for name, (spec, changes) in protocols().items():
+            data = spec_split(spec, seed)
+            start = time.perf_counter()
+            model = train(data.training, spec.config(seed, **changes)).model
+            seconds = time.perf_counter() - start
+            for method in METHODS:
+                labels = classify_recording(model, data.test, method).label
+                per_class = class_accuracy(labels, data.test.truth["label"], classes)
+                total = sum(per_class.values(), Score(0, 0))
+                overall.setdefault((name, method), []).append(total.rate)
+                print(f"| {seed} | {name} | {method} | " + " | ".join(f"{s.rate:.3f}" for s in per_class.values())
+                      + f" | {total.rate:.3f} | {len(model.classes)} | {seconds:.0f} |", flush=True)
+    print()
+    print("| protocol | labels | mean of all over the seeds | lowest seed |")
+    print("|---|---|---:|---:|")
+    for (name, method), rates in overall.items():
+        print(f"| {name} | {method} | {np.mean(rates):.3f} | {np.min(rates):.3f} |")
+
+
+if __name__ == "__main__":
+    main()
