@@ -4,11 +4,11 @@ For each seed, the lateral model (:data:`spotfree.evaluation.lateral_road.MODELS
 protocols, each from the same four training riders (experiments 1-4) and scored on the same three held-out riders
 (experiments 5-7 of the seed's lateral file, causal labels, per true class):
 
-* ``mixed``: the riders' lateral rides (gentle turns, sharp turns and slaloms in every ride) and road rides, with
-  7 extra groups (the model's protocol before 2026-11-24);
+* ``mixed``: the riders' lateral rides (gentle turns, sharp turns and slaloms in every ride) and road rides, 7 extra
+  groups, channels ``yaw_rate`` and ``roll_rate`` (the model before 2026-11-24);
 * ``one kind``: each rider's rides of one kind of manoeuvre and a straight ride
   (:data:`~spotfree.evaluation.lateral_road.KIND_RIDES`), 15 extra groups, naming rule 6 of
-  :mod:`spotfree.naming` (the model's protocol now); also without that rule.
+  :mod:`spotfree.naming`, the yaw rate alone (the model now); also with the roll rate, and without rule 6.
 
 Each model labels the tests with kernel CRC_RLS (the product's classifier) and with the nearest columns.
 
@@ -38,8 +38,10 @@ METHODS = ("kcrc", "nearest")
 def protocols() -> dict[str, tuple]:
     """Name -> (spec, training changes) of each protocol compared."""
     spec = MODELS["lateral"]
-    return {"mixed": (replace(spec, one_kind=False, extra_clusters=7), {}),
+    both = ("yaw_rate", "roll_rate")
+    return {"mixed": (replace(spec, channels=both, one_kind=False, extra_clusters=7), {}),
             "one kind": (spec, {}),
+            "one kind, roll rate too": (replace(spec, channels=both), {}),
             "one kind, no rule 6": (spec, {"single_manoeuvre": False})}
 
 

@@ -157,6 +157,24 @@ def test_train_writes_a_model_its_summary_and_its_figure(tmp_path):
     assert not (tmp_path / "bad.npz").exists()
 
 
+def test_train_single_manoeuvre_names_turning_groups_by_their_rides(tmp_path):
+    from spotfree.model import DictionaryModel
+
+    declared = []
+    for kind, classes in (("gentle", "straight,gentle-turn"), ("sharp", "straight,sharp-turn"), ("none", "straight")):
+        path = tmp_path / f"{kind}.csv"
+        assert runner.invoke(app, ["simulate", "lateral", "-o", str(path), "--repeats", "1", "--seed", "3",
+                                   "--manoeuvres", kind]).exit_code == 0
+        declared += ["--experiment", f"{path}={classes}"]
+    options = ["--channels", "yaw_rate,roll_rate", "--extra-clusters", "15", "--max-columns", "100"]
+    result = runner.invoke(app, ["train", "-o", str(tmp_path / "lat.npz"), *declared, *options, "--single-manoeuvre"])
+    assert result.exit_code == 0, result.output
+    model = DictionaryModel.load(tmp_path / "lat.npz")
+    assert model.parameters["single_manoeuvre"] and set(model.classes) == {"straight", "gentle-turn", "sharp-turn"}
+    renamed = [c for c in model.summary["clusters"] if "declare only straight" in c["rule"]]
+    assert renamed and {c["name"] for c in renamed} == {"gentle-turn/sharp-turn"}
+
+
 def test_train_refuses_an_inner_quantile_outside_0_1_and_keeps_the_model_there(tmp_path):
     ride = tmp_path / "sb.csv"
     assert runner.invoke(app, ["simulate", "sudden-braking", "-o", str(ride), "--repeats", "1"]).exit_code == 0

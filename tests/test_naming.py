@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from spotfree.errors import InputError
-from spotfree.naming import (background_class, name_clusters, name_nested, presence_matrix, rename_habits,
+from spotfree.naming import (ClusterName, background_class, name_clusters, name_nested, presence_matrix, rename_habits,
                              single_manoeuvre_names)
 
 NB = ["cruising", "normal-braking"]
@@ -114,15 +114,22 @@ def test_a_group_absent_from_the_straight_rides_takes_the_one_manoeuvre_of_each_
     labels = np.array([0, 0, 1, 1, 2] + [0, 0, 1, 1, 1] + [0, 1, 1, 0, 0] + [0, 0, 0, 2, 2])
     recording = np.repeat(np.arange(4), 5)
     per_window = np.array(["straight"] * 20, dtype=object)
-    out = single_manoeuvre_names(labels, recording, per_window, declared, "straight")
+    names = name_clusters(presence_matrix(labels, recording, 3, 4), declared, "straight")
+    assert [n.name for n in names] == ["straight"] * 3
+    out, renamed = single_manoeuvre_names(labels, recording, per_window, declared, "straight", names)
     assert out.tolist() == (["straight", "straight", "gentle", "gentle", "straight"]
                             + ["straight", "straight", "sharp", "sharp", "sharp"]
                             + ["straight", "", "", "straight", "straight"]  # two manoeuvres declared: unnamed
                             + ["straight"] * 5)
+    assert renamed[1].name == "gentle/sharp" and "declare only straight" in renamed[1].rule
+    assert renamed[0] is names[0] and renamed[2] is names[2] and names[1].name == "straight"
     named = per_window.copy()
     named[2] = "slalom"  # a window named otherwise keeps its name
-    assert single_manoeuvre_names(labels, recording, named, declared, "straight")[2] == "slalom"
+    assert single_manoeuvre_names(labels, recording, named, declared, "straight", names)[0][2] == "slalom"
+    user = [*names[:1], ClusterName(1, "straight", "named by the user", 1.0), names[2]]
+    assert single_manoeuvre_names(labels, recording, per_window, declared, "straight", user)[0].tolist() == (
+        ["straight"] * 20)
     without = [d for d in declared if d != ["straight"]]  # no straight-only recording: nothing changes
     keep = recording < 3
-    assert single_manoeuvre_names(labels[keep], recording[keep], per_window[keep], without,
-                                  "straight").tolist() == ["straight"] * 15
+    assert single_manoeuvre_names(labels[keep], recording[keep], per_window[keep], without, "straight",
+                                  names)[0].tolist() == ["straight"] * 15

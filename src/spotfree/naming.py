@@ -243,20 +243,29 @@ def name_nested(pooled: np.ndarray, recording: np.ndarray, labels: np.ndarray, n
 
 
 def single_manoeuvre_names(labels: np.ndarray, recording: np.ndarray, per_window: np.ndarray,
-                           declared: list[list[str]], background: str, enrichment: float = ENRICHMENT) -> np.ndarray:
+                           declared: list[list[str]], background: str, names: list[ClusterName],
+                           enrichment: float = ENRICHMENT) -> tuple[np.ndarray, list[ClusterName]]:
     """``per_window`` (one name per window, ``labels`` its group, ``recording`` its recording) with rule 6 of the
-    module docstring applied: the windows named ``background`` whose group is absent from the background-only
-    recordings take the one manoeuvre their recording declares, or ``""`` where it declares several. Unchanged
-    when no recording declares only the background."""
+    module docstring applied, and ``names`` with the groups it renamed: the windows named ``background`` whose
+    group is absent from the background-only recordings (and was not named by the user) take the one manoeuvre
+    their recording declares, or ``""`` where it declares several. Unchanged when no recording declares only the
+    background."""
     bare = [r for r, d in enumerate(declared) if set(d) == {background}]
-    out = np.asarray(per_window, dtype=object).copy()
+    out, names = np.asarray(per_window, dtype=object).copy(), list(names)
     if not bare:
-        return out
+        return out, names
     counts = presence_matrix(labels, recording, int(labels.max()) + 1, len(declared))
     share = counts / counts.sum(axis=0).clip(min=1)
     absent = share[:, bare].max(axis=1) < share.max(axis=1) / enrichment
+    absent[[n.cluster for n in names if n.rule == "named by the user"]] = False
     only = np.array([next(iter(set(d) - {background})) if len(set(d) - {background}) == 1 else "" for d in declared],
                     dtype=object)
     moved = absent[labels] & (out == background)
     out[moved] = only[recording[moved]]
-    return out
+    for j in np.unique(labels[moved]):
+        taken = sorted({str(c) for c in out[moved & (labels == j)] if c})
+        confidence = float(1 - enrichment * share[j, bare].max() / share[j].max())
+        names[j] = ClusterName(int(j), "/".join(taken) or "", f"absent from the recordings that declare only "
+                               f"{background}: in each recording the one manoeuvre it declares", confidence,
+                               counts[j].tolist())
+    return out, names

@@ -320,7 +320,7 @@ def _evidence_recipe(windows, declared, background, config, say):
                                                  f"nested: part of group {j} {shared.rule}; the other part keeps "
                                                  f"{cls}", shared.confidence, shared.counts))
     if config.single_manoeuvre:
-        per_window = single_manoeuvre_names(labels, recording, per_window, declared, background)
+        per_window, names = single_manoeuvre_names(labels, recording, per_window, declared, background, names)
     split = np.cumsum([0] + [w.matrix.shape[1] for w in windows])
     per_recording = [per_window[split[r]:split[r + 1]].astype(str) for r in range(len(windows))]
     for per, classes in zip(per_recording, declared):
