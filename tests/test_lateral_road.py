@@ -61,3 +61,9 @@ def test_one_kind_protocol_gives_each_training_rider_one_ride_per_manoeuvre_and_
         assert e.classes[0] == "straight" and len(e.classes) <= 2
     assert [e.classes for e in data.training[-2:]] == [["straight"], ["straight"]]
     assert MODELS["lateral"].config(5).single_manoeuvre
+
+
+def test_one_kind_road_rides_hold_one_surface_event_each_or_none():
+    data = spec_split(MODELS["road"], seed=5, repeats=3, n_train=1)
+    assert [e.classes for e in data.training] == [["smooth", "rough-asphalt"], ["smooth", "cobblestone"],
+                                                  ["smooth", "kerb"], ["smooth"]]

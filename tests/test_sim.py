@@ -11,6 +11,7 @@ from spotfree.sim import SCENARIOS, simulate_ride, simulate_scenario
 from spotfree.sim.scenarios import (
     CHANNELS,
     CLASSES,
+    KINDS,
     NORMAL_BRAKING,
     SUDDEN_BRAKING,
     braking_labels,
@@ -219,29 +220,39 @@ def test_lateral_labels_from_yaw_rate():
     assert labels[int(8.0 * fs)] == "straight" and labels[int(28 * fs)] == "straight"
 
 
-@pytest.mark.parametrize("kinds, allowed", [(("sharp",), {"straight", "sharp-turn"}),
-                                            (("gentle", "slalom"), {"straight", "gentle-turn", "slalom"}),
-                                            ((), {"straight"})])
-def test_lateral_rides_hold_only_the_manoeuvres_asked_for(kinds, allowed):
-    rec = simulate_scenario("lateral", repeats=3, seed=2, manoeuvres=kinds)
+@pytest.mark.parametrize("scenario, kinds, allowed", [
+    ("lateral", ("sharp",), {"straight", "sharp-turn"}),
+    ("lateral", ("gentle", "slalom"), {"straight", "gentle-turn", "slalom"}),
+    ("lateral", (), {"straight"}),
+    ("road", ("cobblestone",), {"smooth", "cobblestone"}),
+    ("road", ("kerb",), {"smooth", "kerb"}),
+    ("road", (), {"smooth"}),
+])
+def test_rides_hold_only_the_manoeuvres_asked_for(scenario, kinds, allowed):
+    rec = simulate_scenario(scenario, repeats=3, seed=2, manoeuvres=kinds)
     labels = set(rec.truth["label"])
     assert labels <= allowed and (len(labels) > 1 or not kinds)
     assert rec.meta["manoeuvres"] == list(kinds)
+    if scenario == "road" and "kerb" not in kinds:  # no kerb or bump strikes either
+        assert not set("+".join(rec.truth["event"]).split("+")) & {"kerb", "bump"}
 
 
-def test_lateral_rides_with_every_manoeuvre_are_the_default_rides():
-    default = simulate_ride("lateral", 2, repeats=7, seed=4)
-    every = simulate_ride("lateral", 2, repeats=7, seed=4, manoeuvres=("gentle", "sharp", "slalom"))
-    assert default.label.tolist() == every.label.tolist()
+@pytest.mark.parametrize("scenario, every", [("lateral", KINDS["lateral"]), ("road", KINDS["road"])])
+def test_rides_with_every_manoeuvre_are_the_default_rides(scenario, every):
+    default = simulate_ride(scenario, 2, repeats=7, seed=4)
+    chosen = simulate_ride(scenario, 2, repeats=7, seed=4, manoeuvres=every)
+    assert default.label.tolist() == chosen.label.tolist() and default.event.tolist() == chosen.event.tolist()
     for name in CHANNELS:
-        np.testing.assert_array_equal(default.channels[name], every.channels[name])
+        np.testing.assert_array_equal(default.channels[name], chosen.channels[name])
 
 
-def test_manoeuvres_are_refused_outside_lateral_rides_and_when_unknown():
-    with pytest.raises(InputError, match="lateral ride"):
-        simulate_scenario("road", repeats=1, manoeuvres=("gentle",))
+def test_manoeuvres_are_refused_outside_lateral_and_road_rides_and_when_unknown():
+    with pytest.raises(InputError, match="lateral or road ride"):
+        simulate_scenario("cruising", repeats=1, manoeuvres=("gentle",))
     with pytest.raises(InputError, match="zigzag.*gentle, sharp, slalom"):
         simulate_scenario("lateral", repeats=1, manoeuvres=("zigzag",))
+    with pytest.raises(InputError, match="gentle.*rough-asphalt, cobblestone, kerb"):
+        simulate_scenario("road", repeats=1, manoeuvres=("gentle",))
 
 
 def test_every_experiment_holds_confounders(files):

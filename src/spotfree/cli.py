@@ -67,8 +67,9 @@ def simulate(
     seed: int = typer.Option(0, "--seed", help="random seed; the same seed gives the same file"),
     rate: float = typer.Option(20.0, "--rate", help="IMU sampling rate, Hz"),
     manoeuvres: str | None = typer.Option(
-        None, "--manoeuvres", help="lateral only: the kinds of turn the rides hold, comma-separated from gentle, sharp, "
-        "slalom; none for straight rides (default: all three)"),
+        None, "--manoeuvres", help="lateral and road only: what the rides hold, comma-separated from gentle, sharp, "
+        "slalom (lateral) or rough-asphalt, cobblestone, kerb (road); none for straight rides on smooth asphalt "
+        "(default: all)"),
 ) -> None:
     """Simulate rides of a self-balancing transporter with a tablet on the handlebar."""
     from spotfree.sim.scenarios import simulate_scenario

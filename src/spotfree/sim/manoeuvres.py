@@ -43,6 +43,8 @@ LATERAL_KINDS = ("gentle", "sharp", "slalom")
 LATERAL_LIMIT = 2.0
 """Lateral acceleration ``v r`` riders keep below in turns, m/s^2."""
 SURFACES = ("smooth", "rough-asphalt", "cobblestone")
+ROAD_KINDS = ("rough-asphalt", "cobblestone", "kerb")
+"""The kinds of road event a road ride holds (:func:`road`): patches of the two rough surfaces, kerbs and bumps."""
 ISO_8608_GD0 = {"smooth": 16e-6, "rough-asphalt": 256e-6, "cobblestone": 1024e-6}
 """Displacement PSD at ``n0 = 0.1`` cycles/m (m^3): ISO 8608 classes A, C and D (geometric class means)."""
 WHEEL_RADIUS = 0.24
@@ -427,14 +429,15 @@ def _split(total: float, parts: int, rng: np.random.Generator, least: float) -> 
 
 
 def _finish(plan: Plan, rng: np.random.Generator, rate: float, strikes: tuple[int, int],
-            patches: float | None = None) -> Programme:
+            patches: float | None = None, surfaces: tuple[str, ...] = SURFACES[1:]) -> Programme:
     """Sample the plan, then place kerbs and bumps (``strikes``: low, high count) and rough patches (``patches`` s
-    in total; by default none or one of 4-10 s)."""
+    in total; by default none or one of 4-10 s) of the ``surfaces`` (none: no patch)."""
     programme = plan.programme(rate, rng)
     programme.add_strikes(rng, int(rng.integers(*strikes)), ("kerb", "bump"))
     if patches is None:
         patches = float(rng.choice([0.0, rng.uniform(4.0, 10.0)]))
-    programme.add_patches(rng, patches, ("rough-asphalt", "cobblestone"))
+    if surfaces:
+        programme.add_patches(rng, patches, surfaces)
     return programme
 
 
@@ -602,8 +605,9 @@ def lateral(rider, vehicle, rng, share, near_sudden, rate, kinds: tuple[str, ...
     return _finish(plan, rng, rate, strikes=(1, 4))
 
 
-def road(rider, vehicle, rng, share, near_sudden, rate) -> Programme:
-    """A ride over smooth asphalt with patches of rough asphalt and cobblestone, and kerbs and bumps."""
+def road(rider, vehicle, rng, share, near_sudden, rate, kinds: tuple[str, ...] = ROAD_KINDS) -> Programme:
+    """A ride over smooth asphalt with patches of rough asphalt and cobblestone, and kerbs and bumps. ``kinds``: the
+    kinds of :data:`ROAD_KINDS` the ride holds (all of them: as before; without ``kerb``, no kerb or bump)."""
     plan = Plan()
     duration = rng.uniform(58.0, 72.0)
     v = _cruise_speed(rider, rng)
@@ -616,7 +620,8 @@ def road(rider, vehicle, rng, share, near_sudden, rate) -> Programme:
     plan.event(start, end, "braking")
     plan.wait(rng.uniform(1.0, 2.5))
     add_turns(plan, vehicle, rng, 0.5, at_least=1)
-    return _finish(plan, rng, rate, strikes=(3, 7), patches=0.95 * share * duration)
+    return _finish(plan, rng, rate, strikes=(3, 7) if "kerb" in kinds else (0, 1), patches=0.95 * share * duration,
+                   surfaces=tuple(s for s in SURFACES[1:] if s in kinds))
 
 
 PLANS: dict[str, Callable[..., Programme]] = {

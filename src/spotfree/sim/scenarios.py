@@ -35,7 +35,7 @@ from spotfree.io.checks import true_runs
 from spotfree.io.recording import Recording
 from spotfree.sim.gps import GpsSpec, gps_fixes
 from spotfree.sim.imu import ImuSpec, read_imu
-from spotfree.sim.manoeuvres import LATERAL_KINDS, PLANS, SURFACES, Programme, draw_rider
+from spotfree.sim.manoeuvres import LATERAL_KINDS, PLANS, ROAD_KINDS, SURFACES, Programme, draw_rider
 from spotfree.sim.vehicle import Motion, balance_response, draw_vehicle, simulate_motion
 
 SCENARIOS = ("normal-braking", "sudden-braking", "cruising", "lateral", "road")
@@ -143,17 +143,21 @@ def _share_target(scenario: str, experiment: int, repeats: int, seed: int) -> fl
     return float(lo + (hi - lo) * (slot + jitter) / repeats)
 
 
+KINDS = {"lateral": LATERAL_KINDS, "road": ROAD_KINDS}
+"""The scenarios whose rides can be asked to hold only some kinds of manoeuvre or road event (``manoeuvres``)."""
+
+
 def _validate(scenario: str, repeats: int, seed: int, rate: float, manoeuvres: tuple[str, ...] | None = None) -> None:
     if scenario not in SCENARIOS:
         raise InputError(f"simulate: unknown scenario '{scenario}'; choose one of {', '.join(SCENARIOS)}")
     if manoeuvres is not None:
-        if scenario != "lateral":
-            raise InputError(f"simulate: --manoeuvres chooses the turns of a lateral ride; scenario '{scenario}' has "
-                             "none")
-        unknown = sorted(set(manoeuvres) - set(LATERAL_KINDS))
+        if scenario not in KINDS:
+            raise InputError(f"simulate: --manoeuvres chooses what a {' or '.join(KINDS)} ride holds; scenario "
+                             f"'{scenario}' has no such choice")
+        unknown = sorted(set(manoeuvres) - set(KINDS[scenario]))
         if unknown:
-            raise InputError(f"simulate: unknown lateral manoeuvre(s) {', '.join(unknown)}; choose from "
-                             f"{', '.join(LATERAL_KINDS)}, or none for straight rides")
+            raise InputError(f"simulate: unknown {scenario} manoeuvre(s) {', '.join(unknown)}; choose from "
+                             f"{', '.join(KINDS[scenario])}, or none")
     if isinstance(repeats, bool) or not isinstance(repeats, (int, np.integer)) or repeats < 1:
         raise InputError(f"simulate: --repeats must be a whole number of at least 1, got {repeats!r}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
@@ -221,8 +225,8 @@ def simulate_ride(scenario: str, experiment: int = 1, *, repeats: int = 7, seed:
 
     ``habits`` multiplies the drawn rider's habits by factors, e.g. ``{"cruise_speed": 0.9}`` (fields of
     :class:`~spotfree.sim.manoeuvres.Rider` other than ``body``); the other draws are unchanged.
-    ``manoeuvres`` (lateral only): the kinds of :data:`~spotfree.sim.manoeuvres.LATERAL_KINDS` the ride holds,
-    none for a straight ride; None: all of them.
+    ``manoeuvres`` (lateral and road only, :data:`KINDS`): the kinds of manoeuvre or road event the ride holds,
+    none for a straight ride on smooth asphalt; None: all of them.
     """
     _validate(scenario, repeats, seed, rate, manoeuvres)
     if isinstance(experiment, bool) or not isinstance(experiment, (int, np.integer)) or not 1 <= experiment <= repeats:

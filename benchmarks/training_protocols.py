@@ -1,18 +1,19 @@
-"""Lateral model: the training protocol of mixed rides against rides of one kind of manoeuvre, per test seed.
+"""Lateral and road models: the training protocol of mixed rides against rides of one kind each, per test seed.
 
-For each seed, the lateral model (:data:`spotfree.evaluation.lateral_road.MODELS`) is trained spotting-free under two
+For each seed, the model (:data:`spotfree.evaluation.lateral_road.MODELS`) is trained spotting-free under several
 protocols, each from the same four training riders (experiments 1-4) and scored on the same three held-out riders
-(experiments 5-7 of the seed's lateral file, causal labels, per true class):
+(experiments 5-7 of the seed's file of the model's scenario, causal labels, per true class):
 
-* ``mixed``: the riders' lateral rides (gentle turns, sharp turns and slaloms in every ride) and road rides, 7 extra
-  groups, channels ``yaw_rate`` and ``roll_rate`` (the model before 2026-11-24);
-* ``one kind``: each rider's rides of one kind of manoeuvre and a straight ride
-  (:data:`~spotfree.evaluation.lateral_road.KIND_RIDES`), 15 extra groups, naming rule 6 of
-  :mod:`spotfree.naming`, the yaw rate alone (the model now); also with the roll rate, and without rule 6.
+* ``mixed``: the riders' rides of the scenario (every kind of manoeuvre or road event in every ride) and of the other
+  scenario (the models before 2026-11-24: lateral with 7 extra groups on ``yaw_rate`` and ``roll_rate``);
+* ``one kind``: each rider's rides of one kind each and one without any
+  (:data:`~spotfree.evaluation.lateral_road.KIND_RIDES`), naming rule 6 of :mod:`spotfree.naming` (the models
+  now: lateral with 15 extra groups on the yaw rate alone); also without rule 6, and for the lateral model with the
+  roll rate too.
 
 Each model labels the tests with kernel CRC_RLS (the product's classifier) and with the nearest columns.
 
-Run: ``python benchmarks/lateral_protocols.py [--seeds 0 1 2 3 4 5 6 7 100]``.
+Run: ``python benchmarks/training_protocols.py [--model lateral|road] [--seeds 0 1 2 3 4 5 6 7 100]``.
 """
 
 from __future__ import annotations
@@ -35,9 +36,12 @@ from spotfree.training import train
 METHODS = ("kcrc", "nearest")
 
 
-def protocols() -> dict[str, tuple]:
-    """Name -> (spec, training changes) of each protocol compared."""
-    spec = MODELS["lateral"]
+def protocols(name: str) -> dict[str, tuple]:
+    """Name -> (spec, training changes) of each protocol compared for model ``name``."""
+    spec = MODELS[name]
+    if name == "road":
+        return {"mixed": (replace(spec, one_kind=False), {}), "one kind": (spec, {}),
+                "one kind, no rule 6": (spec, {"single_manoeuvre": False})}
     both = ("yaw_rate", "roll_rate")
     return {"mixed": (replace(spec, channels=both, one_kind=False, extra_clusters=7), {}),
             "one kind": (spec, {}),
@@ -47,17 +51,18 @@ def protocols() -> dict[str, tuple]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--model", choices=sorted(MODELS), default="lateral")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4, 5, 6, 7, 100])
     args = parser.parse_args()
     warnings.simplefilter("ignore")
-    print(f"# lateral_protocols {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC: {os.cpu_count()} "
+    print(f"# training_protocols --model {args.model} {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC: {os.cpu_count()} "
           f"cores (shared), load average {os.getloadavg()[0]:.1f}")
-    classes = CLASSES["lateral"]
+    classes = CLASSES[MODELS[args.model].scenario]
     print(f"| seed | protocol | labels | {' | '.join(classes)} | all | classes with columns | training s |")
     print("|---:|---|---|" + "---:|" * (len(classes) + 1) + "---|---:|")
     overall = {}
     for seed in args.seeds:
-        for name, (spec, changes) in protocols().items():
+        for name, (spec, changes) in protocols(args.model).items():
             data = spec_split(spec, seed)
             start = time.perf_counter()
             model = train(data.training, spec.config(seed, **changes)).model
