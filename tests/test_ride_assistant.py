@@ -203,3 +203,18 @@ def test_bad_input_is_refused_without_changing_state(call, message):
 def test_bad_parameters(params):
     with pytest.raises(InputError):
         RideAssistant(**params)
+
+
+def test_the_service_warns_of_the_dangerous_classes_its_model_has():
+    from dataclasses import replace
+
+    from classify_fixtures import truth_model
+    from spotfree.ride.service import assistant_factory
+
+    model = truth_model(simulate_scenario("sudden-braking", repeats=1, seed=1), stride=10)
+    assert assistant_factory(model)().dangerous == ("sudden-braking",)
+    road = replace(model, classes=["cobblestone", "kerb", "rough-asphalt"])
+    assert assistant_factory(road)().dangerous == ("cobblestone",)
+    lateral = replace(model, classes=["gentle-turn", "sharp-turn", "straight"])
+    assert assistant_factory(lateral)().dangerous == ("sharp-turn",)
+    assert assistant_factory(replace(model, classes=["a", "b", "c"]))().dangerous == ("sudden-braking",)

@@ -48,8 +48,8 @@ RATE_FACTOR = 4.0
 """Samples a device may send per second, sustained, in multiples of the model's rate."""
 BACKLOG_SECONDS = 60.0
 """Seconds of samples (at the model's rate) a device may send at once: the backlog of a disconnect this long."""
-DANGEROUS_CLASSES = ("sudden-braking", "sharp-turn")
-"""Classes the rider is warned of when the model has them."""
+DANGEROUS_CLASSES = ("sudden-braking", "sharp-turn", "cobblestone")
+"""Classes the rider is warned of when the model has them: a hard stop, a sharp turn, a surface to slow down on."""
 
 
 class RateError(InputError):
