@@ -74,7 +74,7 @@ class HandEvaluation:
     runs: dict[str, pd.DataFrame]
     accuracy: dict[str, dict[str, float]]
     collars: dict[str, dict[int, dict[str, float]]]
-    onsets: dict[str, dict[float, dict[str, float]]]
+    onsets: dict[str, dict[float, dict[int, dict[str, float]]]]
     places: pd.DataFrame
     confusion: dict[str, dict[str, pd.DataFrame]]
     latency: dict[str, float]
@@ -126,8 +126,7 @@ def evaluate_hand(train_people: int = TRAINING_PEOPLE, test_people: int = 6, see
         collars={mode: {c: _accuracy(x.state, x.label, truth_state, truth_label,
                                      ~_near_change(truth_state, experiment, c)) for c in COLLARS}
                  for mode, x in labels.items()},
-        onsets={mode: {c: _accuracy(x.state, x.label, *onset_truth(truth_state, truth_label, pace, experiment, c))
-                       for c in ONSETS} for mode, x in labels.items()},
+        onsets={mode: _onset_scores(x, truth_state, truth_label, pace, experiment) for mode, x in labels.items()},
         places=_places(labels, truth_state, truth_label, experiment, feats.channels["speed"]),
         confusion={mode: _confusions(x, truth_state, truth_label) for mode, x in labels.items()},
         latency={"onsets": int(len(latency)), "reached": float(len(reached) / max(1, len(latency))),
@@ -194,6 +193,17 @@ def onset_truth(truth_state: np.ndarray, truth_label: np.ndarray, pace: np.ndarr
         state[start:start + first] = state[start + last:stop] = "posture"
         label[start:start + first], label[start + last:stop] = leaves, reaches
     return state.astype(str), label.astype(str)
+
+
+def _onset_scores(labels: HandLabels, truth_state, truth_label, pace, experiment) -> dict[float, dict[int, dict]]:
+    """Per threshold ``c`` (0 and :data:`ONSETS`): the scores against :func:`onset_truth`, without a collar (key 0)
+    and with the widest of :data:`COLLARS` around its changes of state."""
+    out = {}
+    for c in (0.0, *ONSETS):
+        state, label = onset_truth(truth_state, truth_label, pace, experiment, c)
+        out[c] = {k: _accuracy(labels.state, labels.label, state, label,
+                               ~_near_change(state, experiment, k) if k else None) for k in (0, COLLARS[-1])}
+    return out
 
 
 def _places(labels: dict[str, HandLabels], truth_state, truth_label, experiment, speed) -> pd.DataFrame:
@@ -323,11 +333,14 @@ def hand_report(ev: HandEvaluation) -> str:
     lines += ["", "A collar of c leaves out the c samples on each side of every true change of state.", "",
               "From the observable onset: end to end, with each gesture of the truth taken to start and end where the "
               "palm moves at c of its movement's peak speed (c = 0: the simulator's truth, from rest to rest):", "",
-              "| c | gesture samples | offline postures | offline gestures | live postures | live gestures |",
-              "|---:|---:|---:|---:|---:|---:|"]
-    for c, (o, v) in [(0.0, (off, live)), *((c, (ev.onsets["offline"][c], ev.onsets["live"][c])) for c in ONSETS)]:
-        lines.append(f"| {100 * c:.0f} % | {o['gestures']:,} | {pct(o['end_posture'])} | {pct(o['end_gesture'])} | "
-                     f"{pct(v['end_posture'])} | {pct(v['end_gesture'])} |")
+              f"| c | gesture samples | offline postures | offline gestures | live postures | live gestures | "
+              f"offline postures, collar {COLLARS[-1]} | offline gestures, collar {COLLARS[-1]} |",
+              "|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for c, o in ev.onsets["offline"].items():
+        v, wide = ev.onsets["live"][c][0], o[COLLARS[-1]]
+        lines.append(f"| {100 * c:.0f} % | {o[0]['gestures']:,} | {pct(o[0]['end_posture'])} | "
+                     f"{pct(o[0]['end_gesture'])} | {pct(v['end_posture'])} | {pct(v['end_gesture'])} | "
+                     f"{pct(wide['end_posture'])} | {pct(wide['end_gesture'])} |")
     lines.append("")
     lines += ["| mode | run | person | samples | labelled | stage 1 | stage 2 postures | stage 2 gestures "
               "| end to end postures | end to end gestures |",
