@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from spotfree.hand.evaluation import _accuracy, _near_change, _places, onset_truth
+from spotfree.hand.evaluation import ONSETS, _accuracy, _near_change, _onset_scores, _places, onset_truth
 from spotfree.hand.recognition import HandLabels
 
 
@@ -49,3 +49,19 @@ def test_onset_truth_gives_the_slow_ends_of_a_gesture_to_the_postures_around_it(
                               + ["stop", "straight"])  # a gesture never as fast as c is split in the middle
     same = onset_truth(truth_state, truth_label, pace, experiment, 0.0)
     assert same[0].tolist() == truth_state.tolist() and same[1].tolist() == truth_label.tolist()
+
+
+def test_onset_scores_per_threshold_with_and_without_a_collar():
+    truth_state = np.array(["posture"] * 4 + ["gesture"] * 10 + ["posture"] * 4)
+    truth_label = np.where(truth_state == "gesture", "straight-to-stop", np.array(["straight"] * 9 + ["stop"] * 9))
+    pace = np.r_[np.zeros(4), [0.01, 0.08, 0.3, 0.7, 0.95, 1.0, 0.8, 0.4, 0.08, 0.02], np.zeros(4)]
+    seen = np.r_[np.zeros(5, bool), np.ones(8, bool), np.zeros(5, bool)]  # the recogniser's gesture: samples 5-12
+    labels = HandLabels(np.arange(18) / 20, np.where(seen, "gesture", "posture"),
+                        np.where(seen, "straight-to-stop", np.array(["straight"] * 9 + ["stop"] * 9)),
+                        np.full(18, "stop"))
+    scores = _onset_scores(labels, truth_state, truth_label, pace, np.ones(18, dtype=int))
+    assert list(scores) == [0.0, *ONSETS] and all(set(v) == {0, 2} for v in scores.values())
+    assert scores[0.0][0]["end_gesture"] == 8 / 10  # the slow first and last samples missed
+    assert scores[0.05][0]["end_gesture"] == 1.0 and scores[0.05][0]["end_posture"] == 1.0
+    assert scores[0.10][0]["end_posture"] == 10 / 12  # called gesture before the onset and after the end
+    assert scores[0.0][2]["end_gesture"] == 1.0 and scores[0.0][2]["samples"] == 18 - 8
