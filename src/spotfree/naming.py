@@ -265,7 +265,7 @@ def single_manoeuvre_names(labels: np.ndarray, recording: np.ndarray, per_window
     for j in np.unique(labels[moved]):
         taken = sorted({str(c) for c in out[moved & (labels == j)] if c})
         confidence = float(1 - enrichment * share[j, bare].max() / share[j].max())
-        names[j] = ClusterName(int(j), "/".join(taken) or "", f"absent from the recordings that declare only "
+        names[j] = ClusterName(int(j), "/".join(taken), f"absent from the recordings that declare only "
                                f"{background}: in each recording the one manoeuvre it declares", confidence,
                                counts[j].tolist())
     return out, names
