@@ -89,15 +89,13 @@ def minimum_jerk(u: np.ndarray) -> np.ndarray:
 
 def pace(tau: np.ndarray, skew: float) -> np.ndarray:
     """How fast a movement of speed-profile skew ``skew`` (``gamma``) covers its path at time ``tau`` (0..1) of it,
-    relative to its peak: ``d s(tau^gamma) / d tau = 30 gamma tau^(3 gamma - 1) (1 - tau^gamma)^2``, divided by its
-    maximum over ``tau`` (0 at both ends, 1 at the peak); the truth of where a gesture is observable."""
-    grid = np.linspace(0.0, 1.0, 2001)
-
-    def rate(x: np.ndarray) -> np.ndarray:
-        x = np.clip(x, 0.0, 1.0)
-        return x ** (3.0 * skew - 1.0) * (1.0 - x**skew) ** 2
-
-    return rate(np.asarray(tau, dtype=float)) / rate(grid).max()
+    relative to its peak: ``d s(tau^gamma) / d tau = 30 gamma u^a (1 - u)^2`` with ``u = tau^gamma`` and
+    ``a = 3 - 1 / gamma``, divided by its maximum, reached at ``u = a / (a + 2)`` (0 at both ends, 1 at the peak);
+    the truth of where a gesture is observable."""
+    a = 3.0 - 1.0 / skew
+    u = np.clip(np.asarray(tau, dtype=float), 0.0, 1.0) ** skew
+    peak = a / (a + 2.0)
+    return u**a * (1.0 - u) ** 2 / (peak**a * (1.0 - peak) ** 2)
 
 
 @dataclass(frozen=True)
