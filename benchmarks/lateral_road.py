@@ -23,7 +23,7 @@ from spotfree.sim.scenarios import CLASSES
 GRID = {
     "lateral": ([("yaw_rate", "roll_rate"), ("yaw_rate", "roll"), ("yaw_rate",), ("yaw_rate", "roll", "acc_y")],
                 (10, 20)),
-    "road": ([("vib_y", "vib_z"), ("vib_x", "vib_y", "vib_z"), ("vib_z", "acc_z")], (10, 20)),
+    "road": ([("rough_y", "rough_z"), ("vib_y", "vib_z"), ("rough_x", "rough_y", "rough_z"), ("rough_z",)], (6, 10)),
 }
 """Channel sets and windows (samples at 20 Hz) tried per model."""
 

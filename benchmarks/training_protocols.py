@@ -8,8 +8,9 @@ protocols, each from the same four training riders (experiments 1-4) and scored 
   scenario (the models before 2026-11-24: lateral with 7 extra groups on ``yaw_rate`` and ``roll_rate``);
 * ``one kind``: each rider's rides of one kind each and one without any
   (:data:`~spotfree.evaluation.lateral_road.KIND_RIDES`), naming rule 6 of :mod:`spotfree.naming` (the models
-  now: lateral with 15 extra groups on the yaw rate alone); also without rule 6, and for the lateral model with the
-  roll rate too.
+  now: lateral with 15 extra groups on the yaw rate alone); also without rule 6, for the lateral model with the
+  roll rate too, and for the road model on the vibration levels without the speed (its channels before
+  2026-11-24, at today's vibration time constant).
 
 Each model labels the tests with kernel CRC_RLS (the product's classifier) and with the nearest columns.
 
@@ -41,7 +42,8 @@ def protocols(name: str) -> dict[str, tuple]:
     spec = MODELS[name]
     if name == "road":
         return {"mixed": (replace(spec, one_kind=False), {}), "one kind": (spec, {}),
-                "one kind, no rule 6": (spec, {"single_manoeuvre": False})}
+                "one kind, no rule 6": (spec, {"single_manoeuvre": False}),
+                "one kind, vib_y vib_z over 10": (replace(spec, channels=("vib_y", "vib_z"), window=10), {})}
     both = ("yaw_rate", "roll_rate")
     return {"mixed": (replace(spec, channels=both, one_kind=False, extra_clusters=7), {}),
             "one kind": (spec, {}),

@@ -12,6 +12,7 @@ from spotfree.signal.features import (
     FEATURE_CHANNELS,
     LEAN_BIAS_TIME_CONSTANT,
     LEAN_TIME_CONSTANT,
+    ROUGH_SPEED,
     VIB_TIME_CONSTANT,
     FeatureStream,
     lean_coefficients,
@@ -199,6 +200,25 @@ def test_derived_rates_are_the_vehicle_gyro_and_vibration_is_the_rms_the_lowpass
     # the low-pass passes almost nothing at 8 Hz, so the RMS of the residual is the heave's, 2 / sqrt(2)
     assert np.median(vib[shaken, 2]) == pytest.approx(np.sqrt(2.0), rel=0.1)
     assert np.all(vib[shaken, :2] < 0.2 * vib[shaken, 2:])
+
+
+@pytest.mark.parametrize("speed", [None, 4.0, 20.0])
+def test_roughness_is_the_vibration_over_the_root_of_the_held_speed(speed):
+    n = 400
+    t = np.arange(n) / RATE
+    acc = np.column_stack([np.zeros(n), np.zeros(n), GRAVITY + 2.0 * np.sin(2 * np.pi * 8.0 * t)])
+    rec = device_recording(acc, np.zeros((n, 3)))
+    if speed is not None:  # a 1 Hz GPS fix of a steady ride
+        rec = rec.with_channels({**rec.channels, "speed": np.where(np.arange(n) % 20 == 0, speed, np.nan)})
+    stream = FeatureStream(RATE, derived=True)
+    streamed = np.array([stream.update(a, w, v) for a, w, v in zip(
+        rec.array(["ax", "ay", "az"]), rec.array(["gx", "gy", "gz"]),
+        rec.channels.get("speed", np.full(n, np.nan)))])
+    feats = ride_features(rec, derived=True)
+    vib, rough = feats.array(["vib_x", "vib_y", "vib_z"]), feats.array(["rough_x", "rough_y", "rough_z"])
+    held = 1.0 if speed is None else min(speed, ROUGH_SPEED[1])  # no fix: the speed stays near 0, held to 1 m/s
+    np.testing.assert_allclose(rough * np.sqrt(held), vib, rtol=1e-3, atol=1e-9)
+    np.testing.assert_allclose(streamed, feats.array(), atol=1e-12)
 
 
 def test_stream_with_derived_channels_equals_batch_and_keeps_six_by_default():

@@ -59,14 +59,15 @@ class ModelSpec:
 
 MODELS = {
     "lateral": ModelSpec("lateral", ("yaw_rate",), 20, extra_clusters=15, one_kind=True),
-    "road": ModelSpec("road", ("vib_y", "vib_z"), 10, one_kind=True),
+    "road": ModelSpec("road", ("rough_y", "rough_z"), 6, one_kind=True),
 }
 """The chosen channels and windows (grid on development seeds: ``benchmarks/lateral_road.py``, BENCHMARKS.md). The
 lateral model trains on rides of one kind of manoeuvre with 15 extra groups, on the yaw rate alone (development
 seeds 100-106, causal kernel CRC_RLS: 0.923 of the samples right on average against 0.898 with the roll rate too;
 ``benchmarks/training_protocols.py`` compares it with the mixed rides on seeds 0-7; BENCHMARKS.md). The road
-model trains on rides of one kind of road event too, which names kerbs (0.50-0.77 over seeds 0-7 and 100, none
-before) at the cost of some smooth asphalt (mean of all 0.837 against 0.830)."""
+model trains on rides of one kind of road event too, which names kerbs, on the speed-normalised vibration
+``rough_y, rough_z`` over windows of 6 samples (development seeds 100-103: 0.900 of the samples right against 0.875
+on ``vib_y, vib_z`` over 10 samples, :data:`~spotfree.signal.features.VIB_TIME_CONSTANT`)."""
 
 
 KIND_RIDES = {"lateral": (("gentle",), ("sharp",), ("slalom",), ()),

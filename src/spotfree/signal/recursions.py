@@ -7,7 +7,7 @@ Each filter keeps its math in its own module's docstring; its per-sample recursi
   pitch (:mod:`~spotfree.signal.complementary`, :class:`~spotfree.signal.orientation.PaperAttitude`);
 * :func:`gravity_pi_step` -- :class:`~spotfree.signal.orientation.GravityPI`, the default attitude filter;
 * :func:`speed_aided_step` -- the speed-aided pitch filter (:mod:`~spotfree.signal.speed_aided`);
-* :func:`ride_features_step` -- all of them chained into the 13 ride channels of
+* :func:`ride_features_step` -- all of them chained into the 16 ride channels of
   :class:`~spotfree.signal.features.FeatureStream`.
 
 Constants and states are numpy records (the ``*_PARAMETERS`` and ``*_STATE`` dtypes); Python passes them as
@@ -53,11 +53,11 @@ FEATURE_PARAMETERS = np.dtype([
     ("sections", "f8", (SECTIONS, 5)), ("zi", "f8", (SECTIONS, 2)),
     ("long_sections", "f8", (SECTIONS, 5)), ("long_zi", "f8", (SECTIONS, 2)),
     ("speed_aided", SPEED_AIDED_PARAMETERS),
-    ("lean_b", "f8"), ("lean_a", "f8"), ("bias_c", "f8"), ("vib_c", "f8"),
+    ("lean_b", "f8"), ("lean_a", "f8"), ("bias_c", "f8"), ("vib_c", "f8"), ("rough_speed", "f8", 2),
 ])
 """Record of :func:`ride_features_step`'s constants: attitude kind (0 default, 1 paper, 2 given), the
 device-to-vehicle ``MOUNT``, gravity (m/s^2), the attitude filters', low-passes' and speed-aided filter's
-constants, and the ``lean`` and ``vib`` coefficients."""
+constants, the ``lean`` and ``vib`` coefficients, and the speed range (m/s) the ``rough`` channels clip to."""
 FEATURE_STATE = np.dtype([
     ("gravity", GRAVITY_PI_STATE), ("paper", PAPER_STATE),
     ("lowpass", "f8", (3, SECTIONS, 2)), ("long_lowpass", "f8", (1, SECTIONS, 2)),
@@ -293,16 +293,17 @@ def speed_aided_update(p, s, start, ax, ay, az, q, r, roll, pitch_ref, speed):  
 
 @numba.njit(cache=True, nogil=True)
 def speed_aided_run(p, s, acc, gyr, roll, pitch_ref, speed, out):  # pragma: no cover - compiled
-    """:func:`speed_aided_step` over a segment into ``out`` ``(n, 2)``, from a fresh state (one-element record
-    arrays ``p``, ``s``)."""
+    """:func:`speed_aided_step` over a segment into ``out`` ``(n, 3)`` (``a_t``, ``theta`` and the speed state
+    ``v``), from a fresh state (one-element record arrays ``p``, ``s``)."""
     for k in range(acc.shape[0]):
         out[k, 0], out[k, 1] = speed_aided_step(p[0], s[0], k == 0, acc[k, 0], acc[k, 1], acc[k, 2], gyr[k, 1],
                                                 gyr[k, 2], roll[k], pitch_ref[k], speed[k])
+        out[k, 2] = s[0].x[2]
 
 
 @numba.njit(cache=True, nogil=True)
 def ride_features_step(p, s, start, a0, a1, a2, w0, w1, w2, speed, roll, pitch, out):  # pragma: no cover - compiled
-    """All 13 ride channels (``FEATURE_CHANNELS`` then ``DERIVED_CHANNELS`` of :mod:`~spotfree.signal.features`) of
+    """All 16 ride channels (``FEATURE_CHANNELS`` then ``DERIVED_CHANNELS`` of :mod:`~spotfree.signal.features`) of
     one device-frame sample ``a`` (m/s^2), ``w`` (rad/s), ``speed`` (m/s or NaN) into ``out``; ``p`` a
     :data:`FEATURE_PARAMETERS` and ``s`` a :data:`FEATURE_STATE` record, every filter started afresh when ``start``;
     ``roll``, ``pitch`` (rad) are used only with attitude kind 2 (otherwise the kernel's own attitude filter gives
@@ -340,6 +341,8 @@ def ride_features_step(p, s, start, a0, a1, a2, w0, w1, w2, speed, roll, pitch, 
     out[0], out[1], out[2], out[3], out[4], out[5] = roll, pitch, gy, level[0], level[1], level[2]
     out[6], out[7], out[8], out[9] = s.lean, s.acc_long[0], gx, gz
     out[10], out[11], out[12] = math.sqrt(vib[0]), math.sqrt(vib[1]), math.sqrt(vib[2])
+    speed_root = math.sqrt(min(max(s.speed_aided.x[2], p.rough_speed[0]), p.rough_speed[1]))
+    out[13], out[14], out[15] = out[10] / speed_root, out[11] / speed_root, out[12] / speed_root
 
 
 @numba.njit(cache=True, nogil=True)
@@ -351,7 +354,7 @@ def ride_features_update(p, s, start, a0, a1, a2, w0, w1, w2, speed, roll, pitch
 @numba.njit(cache=True, nogil=True)
 def ride_features_block(p, s, start, rows, columns, out):  # pragma: no cover - compiled
     """:func:`ride_features_step` over ``rows`` ``(n, k)`` whose ``columns`` (7 indices) hold ``a0 a1 a2 w0 w1 w2
-    speed``, into ``out`` ``(n, 13)``, on one-element record arrays; ``start`` applies to the first row. Attitude
+    speed``, into ``out`` ``(n, 16)``, on one-element record arrays; ``start`` applies to the first row. Attitude
     kinds 0 and 1 only."""
     c = columns
     for k in range(rows.shape[0]):

@@ -94,12 +94,12 @@ class SpeedAidedPitch:
 def speed_aided_acceleration(acc: np.ndarray, gyr: np.ndarray, roll: np.ndarray, pitch_ref: np.ndarray,
                              speed: np.ndarray | None, rate: float,
                              parameters: SpeedAidedParameters | None = None) -> np.ndarray:
-    """``(n, 2)`` columns ``a_t`` (m/s^2) and ``theta`` (rad) of one gap-free segment; ``speed`` (m/s) NaN between
+    """``(n, 3)`` columns ``a_t`` (m/s^2), ``theta`` (rad) and the speed state ``v`` (m/s) of one gap-free segment; ``speed`` (m/s) NaN between
     fixes, or ``None`` without GPS. Runs :func:`~spotfree.signal.recursions.speed_aided_step` sample by sample, so
     batch equals streaming."""
     n = len(acc)
     speed = np.full(n, np.nan) if speed is None else np.asarray(speed, dtype=float)
-    out = np.empty((n, 2))
+    out = np.empty((n, 3))
     acc, gyr, roll, pitch_ref, speed = (np.ascontiguousarray(v, dtype=float)
                                         for v in (acc, gyr, roll, pitch_ref, speed))
     speed_aided_run(speed_aided_parameters(rate, parameters), np.zeros(1, SPEED_AIDED_STATE), acc.reshape(-1, 3),
