@@ -12,7 +12,7 @@ rows see the same machine load):
 
 * ``MultiModelStream.update``: one raw sample in, three labels out (one feature pass, the windows of three models);
 * ``RideClassifier.update`` per model: each model alone, end to end (its own feature pass);
-* ``FeatureStream.update``: the ride features alone (13 channels), the floor under every row;
+* ``FeatureStream.update``: the ride features alone (16 channels), the floor under every row;
 * where the code has them, the two compiled calls inside ``MultiModelStream.update``: ``FeatureStream.step`` (the
   features into a preallocated vector) and ``ModelRing.push`` (three windows and CRCs on precomputed features).
 
@@ -42,9 +42,10 @@ from pathlib import Path
 import numpy as np
 
 from spotfree.classify import DEFAULT_METHOD
-from spotfree.classify.multi import MultiModelStream, classify_models
-from spotfree.classify.stream import RideClassifier
+from spotfree.classify.multi import MultiModelStream
+from spotfree.classify.stream import PRODUCED, RideClassifier
 from spotfree.evaluation.lateral_road import MODELS, spec_split
+from spotfree.evaluation.ride_models import raw_samples, stream_cost
 from spotfree.model import DictionaryModel
 from spotfree.signal.features import FeatureStream, ride_features
 from spotfree.sim.scenarios import CLASSES, simulate_scenario
@@ -102,7 +103,7 @@ def measure(models: dict, samples: list, passes: int) -> dict[str, np.ndarray]:
     ring = getattr(multi, "_ring", None)
     if ring is not None:  # the two compiled calls inside MultiModelStream.update, where the code has them
         floats = [(*a.tolist(), *w.tolist(), float(s)) for a, w, _, s in samples]
-        out = np.zeros(13)
+        out = np.zeros(len(PRODUCED))
         vectors = []
         for row in floats:
             features.step(*row, out)
@@ -150,8 +151,7 @@ def main() -> None:
         models = load_or_train(args.models or Path(scratch))
         trained_s = time.perf_counter() - start
         rides = simulate_scenario("lateral", repeats=2, seed=7)
-        samples = list(zip(rides.array(["ax", "ay", "az"]), rides.array(["gx", "gy", "gz"]), rides.time,
-                           rides.channels["speed"]))
+        samples = raw_samples(rides)
         if args.json:
             rows = measure(models, samples, args.passes)
             figures = {label: [len(us), *np.percentile(us, [50, 90, 99]).tolist()] for label, us in rows.items()}
@@ -185,11 +185,7 @@ def report(args, models: dict, samples: list, rows: dict, load: float, trained_s
     if old is not None:
         print(f"baseline: spotfree at {args.baseline}, measured just before, load average {old['load']:.1f}")
 
-    table = classify_models(models, simulate_scenario("lateral", repeats=2, seed=7))
-    multi = MultiModelStream(models)
-    got = [multi.update(*s) for s in samples]
-    differ = sum(int(np.sum(np.array(["" if g[k] is None else g[k] for g in got]) != table[name].to_numpy()))
-                 for k, name in enumerate(multi.names))
+    differ = stream_cost(models, simulate_scenario("lateral", repeats=2, seed=7)).differing
 
     floor = float(np.median(rows["FeatureStream.update (features alone)"]))
     head = "| path | calls | median (us) | p90 (us) | p99 (us) | median / FeatureStream |"

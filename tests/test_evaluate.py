@@ -11,6 +11,7 @@ from typer.testing import CliRunner
 import spotfree.evaluate
 from spotfree.cli import app
 from spotfree.errors import InputError
+from spotfree.sim.scenarios import CLASSES
 from spotfree.evaluation.metrics import (
     Score,
     accuracy,
@@ -24,7 +25,8 @@ runner = CliRunner()
 
 SECTIONS = ("## Protocol", "## Training", "## Accuracy per sample", "## The paper's count",
             "## Accuracy per true class", "## Confusion matrices", "## Decision latency",
-            "## CRC_RLS vs SRC vs B_SRC", "## Peers on the same tests", "## Results figures")
+            "## CRC_RLS vs SRC vs B_SRC", "## Peers on the same tests", "## Lateral manoeuvres and road surface",
+            "## Results figures")
 FIGURES = ("training.png", "results-normal-braking.png", "results-sudden-braking.png", "results-cruising.png")
 
 
@@ -129,6 +131,19 @@ def test_quick_run_report_quotes_the_paper_beside_measured_figures(quick_run):
         assert re.search(rf"\| {re.escape(peer)}[^|]* \| \d+\.\d \| \d+\.\d\d \|", report), peer
     for method in ("CRC_RLS", "SRC", "B_SRC"):
         assert re.search(rf"\| {method} \| \d+ \| \d+\.\d\d \|", report), method
+
+
+def test_quick_run_report_scores_every_lateral_and_road_class_and_times_the_three_models(quick_run):
+    folder, _ = quick_run
+    report = (folder / "report.md").read_text()
+    for scenario in ("lateral", "road"):
+        section = report.split(f"### {scenario}\n", 1)[1].split("###", 1)[0]
+        for name in CLASSES[scenario]:
+            row = re.search(rf"\| {name} \| (\d+) / (\d+) \| (\d+\.\d\d) \| (yes|no) \|", section)
+            assert row and 0 < int(row[2]) and int(row[1]) <= int(row[2]), (scenario, name)
+            assert float(row[3]) == pytest.approx(100 * int(row[1]) / int(row[2]), abs=0.006)
+    assert re.search(r"- median \d+\.\d us, p99 \d+\.\d us per raw sample, (within|over) the 50 us budget", report)
+    assert "- stream labels unlike the batch labels of the same rides: 0." in report
 
 
 def test_output_that_is_a_file_is_refused_with_one_line(tmp_path):

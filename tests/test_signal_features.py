@@ -20,6 +20,7 @@ from spotfree.signal.features import (
 )
 from spotfree.signal.frame import GRAVITY, gravity_direction, vehicle_to_device_axes
 from spotfree.signal.orientation import ORIENTATIONS
+from spotfree.signal.recursions import FEATURE_WIDTH, ride_features_block
 
 RATE = 20.0
 
@@ -165,6 +166,7 @@ def test_derived_lean_is_the_leaky_integral_of_pitch_rate_and_follows_a_held_lea
     acc = np.tile([0.0, 0.0, GRAVITY], (n, 1))  # the accelerometer sees no lean (balanced vehicle)
     feats = ride_features(device_recording(acc, np.column_stack([np.zeros(n), q, np.zeros(n)])), derived=True)
     assert tuple(feats.names) == FEATURE_CHANNELS + DERIVED_CHANNELS
+    assert len(feats.names) == FEATURE_WIDTH
     lean = feats.array(["lean"])[:, 0]
     b, a, c = lean_coefficients(RATE)
     expected, bias = np.zeros(n), np.zeros(n)
@@ -235,3 +237,12 @@ def test_stream_with_derived_channels_equals_batch_and_keeps_six_by_default():
     derived.reset()
     np.testing.assert_allclose(derived.update(rec.array(["ax", "ay", "az"])[0], rec.array(["gx", "gy", "gz"])[0]),
                                batch[0], atol=1e-12)
+
+
+def test_compiled_features_refuse_an_output_too_short_for_every_channel():
+    stream = FeatureStream(RATE, derived=True)
+    with pytest.raises(ValueError, match="16 values"):
+        stream.step(0.0, GRAVITY, 0.0, 0.0, 0.0, 0.0, float("nan"), np.zeros(13))
+    with pytest.raises(ValueError, match="16 values"):
+        ride_features_block(stream.parameters_, stream.state_, True, np.zeros((3, 7)), np.arange(7),
+                            np.zeros((3, 13)))

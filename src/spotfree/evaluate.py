@@ -24,6 +24,7 @@ from spotfree.evaluation.figures import results_figure
 from spotfree.evaluation.measure import HEADLINE, check_peers, crc_runs, make_peers, method_runs, peer_runs
 from spotfree.evaluation.protocol import SCENARIOS, Protocol, simulate, train_dictionary
 from spotfree.evaluation.report import Evaluation, render
+from spotfree.evaluation.ride_models import evaluate_ride_models
 from spotfree.figures import training_figure
 from spotfree.sim.scenarios import CLASSES
 from spotfree.training import dictionary_purity
@@ -52,11 +53,13 @@ def evaluate(output: str | Path, seed: int = 0, quick: bool = False, progress: P
     methods = method_runs(model, data, protocol.method_windows)
     say("peers: MiniRocket, 1-NN, ClaSP")
     peers = peer_runs(make_peers(model, protocol), data)
+    say("lateral and road models, and the three models on one stream")
+    ride_models = evaluate_ride_models(model, seed)
     seconds = time.perf_counter() - start
     figures = {f"results: {name}": f"results-{name}.png" for name in SCENARIOS}
     ev = Evaluation(
         protocol=protocol, data=data, trained=trained, purity=dictionary_purity(trained.result, trained.experiments),
-        crc=crc, kcrc=kcrc, methods=methods, peers=peers, seconds=seconds,
+        crc=crc, kcrc=kcrc, methods=methods, peers=peers, ride_models=ride_models, seconds=seconds,
         command=f"spotfree evaluate -o {output} --seed {seed}" + (" --quick" if quick else ""),
         machine=machine_summary(), date=datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"), figures=figures,
     )

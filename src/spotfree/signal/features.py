@@ -247,7 +247,8 @@ class FeatureStream:
 
     def step(self, a0: float, a1: float, a2: float, w0: float, w1: float, w2: float, speed: float,
              out: np.ndarray) -> None:
-        """:meth:`update` on plain floats, writing all 16 channels into ``out`` (no copy, no checks)."""
+        """:meth:`update` on plain floats, writing all 16 channels into ``out`` (no copy; a shorter ``out`` is
+        refused)."""
         roll = pitch = 0.0
         if self._attitude is not None:
             m = self.parameters_[0]["mount"]

@@ -25,6 +25,8 @@ import numpy as np
 
 TWO_PI = 2.0 * math.pi
 SECTIONS = 2
+FEATURE_WIDTH = 16
+"""Channels :func:`ride_features_step` writes (``FEATURE_CHANNELS`` then ``DERIVED_CHANNELS``)."""
 """Second-order sections of the ride features' Butterworth low-passes (third order)."""
 
 PAPER_PARAMETERS = np.dtype([("coefficients", "f8", 8), ("zi", "f8", 2)])
@@ -347,7 +349,9 @@ def ride_features_step(p, s, start, a0, a1, a2, w0, w1, w2, speed, roll, pitch, 
 
 @numba.njit(cache=True, nogil=True)
 def ride_features_update(p, s, start, a0, a1, a2, w0, w1, w2, speed, roll, pitch, out):  # pragma: no cover
-    """:func:`ride_features_step` on one-element record arrays."""
+    """:func:`ride_features_step` on one-element record arrays; ``out`` must hold :data:`FEATURE_WIDTH` values."""
+    if out.shape[0] < FEATURE_WIDTH:
+        raise ValueError("ride features: the output vector must hold 16 values")
     ride_features_step(p[0], s[0], start, a0, a1, a2, w0, w1, w2, speed, roll, pitch, out)
 
 
@@ -356,6 +360,8 @@ def ride_features_block(p, s, start, rows, columns, out):  # pragma: no cover - 
     """:func:`ride_features_step` over ``rows`` ``(n, k)`` whose ``columns`` (7 indices) hold ``a0 a1 a2 w0 w1 w2
     speed``, into ``out`` ``(n, 16)``, on one-element record arrays; ``start`` applies to the first row. Attitude
     kinds 0 and 1 only."""
+    if out.shape[0] < rows.shape[0] or out.shape[1] < FEATURE_WIDTH:
+        raise ValueError("ride features: the output must hold one row of 16 values per input row")
     c = columns
     for k in range(rows.shape[0]):
         r = rows[k]
