@@ -23,7 +23,9 @@ CLASSES = ("cruising", "normal-braking", "sudden-braking")
 CONFIGS = {
     "default": {},
     "paper": {"recipe": "paper"},
-    "inner-quarter": {"inner_quantile": 0.75},
+    "every-inner": {"inner_quantile": 0.0},
+    "gaps-open": {"close_gaps": 0},
+    "previous-default": {"inner_quantile": 0.0, "close_gaps": 0},
     "osc": {"clustering": "osc"},
     "lean-acc_x-osc": {"channels": ("lean", "acc_x"), "clustering": "osc", "extra_clusters": 3},
     "acc_long-40": {"channels": ("acc_long",), "window": 40},

@@ -124,8 +124,11 @@ def train(
         None, "--nested", help="INNER=OUTER: a manoeuvre of class INNER passes through class OUTER (default: "
         "sudden-braking=normal-braking); --nested none for no such pair"),
     inner_quantile: float = typer.Option(
-        0.0, "--inner-quantile", help="keep the inner class's columns at or above this quantile of their margins: a "
+        0.75, "--inner-quantile", help="keep the inner class's columns at or above this quantile of their margins: a "
         "purer dictionary, fewer of its windows found by centred labels (0: every confident column)"),
+    close_gaps: int = typer.Option(
+        5, "--close-gaps", help="a run of at most this many training windows named the background inside a "
+        "manoeuvre's run takes the manoeuvre's name (0: none)"),
     single_manoeuvre: bool = typer.Option(
         False, "--single-manoeuvre", help="a group absent from the recordings that declare only the background takes, "
         "in a recording declaring one manoeuvre, that manoeuvre (for one recording per manoeuvre and some without)"),
@@ -146,7 +149,7 @@ def train(
         window=window, step=step, recipe=recipe, background=background, overrides=_parse_names(name),
         extra_clusters=extra_clusters, affine=affine, clustering=clustering, max_columns=max_columns, seed=seed,
         nesting=NESTING if nested is None else _parse_nesting(nested), inner_quantile=inner_quantile,
-        single_manoeuvre=single_manoeuvre,
+        single_manoeuvre=single_manoeuvre, close_gaps=close_gaps,
     )
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=err,
                   transient=True) as bar:
