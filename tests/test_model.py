@@ -1,3 +1,5 @@
+import json
+
 import numpy as np
 import pytest
 
@@ -61,6 +63,27 @@ def test_garbage_file_is_a_clear_error_and_pickles_are_refused(tmp_path):
     np.savez(tmp_path / "obj.npz", metadata=np.array([{"a": 1}], dtype=object), dictionary=np.zeros((2, 2)))
     with pytest.raises(InputError, match="not a spotfree model"):
         DictionaryModel.load(tmp_path / "obj.npz")
+
+
+def _rewrite_metadata(path, **changes):
+    with np.load(path, allow_pickle=False) as archive:
+        arrays = {k: archive[k] for k in archive.files}
+    meta = json.loads(str(arrays["metadata"]))
+    meta.update(changes)
+    meta = {k: v for k, v in meta.items() if v is not None}
+    np.savez_compressed(path, **{**arrays, "metadata": np.array(json.dumps(meta))})
+
+
+def test_a_model_on_vibration_channels_of_an_earlier_feature_version_is_refused(tmp_path):
+    road = DictionaryModel(**{**vars(_model()), "channels": ["vib_y", "vib_z"]})
+    road.save(tmp_path / "road.npz")
+    assert DictionaryModel.load(tmp_path / "road.npz").channels == ["vib_y", "vib_z"]
+    _rewrite_metadata(tmp_path / "road.npz", feature_version=None)  # written before versions were stored
+    with pytest.raises(InputError, match="vib_y, vib_z as computed before feature version 2.*retrain"):
+        DictionaryModel.load(tmp_path / "road.npz")
+    _model().save(tmp_path / "braking.npz")  # channels whose computation has not changed load as before
+    _rewrite_metadata(tmp_path / "braking.npz", feature_version=None)
+    assert DictionaryModel.load(tmp_path / "braking.npz").channels == ["pitch", "pitch_rate"]
 
 
 def test_inconsistent_shapes_are_rejected():

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from spotfree.errors import InputError
+from spotfree.signal.features import CHANNEL_CHANGED, FEATURE_VERSION
 
 SCHEMA_VERSION = 1
 
@@ -94,6 +95,7 @@ class DictionaryModel:
             "step": int(self.step),
             "normalisation": self.normalisation,
             "features": self.features,
+            "feature_version": FEATURE_VERSION,
             "orientation": self.orientation,
             "parameters": self.parameters,
             "summary": self.summary,
@@ -139,6 +141,12 @@ class DictionaryModel:
             raise InputError(
                 f"{path}: model schema version {meta.get('schema_version')} is not {SCHEMA_VERSION}; retrain it"
             )
+        version = meta.get("feature_version", 1)
+        stale = [c for c in meta["channels"] if meta["features"] == "ride" and CHANNEL_CHANGED.get(c, 0) > version]
+        if stale:
+            raise InputError(f"{path}: trained on {', '.join(stale)} as computed before feature version "
+                             f"{max(CHANNEL_CHANGED[c] for c in stale)} (the vibration RMS over 0.25 s, now 0.05 s); "
+                             "retrain it with 'spotfree train'")
         return cls(
             classes=meta["classes"],
             channels=meta["channels"],
