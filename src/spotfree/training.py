@@ -111,9 +111,9 @@ class TrainingConfig:
     defines the classes, which names are aligned to (:func:`_align_names`; None: names as clustered).
     ``inner_quantile``: the inner class of a ``nesting`` pair keeps its columns at or above this quantile of their
     margins (:func:`_cap`; 0: every confident column). ``close_gaps``: a run of at most this many training windows
-    named the background between two runs of one manoeuvre takes the manoeuvre's name (:func:`_close_gaps`; 0: none). ``single_manoeuvre``: a group absent from the
-    recordings that declare only the background takes, in a recording declaring one manoeuvre, that manoeuvre's name
-    (:func:`~spotfree.naming.single_manoeuvre_names`)."""
+    named the background between two runs of one manoeuvre takes the manoeuvre's name (:func:`_close_gaps`; 0:
+    none). ``single_manoeuvre``: a group absent from the recordings that declare only the background takes, in a
+    recording declaring one manoeuvre, that manoeuvre's name (:func:`~spotfree.naming.single_manoeuvre_names`)."""
 
     channels: tuple[str, ...] = DEFAULT_CHANNELS
     window: int = 20

@@ -25,9 +25,9 @@ import numpy as np
 
 TWO_PI = 2.0 * math.pi
 SECTIONS = 2
+"""Second-order sections of the ride features' Butterworth low-passes (third order)."""
 FEATURE_WIDTH = 16
 """Channels :func:`ride_features_step` writes (``FEATURE_CHANNELS`` then ``DERIVED_CHANNELS``)."""
-"""Second-order sections of the ride features' Butterworth low-passes (third order)."""
 
 PAPER_PARAMETERS = np.dtype([("coefficients", "f8", 8), ("zi", "f8", 2)])
 """Record of :func:`paper_attitude_step`'s constants (:func:`~spotfree.signal.complementary.stream_coefficients`)."""
