@@ -57,15 +57,19 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4, 5, 6, 7, 100])
     args = parser.parse_args()
     warnings.simplefilter("ignore")
-    print(f"# training_protocols --model {args.model} {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC: {os.cpu_count()} "
-          f"cores (shared), load average {os.getloadavg()[0]:.1f}")
+    now = datetime.datetime.now(datetime.timezone.utc)
+    print(f"# training_protocols --model {args.model} {now:%Y-%m-%d %H:%M} UTC: {os.cpu_count()} cores (shared), "
+          f"load average {os.getloadavg()[0]:.1f}")
     classes = CLASSES[MODELS[args.model].scenario]
     print(f"| seed | protocol | labels | {' | '.join(classes)} | all | classes with columns | training s |")
     print("|---:|---|---|" + "---:|" * (len(classes) + 1) + "---|---:|")
     overall = {}
     for seed in args.seeds:
+        splits = {}  # one simulation per training protocol (mixed or one kind) and seed
         for name, (spec, changes) in protocols(args.model).items():
-            data = spec_split(spec, seed)
+            if spec.one_kind not in splits:
+                splits[spec.one_kind] = spec_split(spec, seed)
+            data = splits[spec.one_kind]
             start = time.perf_counter()
             model = train(data.training, spec.config(seed, **changes)).model
             seconds = time.perf_counter() - start

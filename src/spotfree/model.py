@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from spotfree.errors import InputError
-from spotfree.signal.features import CHANNEL_CHANGED, FEATURE_VERSION
+from spotfree.signal.features import CHANNEL_CHANGED, FEATURE_CHANGES, FEATURE_VERSION
 
 SCHEMA_VERSION = 1
 
@@ -144,9 +144,9 @@ class DictionaryModel:
         version = meta.get("feature_version", 1)
         stale = [c for c in meta["channels"] if meta["features"] == "ride" and CHANNEL_CHANGED.get(c, 0) > version]
         if stale:
-            raise InputError(f"{path}: trained on {', '.join(stale)} as computed before feature version "
-                             f"{max(CHANNEL_CHANGED[c] for c in stale)} (the vibration RMS over 0.25 s, now 0.05 s); "
-                             "retrain it with 'spotfree train'")
+            changed = max(CHANNEL_CHANGED[c] for c in stale)
+            raise InputError(f"{path}: trained on {', '.join(stale)} as computed before feature version {changed} "
+                             f"({FEATURE_CHANGES[changed]}); retrain it with 'spotfree train'")
         return cls(
             classes=meta["classes"],
             channels=meta["channels"],

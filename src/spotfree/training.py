@@ -609,7 +609,8 @@ def _cap(column_class, column_margin, n_classes, max_columns, min_margin,
     (``benchmarks/training_purity.py``, seeds 0-7) the top quarter (0.75) makes sudden braking pure (1.00) on every
     seed with a column instead of 0.77-0.92 on three; but on the evaluation's protocol the centred labels then find
     fewer sudden-braking samples (recall, development seeds 10-14: kernel CRC_RLS 90.8 -> 75.5 %, CRC_RLS 84.9 ->
-    46.6 %), so it is off by default. Causal labels use other columns and do not change.
+    46.6 %). It is on by default for the purity the training is asked for (with :func:`_close_gaps`); causal labels
+    use other columns and do not change.
     """
     chosen, fallback = [], []
     for i in range(n_classes):

@@ -12,10 +12,8 @@ naming by evidence (:mod:`spotfree.naming`) needs: in the lateral file alone, ge
 turns or slaloms. A spec with ``one_kind`` (both models now) trains instead, as the paper does, on one recording per
 manoeuvre: each training rider rides once per kind of manoeuvre or road event and once without any
 (:data:`KIND_RIDES`), and names with rule 6 of :mod:`spotfree.naming` (a group absent from the plain rides takes the
-one class of its ride). Tests
-are labelled causally by
-:func:`~spotfree.classify.batch.classify_recording` and scored per true class
-(:func:`~spotfree.evaluation.metrics.class_accuracy`).
+one class of its ride). Tests are labelled causally by :func:`~spotfree.classify.batch.classify_recording` and
+scored per true class (:func:`~spotfree.evaluation.metrics.class_accuracy`).
 """
 
 from __future__ import annotations

@@ -13,9 +13,10 @@ its long side, y up, z toward the user (right-handed); lengths in mm. The fields
   4 pinky), ``extended`` (bool), ``tipPosition`` (mm).
 
 Two spotfree fields extend a frame: ``session`` (integer, one experiment of a log; absent means 1) and, in
-simulated frames, ``truth`` = ``{"state": "posture"|"gesture", "label": ..., "person": ..., "pace": ...}``, ground truth
-for evaluation that no feature reads (``pace``: the palm's speed relative to the movement's peak, 0 in a posture). The service's other messages, the version header ``{"version": 6,
-"serviceVersion": ...}`` and events ``{"event": {...}}``, are not frames.
+simulated frames, ``truth`` = ``{"state": "posture"|"gesture", "label": ..., "person": ..., "pace": ...}``,
+ground truth for evaluation that no feature reads (``pace``: the palm's speed relative to the movement's peak, 0 in
+a posture). The service's other messages, the version header ``{"version": 6, "serviceVersion": ...}`` and events
+``{"event": {...}}``, are not frames.
 
 Inside spotfree a :class:`Hand` is in SI units (m, m/s) in the same Leap frame.
 """

@@ -70,10 +70,12 @@ DERIVED_CHANNELS = ("lean", "acc_long", "roll_rate", "yaw_rate", "vib_x", "vib_y
 
 FEATURE_VERSION = 2
 """Version of the channel definitions, stored in every model file (:mod:`spotfree.model`)."""
+FEATURE_CHANGES = {2: "the vibration RMS over 0.25 s, now 0.05 s"}
+"""Per :data:`FEATURE_VERSION`, what it changed in the channels of :data:`CHANNEL_CHANGED` (version 2 also added
+the ``rough_*`` channels)."""
 CHANNEL_CHANGED = {"vib_x": 2, "vib_y": 2, "vib_z": 2}
 """The :data:`FEATURE_VERSION` from which a channel is computed as now: a model trained on it under an earlier
-version would be fed other values, so loading it is refused. Version 2: :data:`VIB_TIME_CONSTANT` 0.25 s -> 0.05 s
-(the ``rough_*`` channels are new)."""
+version would be fed other values, so loading it is refused."""
 
 LEAN_TIME_CONSTANT = 10.0
 """Time constant ``tau`` (s) of the ``lean`` leaky integrator. Measured on simulated braking rides (experiment 1,

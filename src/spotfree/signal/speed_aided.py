@@ -94,9 +94,9 @@ class SpeedAidedPitch:
 def speed_aided_acceleration(acc: np.ndarray, gyr: np.ndarray, roll: np.ndarray, pitch_ref: np.ndarray,
                              speed: np.ndarray | None, rate: float,
                              parameters: SpeedAidedParameters | None = None) -> np.ndarray:
-    """``(n, 3)`` columns ``a_t`` (m/s^2), ``theta`` (rad) and the speed state ``v`` (m/s) of one gap-free segment; ``speed`` (m/s) NaN between
-    fixes, or ``None`` without GPS. Runs :func:`~spotfree.signal.recursions.speed_aided_step` sample by sample, so
-    batch equals streaming."""
+    """``(n, 3)`` columns ``a_t`` (m/s^2), ``theta`` (rad) and the speed state ``v`` (m/s) of one gap-free segment;
+    ``speed`` (m/s) NaN between fixes, or ``None`` without GPS. Runs
+    :func:`~spotfree.signal.recursions.speed_aided_step` sample by sample, so batch equals streaming."""
     n = len(acc)
     speed = np.full(n, np.nan) if speed is None else np.asarray(speed, dtype=float)
     out = np.empty((n, 3))
