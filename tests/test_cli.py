@@ -175,13 +175,14 @@ def test_train_single_manoeuvre_names_turning_groups_by_their_rides(tmp_path):
     assert renamed and {c["name"] for c in renamed} == {"gentle-turn/sharp-turn"}
 
 
-def test_train_refuses_an_inner_quantile_outside_0_1_and_keeps_the_model_there(tmp_path):
+@pytest.mark.parametrize("option, value", [("--inner-quantile", "1.5"), ("--close-gaps", "-1")])
+def test_train_refuses_an_option_out_of_range_and_keeps_the_model_there(tmp_path, option, value):
     ride = tmp_path / "sb.csv"
     assert runner.invoke(app, ["simulate", "sudden-braking", "-o", str(ride), "--repeats", "1"]).exit_code == 0
     model = tmp_path / "m.npz"
     model.write_bytes(b"an older model")
     result = runner.invoke(app, ["train", "-o", str(model), "--experiment",
-                                 f"{ride}=cruising,normal-braking,sudden-braking", "--inner-quantile", "1.5"])
+                                 f"{ride}=cruising,normal-braking,sudden-braking", option, value])
     assert result.exit_code == 2
-    assert "--inner-quantile" in result.output and "got 1.5" in result.output
+    assert option in result.output and f"got {value}" in result.output
     assert model.read_bytes() == b"an older model"
