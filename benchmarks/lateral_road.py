@@ -4,7 +4,8 @@ Protocol (:mod:`spotfree.evaluation.lateral_road`): per model, experiments 1-4 o
 other scenario's are trained on spotting-free (each declares the classes that occur in it), experiments 5-7 of its
 own scenario (three held-out riders) are labelled causally and scored per true class. The grid runs on
 ``--dev-seeds`` only; the chosen :data:`~spotfree.evaluation.lateral_road.MODELS` are then scored on
-``--test-seed``, which the grid never sees.
+``--test-seed``, which the grid never sees. Each row: the causal labels, then the same after the offline segment
+vote at the spec's penalty (:mod:`spotfree.classify.segments`).
 
 Run: ``python benchmarks/lateral_road.py [--dev-seeds 100] [--test-seed 0]``.
 """
@@ -30,8 +31,9 @@ GRID = {
 
 def row(name: str, seed: int, channels, window: int, result, seconds: float) -> str:
     classes = " ".join(f"{s.rate:.3f}" for s in result.per_class.values())
+    voted = " ".join(f"{s.rate:.3f}" for s in result.segmented.values())
     return (f"{name:8s} {seed:4d}  {','.join(channels):22s} {window:3d}  {classes}  overall {result.overall.rate:.3f}"
-            f"  ({seconds:.0f} s)")
+            f"  | segment vote {voted}  overall {result.segmented_overall.rate:.3f}  ({seconds:.0f} s)")
 
 
 def main() -> None:

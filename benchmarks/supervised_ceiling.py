@@ -17,10 +17,13 @@ tests, so that spotfree's spotting-free figures can be read against it:
   model's scenario; "protocol" training: its experiments 1-4 of the same seed; scored per true class;
 * ``--riders many``: trained instead on all 7 rides of every scenario file of seeds 100-103 (braking: 84 riders) or
   of the model's scenario of seeds 100-105 (42 riders);
+* ``--stride``: samples between the context's taps (default 2); ``--summary``: each channel's mean and standard
+  deviation over the whole context added to the row (a variance estimate from every sample, for the road);
 * "away": leaving out the samples within 0.5 s of a label change.
 
     python benchmarks/supervised_ceiling.py [--model braking] [--seeds 0 1] [--channels acc_long,pitch_rate]
                                             [--riders protocol|many] [--contexts 20:0,40:0,20:20]
+                                            [--stride 2] [--summary]
 """
 
 from __future__ import annotations
@@ -42,7 +45,7 @@ CHANNELS = {"braking": "acc_long,pitch_rate", "lateral": "yaw_rate,roll_rate,rol
             "road": "vib_x,vib_y,vib_z,acc_z"}
 """Default channels per model: the braking model's own, and for the other two the union of those their grids tried."""
 STRIDE = 2
-"""Samples between the context's taps."""
+"""Samples between the context's taps (``--stride``)."""
 AWAY = 10
 """Samples (0.5 s) each side of a label change left out of the "away" score."""
 
@@ -53,11 +56,13 @@ def _features(cache: dict, seed: int, scenario: str):
     return cache[seed, scenario]
 
 
-def _rows(cache, rides, channels, before, after):
+def _rows(cache, rides, channels, before, after, stride=STRIDE, summary=False):
     """Context rows, labels, scenario and distance (samples) to the nearest label change of every sample of
-    ``rides`` ((seed, scenario, experiments)) that has a full context."""
+    ``rides`` ((seed, scenario, experiments)) that has a full context. ``summary``: each row also holds every
+    channel's mean and standard deviation over the whole context (every sample)."""
     x, y, scenario, distance = [], [], [], []
-    taps = np.arange(-before, after + 1, STRIDE)
+    taps = np.arange(-before, after + 1, stride)
+    every = np.arange(-before, after + 1)
     for seed, name, experiments in rides:
         feats = _features(cache, seed, name)
         values = np.column_stack([feats.channels[c] for c in channels])
@@ -69,7 +74,11 @@ def _rows(cache, rides, channels, before, after):
             near = (np.abs(np.arange(len(lab))[:, None] - changes[None, :]).min(axis=1) if len(changes)
                     else np.full(len(lab), np.inf))
             at = np.arange(before, len(v) - after)
-            x.append(v[at[:, None] + taps[None, :]].reshape(len(at), -1))
+            row = [v[at[:, None] + taps[None, :]].reshape(len(at), -1)]
+            if summary:
+                context = v[at[:, None] + every[None, :]]
+                row += [context.mean(axis=1), context.std(axis=1)]
+            x.append(np.hstack(row))
             y.append(lab[at])
             scenario += [name] * len(at)
             distance.append(near[at])
@@ -97,13 +106,17 @@ def main() -> None:
     parser.add_argument("--channels", default=None, help="comma-separated (default: per model, see CHANNELS)")
     parser.add_argument("--riders", choices=("protocol", "many"), default="protocol")
     parser.add_argument("--contexts", default="20:0,40:0,20:20", help="before:after pairs, samples")
+    parser.add_argument("--stride", type=int, default=STRIDE, help="samples between the context's taps")
+    parser.add_argument("--summary", action="store_true",
+                        help="add each channel's mean and standard deviation over the context")
     args = parser.parse_args()
     channels = tuple((args.channels or CHANNELS[args.model]).split(","))
     groups = BRAKING if args.model == "braking" else CLASSES[args.model]
     print(f"# supervised_ceiling {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; {platform.machine()}, "
           f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}; Python {platform.python_version()}")
     print(f"# model {args.model}; channels {','.join(channels)}; training riders: {args.riders}; test seeds "
-          f"{args.seeds}; columns: per {'scenario' if args.model == 'braking' else 'true class'}, then all")
+          f"{args.seeds}; taps every {args.stride} samples{' + context mean, std' if args.summary else ''}")
+    print(f"# columns: per {'scenario' if args.model == 'braking' else 'true class'}, then all")
     print(f"| context (before:after) | training | {' | '.join(groups)} | all tests | all, away from changes | "
           "errors within 0.25 s of a change |")
     print("|---|---|" + "---:|" * (len(groups) + 3))
@@ -115,10 +128,11 @@ def main() -> None:
         fits = [(None, args.seeds)] if args.riders == "many" else [(s, [s]) for s in args.seeds]
         for train_seed, test_seeds in fits:
             training = _many(args.model) if train_seed is None else _protocol(args.model, train_seed)[0]
-            x, y, _, _ = _rows(cache, training, channels, before, after)
+            x, y, _, _ = _rows(cache, training, channels, before, after, args.stride, args.summary)
             learner = HistGradientBoostingClassifier(max_iter=200, random_state=0).fit(x, y)
             for test_seed in test_seeds:
-                xt, yt, scen, dist = _rows(cache, _protocol(args.model, test_seed)[1], channels, before, after)
+                xt, yt, scen, dist = _rows(cache, _protocol(args.model, test_seed)[1], channels, before, after,
+                                           args.stride, args.summary)
                 right = learner.predict(xt) == yt
                 group = scen if args.model == "braking" else yt
                 for g in groups:

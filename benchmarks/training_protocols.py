@@ -12,7 +12,8 @@ protocols, each from the same four training riders (experiments 1-4) and scored 
   roll rate too, and for the road model on the vibration levels without the speed (its channels before
   2026-11-24, at today's vibration time constant).
 
-Each model labels the tests with kernel CRC_RLS (the product's classifier) and with the nearest columns.
+Each model labels the tests with kernel CRC_RLS (the product's classifier), with the nearest columns, and with
+kernel CRC_RLS followed by the offline segment vote at the spec's penalty (:mod:`spotfree.classify.segments`).
 
 Run: ``python benchmarks/training_protocols.py [--model lateral|road] [--seeds 0 1 2 3 4 5 6 7 100]``.
 """
@@ -29,12 +30,13 @@ from dataclasses import replace
 import numpy as np
 
 from spotfree.classify.batch import classify_recording
-from spotfree.evaluation.lateral_road import MODELS, spec_split
+from spotfree.evaluation.lateral_road import MODELS, segment_options, spec_split
 from spotfree.evaluation.metrics import Score, class_accuracy
 from spotfree.sim.scenarios import CLASSES
 from spotfree.training import train
 
-METHODS = ("kcrc", "nearest")
+LABELLINGS = {"kcrc": {}, "nearest": {"method": "nearest"}, "kcrc, segment vote": {"segments": True}}
+"""Label column -> options of :func:`classify_recording` (``segments``: the spec's penalty and kept classes)."""
 
 
 def protocols(name: str) -> dict[str, tuple]:
@@ -73,18 +75,22 @@ def main() -> None:
             start = time.perf_counter()
             model = train(data.training, spec.config(seed, **changes)).model
             seconds = time.perf_counter() - start
-            for method in METHODS:
-                labels = classify_recording(model, data.test, method).label
+            for labelling, options in LABELLINGS.items():
+                if options.get("segments"):
+                    options = segment_options(spec, model)
+                labels = classify_recording(model, data.test, **options).label
                 per_class = class_accuracy(labels, data.test.truth["label"], classes)
                 total = sum(per_class.values(), Score(0, 0))
-                overall.setdefault((name, method), []).append(total.rate)
-                print(f"| {seed} | {name} | {method} | " + " | ".join(f"{s.rate:.3f}" for s in per_class.values())
+                overall.setdefault((name, labelling), []).append([s.rate for s in per_class.values()] + [total.rate])
+                print(f"| {seed} | {name} | {labelling} | " + " | ".join(f"{s.rate:.3f}" for s in per_class.values())
                       + f" | {total.rate:.3f} | {len(model.classes)} | {seconds:.0f} |", flush=True)
     print()
-    print("| protocol | labels | mean of all over the seeds | lowest seed |")
-    print("|---|---|---:|---:|")
-    for (name, method), rates in overall.items():
-        print(f"| {name} | {method} | {np.mean(rates):.3f} | {np.min(rates):.3f} |")
+    print(f"| protocol | labels | mean over the seeds: {' | '.join(classes)} | all | lowest seed, all |")
+    print("|---|---|" + "---:|" * (len(classes) + 2))
+    for (name, labelling), rates in overall.items():
+        means = np.nanmean(np.array(rates), axis=0)
+        print(f"| {name} | {labelling} | " + " | ".join(f"{m:.3f}" for m in means)
+              + f" | {np.min(np.array(rates)[:, -1]):.3f} |")
 
 
 if __name__ == "__main__":

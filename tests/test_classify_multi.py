@@ -87,3 +87,13 @@ def test_cli_classify_with_several_models_writes_a_column_per_model_and_keeps_th
     twice = runner.invoke(app, ["classify", paths[0], paths[0], str(tmp_path / "ride.csv"), "-o",
                                 str(tmp_path / "x.csv")])
     assert twice.exit_code == 2 and "share the name braking" in twice.output
+
+
+def test_the_segment_vote_runs_per_model_and_keeps_only_the_classes_each_has(models, ride):
+    table = classify_models(models, ride, segments=4.0, keep=("kerb",))
+    for name, model in models.items():
+        own = ("kerb",) if "kerb" in model.classes else ()
+        alone = classify_recording(model, ride, segments=4.0, keep=own)
+        np.testing.assert_array_equal(table[name].to_numpy(), alone.label)
+    with pytest.raises(InputError, match="--keep slalm: not a class of any model"):
+        classify_models(models, ride, segments=4.0, keep=("slalm",))

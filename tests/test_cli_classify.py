@@ -90,7 +90,20 @@ def test_labels_stop_at_a_gap_and_resume_after_it_and_say_so(folder):
     assert (labels.loc[inside, "label"] == "").all() and (labels.loc[~inside, "label"].iloc[19:] != "").all()
 
 
-@pytest.mark.parametrize("case", ["rate", "model", "method", "smooth"])
+def test_the_segment_vote_is_said_and_keeps_the_labelled_samples(folder):
+    assert invoke("classify", folder / "model.npz", folder / "ride.csv", "-o", folder / "plain.csv").exit_code == 0
+    result = invoke("classify", folder / "model.npz", folder / "ride.csv", "-o", folder / "voted.csv",
+                    "--segments", "4", "--keep", "sudden-braking")
+    assert result.exit_code == 0, result.output
+    assert "segment vote at penalty 4, sudden-braking kept" in result.output
+    voted = pd.read_csv(folder / "voted.csv", keep_default_na=False)
+    plain = pd.read_csv(folder / "plain.csv", keep_default_na=False)
+    np.testing.assert_array_equal(voted["label"] == "", plain["label"] == "")
+    flips = lambda lab: int((lab.to_numpy()[1:] != lab.to_numpy()[:-1]).sum())  # noqa: E731
+    assert flips(voted["label"]) < flips(plain["label"])
+
+
+@pytest.mark.parametrize("case", ["rate", "model", "method", "smooth", "segments", "keep"])
 def test_bad_input_is_one_line_and_exit_2_and_writes_nothing(folder, case):
     source, model, extra = folder / "ride.csv", folder / "model.npz", []
     if case == "rate":
@@ -100,14 +113,19 @@ def test_bad_input_is_one_line_and_exit_2_and_writes_nothing(folder, case):
         model = folder / "missing.npz"
     elif case == "method":
         extra = ["--method", "lasso"]
-    else:
+    elif case == "smooth":
         extra = ["--smooth", "-3"]
+    elif case == "segments":
+        extra = ["--segments", "-1"]
+    else:
+        extra = ["--segments", "4", "--keep", "kerb"]
     result = invoke("classify", model, source, "-o", folder / f"bad_{case}.csv", *extra)
     assert result.exit_code == 2
     lines = [line for line in result.output.splitlines() if line.strip()]
     assert len(lines) == 1, result.output
     expected = {"rate": "model expects channels [a-z_,]+ at 20 Hz; .*fast.csv has .* at 50 Hz",
                 "model": "missing.npz: no such model file", "method": "'lasso' is unknown",
-                "smooth": r"\(--smooth\).* got -3"}[case]
+                "smooth": r"\(--smooth\).* got -3", "segments": r"\(--segments\).* got -1",
+                "keep": "--keep kerb: not a class of the model"}[case]
     assert pd.Series(lines).str.contains(expected).any(), result.output
     assert not (folder / f"bad_{case}.csv").exists()

@@ -11,6 +11,7 @@ from typer.testing import CliRunner
 import spotfree.evaluate
 from spotfree.cli import app
 from spotfree.errors import InputError
+from spotfree.evaluation.lateral_road import MODELS
 from spotfree.sim.scenarios import CLASSES
 from spotfree.evaluation.metrics import (
     Score,
@@ -139,9 +140,12 @@ def test_quick_run_report_scores_every_lateral_and_road_class_and_times_the_thre
     for scenario in ("lateral", "road"):
         section = report.split(f"### {scenario}\n", 1)[1].split("###", 1)[0]
         for name in CLASSES[scenario]:
-            row = re.search(rf"\| {name} \| (\d+) / (\d+) \| (\d+\.\d\d) \| (yes|no) \|", section)
+            row = re.search(rf"\| {name} \| (\d+) / (\d+) \| (\d+\.\d\d) \| (yes|no) \| (\d+\.\d\d) \| (yes|no) \|",
+                            section)
             assert row and 0 < int(row[2]) and int(row[1]) <= int(row[2]), (scenario, name)
             assert float(row[3]) == pytest.approx(100 * int(row[1]) / int(row[2]), abs=0.006)
+            assert (row[6] == "yes") == (float(row[5]) >= 98.0)
+        assert f"Segment vote: penalty {MODELS[scenario].segments:g}" in section
     assert re.search(r"- median \d+\.\d us, p99 \d+\.\d us per raw sample, (within|over) the 50 us budget", report)
     assert "- stream labels unlike the batch labels of the same rides: 0." in report
 

@@ -225,6 +225,12 @@ def classify(
     centred: bool = typer.Option(False, "--centred", help="label each sample by the window centred on it "
                                  "(offline); default: the window ending at it, as a live stream does"),
     smooth: int = typer.Option(0, "--smooth", help="majority vote over N samples (0: none)"),
+    segments: float = typer.Option(0.0, "--segments", help="offline segment vote: cut the ride where the model's "
+                                   "channels change (PELT, this penalty per change; larger: fewer segments; "
+                                   "4-8 suit the lateral and road models) and give each segment its majority "
+                                   "label (0: none)"),
+    keep: list[str] = typer.Option([], "--keep", help="a class the segment vote leaves as labelled (short "
+                                   "events such as kerb); repeat for several"),
 ) -> None:
     """Label every sample of a log with a trained model, or with several models at once (one feature pass)."""
     from spotfree.classify.batch import classify_recording
@@ -235,24 +241,32 @@ def classify(
         raise InputError("classify needs MODEL.npz [MODEL2.npz ...] IN: at least one model file and the log")
     *model_paths, source = paths
     if len(model_paths) > 1:
-        _classify_several(model_paths, source, output, method, centred, smooth)
+        _classify_several(model_paths, source, output, method, centred, smooth, segments, keep)
         return
     dictionary = DictionaryModel.load(model_paths[0])
     rec = read_recording(source, rate=dictionary.rate)
-    labels = classify_recording(dictionary, rec, method=method, centred=centred, smoothing=smooth)
+    labels = classify_recording(dictionary, rec, method=method, centred=centred, smoothing=smooth, segments=segments,
+                                keep=tuple(keep))
     labels.write_csv(output)
     _report_repairs_and_gaps(rec)
     window = f"{dictionary.window} samples = {dictionary.window / dictionary.rate:.2f} s"
     where = f"centred on it (offset {labels.meta['offset']} samples)" if centred else "ending at it"
     out.print(f"wrote {output}: {int(labels.labelled().sum())} of {len(labels)} samples labelled by {method}; "
               f"windows: {labels.meta['alignment']}, each label from the window of {window} {where}"
-              + (f"; majority vote over {smooth} samples" if smooth else ""))
+              + (f"; majority vote over {smooth} samples" if smooth else "") + _segment_note(segments, keep))
     for gap in labels.breaks():
         out.print(f"{gap} (gap in {rec.source}; no label across it)")
 
 
+def _segment_note(segments: float, keep: list[str]) -> str:
+    """The summary's words on the segment vote."""
+    if not segments:
+        return ""
+    return f"; segment vote at penalty {segments:g}" + (f", {', '.join(keep)} kept" if keep else "")
+
+
 def _classify_several(model_paths: list[str], source: str, output: Path, method: str, centred: bool,
-                      smooth: int) -> None:
+                      smooth: int, segments: float, keep: list[str]) -> None:
     """``classify`` with several models: one label column per model (file stem), see :mod:`spotfree.classify.multi`."""
     from spotfree.classify.multi import classify_models, model_names, write_labels
     from spotfree.io import read_recording
@@ -260,13 +274,14 @@ def _classify_several(model_paths: list[str], source: str, output: Path, method:
 
     models = dict(zip(model_names(model_paths), (DictionaryModel.load(p) for p in model_paths)))
     rec = read_recording(source, rate=next(iter(models.values())).rate)
-    table = classify_models(models, rec, method=method, centred=centred, smoothing=smooth)
+    table = classify_models(models, rec, method=method, centred=centred, smoothing=smooth, segments=segments,
+                            keep=tuple(keep))
     write_labels(table, output)
     _report_repairs_and_gaps(rec)
     windows = ", ".join(f"{name} {m.window} samples" for name, m in models.items())
     out.print(f"wrote {output}: {len(table)} samples, one label column per model ({', '.join(models)}) by {method}; "
               f"windows {'centred on' if centred else 'ending at'} each sample: {windows}"
-              + (f"; majority vote over {smooth} samples" if smooth else ""))
+              + (f"; majority vote over {smooth} samples" if smooth else "") + _segment_note(segments, keep))
 
 
 @app.command()

@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 
 from spotfree.classify import DEFAULT_METHOD, make_classifier
+from spotfree.classify.segments import change_points, check_penalty, segment_signal, segment_vote
 from spotfree.classify.smoothing import check_smoothing, majority_vote
 from spotfree.errors import InputError
 from spotfree.io.checks import write_text
@@ -54,7 +55,8 @@ class Labels:
     """One label per sample of a recording: ``label[k]`` is a class name, or ``""`` where no window gives one.
 
     ``meta`` says how they were made: ``method``, ``alignment`` (``causal`` / ``centred``), ``offset`` (samples),
-    ``window``, ``step``, ``smoothing`` (samples, 0 for none) and the model's ``classes``.
+    ``window``, ``step``, ``smoothing`` (samples, 0 for none), ``segments`` (the segment vote's penalty, 0 for
+    none) and its ``keep``, and the model's ``classes``.
     """
 
     time: np.ndarray
@@ -141,13 +143,20 @@ def alignment_offset(model: DictionaryModel, centred: bool) -> int:
 
 
 def classify_recording(model: DictionaryModel, rec: Recording, method: str = DEFAULT_METHOD, centred: bool = False,
-                       smoothing: int | None = None, classifier=None) -> Labels:
+                       smoothing: int | None = None, classifier=None, segments: float | None = None,
+                       keep: tuple[str, ...] = ()) -> Labels:
     """Label every sample of ``rec`` (a raw IMU log or a log of the model's channels), see the module docstring.
 
     ``smoothing``: majority vote over that many samples (:mod:`spotfree.classify.smoothing`), None for none.
+    ``segments``: the penalty of the offline segment vote (:mod:`spotfree.classify.segments`), None for none;
+    ``keep``: classes it leaves as labelled.
     ``classifier``: a classifier already fitted by :func:`dictionary_classifier` (fitted here when None).
     """
-    smoothing = check_smoothing(smoothing)
+    smoothing, penalty = check_smoothing(smoothing), check_penalty(segments)
+    unknown = sorted(set(keep) - {str(c) for c in model.classes})
+    if unknown:
+        raise InputError(f"--keep {', '.join(unknown)}: not a class of the model "
+                         f"({', '.join(map(str, model.classes))})")
     feats = model_features(model, rec)
     segments = feats.segments()
     if not any(stop - start >= model.window for start, stop in segments):
@@ -171,9 +180,13 @@ def classify_recording(model: DictionaryModel, rec: Recording, method: str = DEF
         label[samples] = predicted[i + (samples - samples[0]) // model.step]
         if smoothing:
             label[start:stop] = majority_vote(label[start:stop], smoothing, centred)
+        if penalty:
+            x = segment_signal({c: feats.channels[c][start:stop] for c in model.channels}, model.channels)
+            label[start:stop] = segment_vote(label[start:stop], change_points(x, penalty), keep)
     return Labels(
         time=feats.time, label=label, rate=feats.rate, experiment=feats.experiment, source=rec.source,
         meta={"method": method, "alignment": "centred" if centred else "causal", "offset": offset,
               "window": model.window, "step": model.step, "smoothing": smoothing or 0,
+              "segments": penalty or 0, "keep": list(keep),
               "classes": [str(c) for c in model.classes]},
     )

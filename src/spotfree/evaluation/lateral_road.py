@@ -13,7 +13,8 @@ turns or slaloms. A spec with ``one_kind`` (both models now) trains instead, as 
 manoeuvre: each training rider rides once per kind of manoeuvre or road event and once without any
 (:data:`KIND_RIDES`), and names with rule 6 of :mod:`spotfree.naming` (a group absent from the plain rides takes the
 one class of its ride). Tests are labelled causally by :func:`~spotfree.classify.batch.classify_recording` and
-scored per true class (:func:`~spotfree.evaluation.metrics.class_accuracy`).
+scored per true class (:func:`~spotfree.evaluation.metrics.class_accuracy`); then again after the offline segment
+vote (:mod:`spotfree.classify.segments`) at the spec's penalty.
 """
 
 from __future__ import annotations
@@ -44,6 +45,8 @@ class ModelSpec:
     extra_clusters: int = 7
     max_columns: int = 100
     one_kind: bool = False
+    segments: float = 0.0
+    keep: tuple[str, ...] = ()
 
     def config(self, seed: int, **changes) -> TrainingConfig:
         """The :class:`~spotfree.training.TrainingConfig` of this spec (``changes`` override fields); names are not
@@ -56,8 +59,8 @@ class ModelSpec:
 
 
 MODELS = {
-    "lateral": ModelSpec("lateral", ("yaw_rate",), 20, extra_clusters=15, one_kind=True),
-    "road": ModelSpec("road", ("rough_y", "rough_z"), 6, one_kind=True),
+    "lateral": ModelSpec("lateral", ("yaw_rate",), 20, extra_clusters=15, one_kind=True, segments=4.0),
+    "road": ModelSpec("road", ("rough_y", "rough_z"), 6, one_kind=True, segments=8.0, keep=("kerb",)),
 }
 """The chosen channels and windows (grid on development seeds: ``benchmarks/lateral_road.py``, BENCHMARKS.md). The
 lateral model trains on rides of one kind of manoeuvre with 15 extra groups, on the yaw rate alone (development
@@ -65,7 +68,10 @@ seeds 100-106, causal kernel CRC_RLS: 0.923 of the samples right on average agai
 ``benchmarks/training_protocols.py`` compares it with the mixed rides on seeds 0-7; BENCHMARKS.md). The road
 model trains on rides of one kind of road event too, which names kerbs, on the speed-normalised vibration
 ``rough_y, rough_z`` over windows of 6 samples (development seeds 100-103: 0.900 of the samples right against 0.875
-on ``vib_y, vib_z`` over 10 samples, :data:`~spotfree.signal.features.VIB_TIME_CONSTANT`)."""
+on ``vib_y, vib_z`` over 10 samples, :data:`~spotfree.signal.features.VIB_TIME_CONSTANT`). Segment-vote
+penalties (``segments``; ``keep``: classes left as labelled), chosen on development seeds 100-103 over 0.5-32
+(BENCHMARKS.md): lateral 4 (0.972 of the samples right against 0.921 causal), road 8 with kerbs kept (0.963 against
+0.899; penalties 12-24 within 0.005 of it, 32 merged a rough patch into the smooth road on seed 100)."""
 
 
 KIND_RIDES = {"lateral": (("gentle",), ("sharp",), ("slalom",), ()),
@@ -100,6 +106,8 @@ class ModelScore:
     per_class: dict[str, Score]
     overall: Score
     warnings: list[str] = field(default_factory=list)
+    segmented: dict[str, Score] = field(default_factory=dict)
+    segmented_overall: Score = Score(0, 0)
 
     @property
     def worst(self) -> float:
@@ -149,19 +157,28 @@ def split(scenario: str, seed: int, repeats: int = 7, n_train: int = 4, rate: fl
     return Split(training, test, tests)
 
 
-def score(model: DictionaryModel, test: Recording, scenario: str) -> tuple[dict[str, Score], Score]:
-    """Per-class and overall accuracy of the causal labels of ``test`` (every labelled sample)."""
-    labels = classify_recording(model, test).label
+def score(model: DictionaryModel, test: Recording, scenario: str, segments: float | None = None,
+          keep: tuple[str, ...] = ()) -> tuple[dict[str, Score], Score]:
+    """Per-class and overall accuracy of the causal labels of ``test`` (every labelled sample), after the segment
+    vote at penalty ``segments`` (keeping ``keep``) when one is given."""
+    labels = classify_recording(model, test, segments=segments, keep=keep).label
     truth = test.truth["label"]
     per_class = class_accuracy(labels, truth, CLASSES[scenario])
     return per_class, sum(per_class.values(), Score(0, 0))
+
+
+def segment_options(spec: ModelSpec, model: DictionaryModel) -> dict:
+    """The segment vote of ``spec`` for ``model``: its penalty, and the classes of ``spec.keep`` the model has."""
+    return {"segments": spec.segments, "keep": tuple(c for c in spec.keep if c in {str(k) for k in model.classes})}
 
 
 def train_and_score(spec: ModelSpec, data: Split, seed: int, **changes) -> ModelScore:
     """Train ``spec`` on ``data.training`` and score it on ``data.test``."""
     result = train(data.training, spec.config(seed, **changes))
     per_class, overall = score(result.model, data.test, spec.scenario)
-    return ModelScore(result.model, per_class, overall, result.warnings)
+    segmented, segmented_overall = (score(result.model, data.test, spec.scenario, **segment_options(spec, result.model))
+                                    if spec.segments else ({}, Score(0, 0)))
+    return ModelScore(result.model, per_class, overall, result.warnings, segmented, segmented_overall)
 
 
 def spec_split(spec: ModelSpec, seed: int, **options) -> Split:

@@ -67,6 +67,9 @@ FEATURE_CHANNELS = ("roll", "pitch", "pitch_rate", "acc_x", "acc_y", "acc_z")
 DERIVED_CHANNELS = ("lean", "acc_long", "roll_rate", "yaw_rate", "vib_x", "vib_y", "vib_z", "rough_x", "rough_y",
                     "rough_z")
 """Channels added after :data:`FEATURE_CHANNELS` when ``derived=True``."""
+LEVEL_CHANNELS = ("vib_x", "vib_y", "vib_z", "rough_x", "rough_y", "rough_z")
+"""The non-negative RMS levels among :data:`DERIVED_CHANNELS` (m/s^2 and m/s^2 over root m/s): a change of surface
+multiplies them."""
 
 FEATURE_VERSION = 2
 """Version of the channel definitions, stored in every model file (:mod:`spotfree.model`)."""

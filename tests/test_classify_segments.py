@@ -1,0 +1,68 @@
+"""Offline segment vote: change points of the model's channels, a majority label per segment, bad input."""
+
+import numpy as np
+import pytest
+from classify_fixtures import model, raw, with_gap  # noqa: F401 (fixtures)
+
+from spotfree.classify.batch import classify_recording
+from spotfree.classify.segments import LEVEL_FLOOR, change_points, check_penalty, segment_signal, segment_vote
+from spotfree.errors import InputError
+
+
+def test_change_points_find_a_step_in_the_mean_and_one_in_a_level_channels_scale():
+    rng = np.random.default_rng(0)
+    step = np.r_[np.zeros(80), np.full(70, 2.0)] + rng.normal(0.0, 0.3, 150)
+    ends = change_points(segment_signal({"yaw_rate": step}, ["yaw_rate"]), 4.0)
+    assert ends[-1] == 150 and len(ends) == 2 and abs(ends[0] - 80) <= 1
+    # a level (RMS) that quadruples: its logarithm steps, whatever the units
+    level = np.abs(rng.normal(0.0, 1.0, 200)) * np.r_[np.full(120, 0.01), np.full(80, 0.04)] + 0.05
+    ends = change_points(segment_signal({"rough_z": level}, ["rough_z"]), 8.0)
+    assert abs(ends[0] - 120) <= 3 and len(ends) <= 3
+
+
+def test_the_signal_takes_the_log_of_levels_and_leaves_a_constant_channel_at_zero():
+    x = segment_signal({"vib_z": np.array([0.0, 1.0, 3.0]), "roll": np.full(3, 0.2)}, ["vib_z", "roll"])
+    logs = np.log(np.array([0.0, 1.0, 3.0]) + LEVEL_FLOOR)
+    np.testing.assert_allclose(x[:, 0], (logs - logs.mean()) / logs.std())
+    np.testing.assert_array_equal(x[:, 1], 0.0)
+    assert np.array_equal(change_points(x[:4], 1.0), [3])  # shorter than two segments: one segment
+
+
+def test_each_segment_takes_its_majority_and_blanks_and_kept_classes_stay():
+    labels = np.array(["", "a", "b", "a", "kerb", "b", "b", "a", "", "c"], dtype=object)
+    voted = segment_vote(labels, np.array([5, 10]), keep=("kerb",))
+    assert list(voted) == ["", "a", "a", "a", "kerb", "b", "b", "b", "", "b"]
+    tie = segment_vote(np.array(["b", "a", "a", "b"], dtype=object), np.array([4]))
+    assert list(tie) == ["b"] * 4  # a tie goes to the label that came first
+
+
+@pytest.mark.parametrize("bad", [-1.0, float("nan"), float("inf"), True, "4"])
+def test_a_bad_penalty_is_refused(bad):
+    with pytest.raises(InputError, match=r"--segments"):
+        check_penalty(bad)
+    assert check_penalty(0) is None and check_penalty(None) is None and check_penalty(4) == 4.0
+
+
+def test_the_vote_labels_only_labelled_samples_changes_less_and_is_in_the_meta(model, raw):
+    ride = with_gap(raw.select_experiment(2), 400, 440)
+    plain = classify_recording(model, ride)
+    voted = classify_recording(model, ride, segments=4.0)
+    np.testing.assert_array_equal(voted.labelled(), plain.labelled())
+    flips = lambda lab: int(np.sum(lab[1:] != lab[:-1]))  # noqa: E731
+    assert flips(voted.label) < flips(plain.label)
+    assert voted.meta["segments"] == 4.0 and voted.meta["keep"] == [] and plain.meta["segments"] == 0
+    truth = ride.truth["label"]
+    right = lambda lab: np.mean(lab.label[lab.labelled()] == truth[lab.labelled()])  # noqa: E731
+    print(f"causal {right(plain):.3f}, segment vote {right(voted):.3f}")
+    assert right(voted) >= right(plain) - 0.02
+
+
+def test_kept_classes_keep_their_labels_and_an_unknown_class_is_refused(model, raw):
+    ride = raw.select_experiment(2)
+    plain = classify_recording(model, ride)
+    kept = classify_recording(model, ride, segments=4.0, keep=("sudden-braking",))
+    was = plain.label == "sudden-braking"
+    assert was.any()
+    np.testing.assert_array_equal(kept.label[was], "sudden-braking")
+    with pytest.raises(InputError, match=r"--keep kerb: not a class of the model"):
+        classify_recording(model, ride, segments=4.0, keep=("kerb",))
