@@ -66,3 +66,15 @@ def test_kept_classes_keep_their_labels_and_an_unknown_class_is_refused(model, r
     np.testing.assert_array_equal(kept.label[was], "sudden-braking")
     with pytest.raises(InputError, match=r"--keep kerb: not a class of the model"):
         classify_recording(model, ride, segments=4.0, keep=("kerb",))
+
+
+def test_change_points_equal_the_breakpoints_of_ruptures_pelt():
+    ruptures = pytest.importorskip("ruptures")
+    rng = np.random.default_rng(1)
+    for _ in range(40):
+        n, d = int(rng.integers(6, 300)), int(rng.integers(1, 4))
+        pieces = [rng.normal(rng.normal(0.0, 2.0, d), 1.0, (int(rng.integers(3, 60)), d)) for _ in range(n // 3)]
+        x = np.concatenate(pieces)[:n]
+        penalty, min_size = float(rng.choice([0.5, 2.0, 8.0, 30.0])), int(rng.choice([1, 2, 3, 5]))
+        reference = ruptures.Pelt(model="l2", min_size=min_size, jump=1).fit(x).predict(pen=penalty)
+        np.testing.assert_array_equal(change_points(x, penalty, min_size), reference)

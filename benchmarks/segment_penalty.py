@@ -1,0 +1,59 @@
+"""Segment-vote penalty per model on development seeds: per-class accuracy of the lateral and road models' labels
+after the offline segment vote (:mod:`spotfree.classify.segments`) at each penalty, 0 being the causal labels.
+
+Protocol of :mod:`spotfree.evaluation.lateral_road` (the spec's training; experiments 5-7 of each seed held out),
+kernel CRC_RLS, causal windows; the road model keeps its kerb labels (the spec's ``keep``).
+
+Run: ``python benchmarks/segment_penalty.py [--model lateral|road] [--seeds 100 101 102 103]
+[--penalties 0.5 1 2 4 8]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import os
+import warnings
+from dataclasses import replace
+
+import numpy as np
+
+from spotfree.evaluation.lateral_road import MODELS, score, segment_options, spec_split
+from spotfree.sim.scenarios import CLASSES
+from spotfree.training import train
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--model", choices=sorted(MODELS), default="lateral")
+    parser.add_argument("--seeds", type=int, nargs="+", default=[100, 101, 102, 103])
+    parser.add_argument("--penalties", type=float, nargs="+", default=[0.5, 1, 2, 4, 8])
+    args = parser.parse_args()
+    warnings.simplefilter("ignore")
+    spec = MODELS[args.model]
+    classes = CLASSES[spec.scenario]
+    now = datetime.datetime.now(datetime.timezone.utc)
+    print(f"# segment_penalty --model {args.model} {now:%Y-%m-%d %H:%M} UTC: {os.cpu_count()} cores (shared), "
+          f"load average {os.getloadavg()[0]:.1f}; kept: {', '.join(spec.keep) or 'none'}")
+    print(f"| seed | penalty | {' | '.join(classes)} | all |")
+    print("|---:|---:|" + "---:|" * (len(classes) + 1))
+    rates: dict[float, list] = {}
+    for seed in args.seeds:
+        data = spec_split(spec, seed)
+        model = train(data.training, spec.config(seed)).model
+        for penalty in [0.0, *args.penalties]:
+            options = segment_options(replace(spec, segments=penalty), model) if penalty else {}
+            per_class, overall = score(model, data.test, spec.scenario, **options)
+            row = [s.rate for s in per_class.values()] + [overall.rate]
+            rates.setdefault(penalty, []).append(row)
+            print(f"| {seed} | {penalty:g} | " + " | ".join(f"{r:.3f}" for r in row) + " |", flush=True)
+    print(f"\n| penalty | mean over the seeds: {' | '.join(classes)} | all | lowest class, mean over the seeds |")
+    print("|---:|" + "---:|" * (len(classes) + 2))
+    for penalty, rows in rates.items():
+        table = np.array(rows)
+        print(f"| {penalty:g} | " + " | ".join(f"{m:.3f}" for m in np.nanmean(table, axis=0))
+              + f" | {np.mean(np.nanmin(table[:, :-1], axis=1)):.3f} |")
+
+
+if __name__ == "__main__":
+    main()
