@@ -35,8 +35,10 @@ from spotfree.evaluation.metrics import Score, class_accuracy
 from spotfree.sim.scenarios import CLASSES
 from spotfree.training import train
 
-LABELLINGS = {"kcrc": {}, "nearest": {"method": "nearest"}, "kcrc, segment vote": {"segments": True}}
-"""Label column -> options of :func:`classify_recording` (``segments``: the spec's penalty and kept classes)."""
+
+def labellings(spec, model) -> dict[str, dict]:
+    """Label column -> options of :func:`classify_recording` for ``model`` of ``spec``."""
+    return {"kcrc": {}, "nearest": {"method": "nearest"}, "kcrc, segment vote": segment_options(spec, model)}
 
 
 def protocols(name: str) -> dict[str, tuple]:
@@ -75,9 +77,7 @@ def main() -> None:
             start = time.perf_counter()
             model = train(data.training, spec.config(seed, **changes)).model
             seconds = time.perf_counter() - start
-            for labelling, options in LABELLINGS.items():
-                if options.get("segments"):
-                    options = segment_options(spec, model)
+            for labelling, options in labellings(spec, model).items():
                 labels = classify_recording(model, data.test, **options).label
                 per_class = class_accuracy(labels, data.test.truth["label"], classes)
                 total = sum(per_class.values(), Score(0, 0))

@@ -21,6 +21,7 @@ import pandas as pd
 from spotfree.classify import DEFAULT_METHOD
 from spotfree.classify.batch import classify_recording, dictionary_classifier
 from spotfree.classify.ring import ModelRing
+from spotfree.classify.segments import kept_classes
 from spotfree.classify.smoothing import check_smoothing
 from spotfree.classify.stream import MAX_GAP, PRODUCED, starts_segment
 from spotfree.errors import InputError
@@ -78,9 +79,8 @@ def classify_models(models: Mapping[str, DictionaryModel], rec: Recording, metho
         table["experiment"] = rec.experiment
     table["time"] = rec.time
     for name, model in models.items():
-        own = tuple(c for c in keep if c in {str(k) for k in model.classes})
         table[name] = classify_recording(model, rec, method=method, centred=centred, smoothing=smoothing,
-                                         segments=segments, keep=own).label
+                                         segments=segments, keep=kept_classes(keep, model.classes)).label
     return pd.DataFrame(table)
 
 

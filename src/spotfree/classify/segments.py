@@ -63,8 +63,6 @@ def segment_signal(channels: dict[str, np.ndarray], names: Iterable[str]) -> np.
 def change_points(x: np.ndarray, penalty: float, min_size: int = MIN_SIZE) -> np.ndarray:
     """Ends (exclusive) of the segments PELT cuts ``x`` (n, d) into under ``penalty``; the last is ``n``."""
     x = np.ascontiguousarray(x, dtype=float)
-    if x.ndim == 1:
-        x = x[:, None]
     if len(x) < 2 * min_size:
         return np.array([len(x)])
     return _pelt_l2(x, float(penalty), int(min_size))
@@ -112,6 +110,12 @@ def _pelt_l2(x: np.ndarray, penalty: float, min_size: int) -> np.ndarray:  # pra
     while start[ends[-1]] > 0:
         ends.append(start[ends[-1]])
     return np.array(ends[::-1])
+
+
+def kept_classes(keep: Iterable[str], classes: Iterable) -> tuple[str, ...]:
+    """The classes of ``keep`` that are among a model's ``classes``."""
+    names = {str(c) for c in classes}
+    return tuple(c for c in keep if c in names)
 
 
 def segment_vote(labels: np.ndarray, ends: np.ndarray, keep: Iterable[str] = ()) -> np.ndarray:

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from spotfree.classify.batch import classify_recording
+from spotfree.classify.segments import kept_classes
 from spotfree.evaluation.metrics import Score, class_accuracy
 from spotfree.io.recording import Recording
 from spotfree.model import DictionaryModel
@@ -169,7 +170,7 @@ def score(model: DictionaryModel, test: Recording, scenario: str, segments: floa
 
 def segment_options(spec: ModelSpec, model: DictionaryModel) -> dict:
     """The segment vote of ``spec`` for ``model``: its penalty, and the classes of ``spec.keep`` the model has."""
-    return {"segments": spec.segments, "keep": tuple(c for c in spec.keep if c in {str(k) for k in model.classes})}
+    return {"segments": spec.segments, "keep": kept_classes(spec.keep, model.classes)}
 
 
 def train_and_score(spec: ModelSpec, data: Split, seed: int, **changes) -> ModelScore:
