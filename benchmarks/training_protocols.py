@@ -13,9 +13,11 @@ protocols, each from the same four training riders (experiments 1-4) and scored 
   2026-11-24, at today's vibration time constant).
 
 Each model labels the tests with kernel CRC_RLS (the product's classifier), with the nearest columns, and with
-kernel CRC_RLS followed by the offline segment vote at the spec's penalty (:mod:`spotfree.classify.segments`).
+kernel CRC_RLS followed by the offline segment vote at the spec's penalty (:mod:`spotfree.classify.segments`), and
+for the lateral model that followed by the event vote (the spec's ``events``).
 
-Run: ``python benchmarks/training_protocols.py [--model lateral|road] [--seeds 0 1 2 3 4 5 6 7 100]``.
+Run: ``python benchmarks/training_protocols.py [--model lateral|road] [--seeds 0 1 2 3 4 5 6 7 100]
+[--protocols "one kind" ...]``.
 """
 
 from __future__ import annotations
@@ -38,7 +40,9 @@ from spotfree.training import train
 
 def labellings(spec, model) -> dict[str, dict]:
     """Label column -> options of :func:`classify_recording` for ``model`` of ``spec``."""
-    return {"kcrc": {}, "nearest": {"method": "nearest"}, "kcrc, segment vote": segment_options(spec, model)}
+    events = {"kcrc, segment and event vote": segment_options(spec, model)} if spec.events else {}
+    return {"kcrc": {}, "nearest": {"method": "nearest"},
+            "kcrc, segment vote": segment_options(replace(spec, events=False), model), **events}
 
 
 def protocols(name: str) -> dict[str, tuple]:
@@ -59,7 +63,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--model", choices=sorted(MODELS), default="lateral")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4, 5, 6, 7, 100])
+    parser.add_argument("--protocols", nargs="+", metavar="NAME",
+                        help="only these protocols (default: all; 'one kind' is the product's)")
     args = parser.parse_args()
+    chosen = protocols(args.model)
+    if args.protocols:
+        unknown = set(args.protocols) - set(chosen)
+        if unknown:
+            parser.error(f"unknown protocol {', '.join(sorted(unknown))}; choose from {', '.join(chosen)}")
+        chosen = {name: chosen[name] for name in args.protocols}
     warnings.simplefilter("ignore")
     now = datetime.datetime.now(datetime.timezone.utc)
     print(f"# training_protocols --model {args.model} {now:%Y-%m-%d %H:%M} UTC: {os.cpu_count()} cores (shared), "
@@ -70,7 +82,7 @@ def main() -> None:
     overall = {}
     for seed in args.seeds:
         splits = {}  # one simulation per training protocol (mixed or one kind) and seed
-        for name, (spec, changes) in protocols(args.model).items():
+        for name, (spec, changes) in chosen.items():
             if spec.one_kind not in splits:
                 splits[spec.one_kind] = spec_split(spec, seed)
             data = splits[spec.one_kind]

@@ -89,11 +89,15 @@ def test_cli_classify_with_several_models_writes_a_column_per_model_and_keeps_th
     assert twice.exit_code == 2 and "share the name braking" in twice.output
 
 
-def test_the_segment_vote_runs_per_model_and_keeps_only_the_classes_each_has(models, ride):
-    table = classify_models(models, ride, segments=4.0, keep=("kerb",))
+def test_the_segment_and_event_votes_run_per_model_with_only_the_classes_each_has(models, ride):
+    table = classify_models(models, ride, segments=4.0, keep=("kerb",), events=("straight", "smooth"))
     for name, model in models.items():
-        own = ("kerb",) if "kerb" in model.classes else ()
-        alone = classify_recording(model, ride, segments=4.0, keep=own)
+        own = lambda names: tuple(c for c in names if c in model.classes)  # noqa: E731
+        alone = classify_recording(model, ride, segments=4.0, keep=own(("kerb",)), events=own(("straight", "smooth")))
         np.testing.assert_array_equal(table[name].to_numpy(), alone.label)
-    with pytest.raises(InputError, match="--keep slalm: not a class of any model"):
-        classify_models(models, ride, segments=4.0, keep=("slalm",))
+    plain, events = classify_models(models, ride), classify_models(models, ride, events=("straight",))
+    assert not np.array_equal(events["lateral"], plain["lateral"])
+    np.testing.assert_array_equal(events[["braking", "road"]], plain[["braking", "road"]])
+    for option in ("keep", "events"):
+        with pytest.raises(InputError, match=f"--{option} slalm: not a class of any model"):
+            classify_models(models, ride, segments=4.0, **{option: ("slalm",)})

@@ -5,7 +5,8 @@ import pytest
 from classify_fixtures import model, raw, with_gap  # noqa: F401 (fixtures)
 
 from spotfree.classify.batch import classify_recording
-from spotfree.classify.segments import LEVEL_FLOOR, change_points, check_penalty, segment_signal, segment_vote
+from spotfree.classify.segments import (LEVEL_FLOOR, change_points, check_penalty, event_background, event_ends,
+                                       segment_signal, segment_vote)
 from spotfree.errors import InputError
 
 
@@ -34,6 +35,24 @@ def test_each_segment_takes_its_majority_and_blanks_and_kept_classes_stay():
     assert list(voted) == ["", "a", "a", "a", "kerb", "b", "b", "b", "", "b"]
     tie = segment_vote(np.array(["b", "a", "a", "b"], dtype=object), np.array([4]))
     assert list(tie) == ["b"] * 4  # a tie goes to the label that came first
+
+
+def test_each_run_outside_the_background_is_one_event_with_its_majority_label():
+    labels = np.array(["", "", "straight", "gentle", "sharp", "sharp", "gentle", "sharp", "straight", "sharp", "kerb",
+                       "gentle", "gentle"], dtype=object)
+    ends = event_ends(labels, "straight")
+    assert list(ends) == [3, 8, 9, 13]
+    voted = segment_vote(labels, ends, keep=("kerb",))
+    assert list(voted) == ["", "", "straight"] + ["sharp"] * 5 + ["straight", "gentle", "kerb", "gentle", "gentle"]
+    assert list(event_ends(np.array(["straight"] * 3), "straight")) == [3]
+
+
+def test_the_event_background_is_the_one_given_class_a_model_has():
+    classes = ["straight", "gentle-turn", "sharp-turn"]
+    assert event_background(("smooth", "straight"), classes) == "straight"
+    assert event_background(("smooth",), classes) is None
+    with pytest.raises(InputError, match="--events straight, gentle-turn: give one background class per model"):
+        event_background(("straight", "gentle-turn"), classes)
 
 
 @pytest.mark.parametrize("bad", [-1.0, float("nan"), float("inf"), True, "4"])
@@ -66,6 +85,18 @@ def test_kept_classes_keep_their_labels_and_an_unknown_class_is_refused(model, r
     np.testing.assert_array_equal(kept.label[was], "sudden-braking")
     with pytest.raises(InputError, match=r"--keep kerb: not a class of the model"):
         classify_recording(model, ride, segments=4.0, keep=("kerb",))
+
+
+def test_the_event_vote_makes_each_stop_one_label_and_is_in_the_meta(model, raw):
+    ride = raw.select_experiment(2)
+    voted = classify_recording(model, ride, segments=4.0, events=("cruising",))
+    assert voted.meta["events"] == "cruising" and classify_recording(model, ride).meta["events"] == ""
+    label = voted.label.astype(str)
+    ends = event_ends(label, "cruising")
+    stops = [label[start:end] for start, end in zip([0, *ends[:-1]], ends) if label[start] not in ("cruising", "")]
+    assert stops and all(len(set(stop)) == 1 for stop in stops)
+    with pytest.raises(InputError, match=r"--events straight: not a class of the model"):
+        classify_recording(model, ride, events=("straight",))
 
 
 def test_change_points_equal_the_breakpoints_of_ruptures_pelt():

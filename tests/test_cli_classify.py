@@ -96,6 +96,9 @@ def test_the_segment_vote_is_said_and_keeps_the_labelled_samples(folder):
                     "--segments", "4", "--keep", "sudden-braking")
     assert result.exit_code == 0, result.output
     assert "segment vote at penalty 4, sudden-braking kept" in result.output
+    events = invoke("classify", folder / "model.npz", folder / "ride.csv", "-o", folder / "events.csv",
+                    "--events", "cruising")
+    assert events.exit_code == 0 and "; event vote outside cruising" in events.output, events.output
     voted = pd.read_csv(folder / "voted.csv", keep_default_na=False)
     plain = pd.read_csv(folder / "plain.csv", keep_default_na=False)
     np.testing.assert_array_equal(voted["label"] == "", plain["label"] == "")
@@ -103,7 +106,7 @@ def test_the_segment_vote_is_said_and_keeps_the_labelled_samples(folder):
     assert flips(voted["label"]) < flips(plain["label"])
 
 
-@pytest.mark.parametrize("case", ["rate", "model", "method", "smooth", "segments", "keep"])
+@pytest.mark.parametrize("case", ["rate", "model", "method", "smooth", "segments", "keep", "events"])
 def test_bad_input_is_one_line_and_exit_2_and_writes_nothing(folder, case):
     source, model, extra = folder / "ride.csv", folder / "model.npz", []
     if case == "rate":
@@ -117,8 +120,10 @@ def test_bad_input_is_one_line_and_exit_2_and_writes_nothing(folder, case):
         extra = ["--smooth", "-3"]
     elif case == "segments":
         extra = ["--segments", "-1"]
-    else:
+    elif case == "keep":
         extra = ["--segments", "4", "--keep", "kerb"]
+    else:
+        extra = ["--events", "straight"]
     result = invoke("classify", model, source, "-o", folder / f"bad_{case}.csv", *extra)
     assert result.exit_code == 2
     lines = [line for line in result.output.splitlines() if line.strip()]
@@ -126,6 +131,7 @@ def test_bad_input_is_one_line_and_exit_2_and_writes_nothing(folder, case):
     expected = {"rate": "model expects channels [a-z_,]+ at 20 Hz; .*fast.csv has .* at 50 Hz",
                 "model": "missing.npz: no such model file", "method": "'lasso' is unknown",
                 "smooth": r"\(--smooth\).* got -3", "segments": r"\(--segments\).* got -1",
-                "keep": "--keep kerb: not a class of the model"}[case]
+                "keep": "--keep kerb: not a class of the model",
+                "events": "--events straight: not a class of the model"}[case]
     assert pd.Series(lines).str.contains(expected).any(), result.output
     assert not (folder / f"bad_{case}.csv").exists()

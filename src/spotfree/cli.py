@@ -229,8 +229,11 @@ def classify(
                                    "channels change (PELT, this penalty per change; larger: fewer segments; "
                                    "4-8 suit the lateral and road models) and give each segment its majority "
                                    "label (0: none)"),
-    keep: list[str] = typer.Option([], "--keep", help="a class the segment vote leaves as labelled (short "
+    keep: list[str] = typer.Option([], "--keep", help="a class the segment and event votes leave as labelled (short "
                                    "events such as kerb); repeat for several"),
+    events: list[str] = typer.Option([], "--events", help="offline event vote: a model's background class (straight "
+                                     "for the lateral model); each run of its other labels is one manoeuvre and "
+                                     "takes its majority label; repeat for several models"),
 ) -> None:
     """Label every sample of a log with a trained model, or with several models at once (one feature pass)."""
     from spotfree.classify.batch import classify_recording
@@ -240,33 +243,35 @@ def classify(
     if len(paths) < 2:
         raise InputError("classify needs MODEL.npz [MODEL2.npz ...] IN: at least one model file and the log")
     *model_paths, source = paths
+    vote = {"segments": segments, "keep": tuple(keep), "events": tuple(events)}
     if len(model_paths) > 1:
-        _classify_several(model_paths, source, output, method, centred, smooth, segments, keep)
+        _classify_several(model_paths, source, output, method, centred, smooth, vote)
         return
     dictionary = DictionaryModel.load(model_paths[0])
     rec = read_recording(source, rate=dictionary.rate)
-    labels = classify_recording(dictionary, rec, method=method, centred=centred, smoothing=smooth, segments=segments,
-                                keep=tuple(keep))
+    labels = classify_recording(dictionary, rec, method=method, centred=centred, smoothing=smooth, **vote)
     labels.write_csv(output)
     _report_repairs_and_gaps(rec)
     window = f"{dictionary.window} samples = {dictionary.window / dictionary.rate:.2f} s"
     where = f"centred on it (offset {labels.meta['offset']} samples)" if centred else "ending at it"
     out.print(f"wrote {output}: {int(labels.labelled().sum())} of {len(labels)} samples labelled by {method}; "
               f"windows: {labels.meta['alignment']}, each label from the window of {window} {where}"
-              + (f"; majority vote over {smooth} samples" if smooth else "") + _segment_note(segments, keep))
+              + (f"; majority vote over {smooth} samples" if smooth else "") + _vote_note(vote))
     for gap in labels.breaks():
         out.print(f"{gap} (gap in {rec.source}; no label across it)")
 
 
-def _segment_note(segments: float, keep: list[str]) -> str:
-    """The summary's words on the segment vote."""
-    if not segments:
+def _vote_note(vote: dict) -> str:
+    """The summary's words on the segment and event votes (``vote``: their options of ``classify_recording``)."""
+    votes = ([f"segment vote at penalty {vote['segments']:g}"] if vote["segments"] else []) \
+        + ([f"event vote outside {', '.join(vote['events'])}"] if vote["events"] else [])
+    if not votes:
         return ""
-    return f"; segment vote at penalty {segments:g}" + (f", {', '.join(keep)} kept" if keep else "")
+    return "; " + " and ".join(votes) + (f", {', '.join(vote['keep'])} kept" if vote["keep"] else "")
 
 
 def _classify_several(model_paths: list[str], source: str, output: Path, method: str, centred: bool,
-                      smooth: int, segments: float, keep: list[str]) -> None:
+                      smooth: int, vote: dict) -> None:
     """``classify`` with several models: one label column per model (file stem), see :mod:`spotfree.classify.multi`."""
     from spotfree.classify.multi import classify_models, model_names, write_labels
     from spotfree.io import read_recording
@@ -274,14 +279,13 @@ def _classify_several(model_paths: list[str], source: str, output: Path, method:
 
     models = dict(zip(model_names(model_paths), (DictionaryModel.load(p) for p in model_paths)))
     rec = read_recording(source, rate=next(iter(models.values())).rate)
-    table = classify_models(models, rec, method=method, centred=centred, smoothing=smooth, segments=segments,
-                            keep=tuple(keep))
+    table = classify_models(models, rec, method=method, centred=centred, smoothing=smooth, **vote)
     write_labels(table, output)
     _report_repairs_and_gaps(rec)
     windows = ", ".join(f"{name} {m.window} samples" for name, m in models.items())
     out.print(f"wrote {output}: {len(table)} samples, one label column per model ({', '.join(models)}) by {method}; "
               f"windows {'centred on' if centred else 'ending at'} each sample: {windows}"
-              + (f"; majority vote over {smooth} samples" if smooth else "") + _segment_note(segments, keep))
+              + (f"; majority vote over {smooth} samples" if smooth else "") + _vote_note(vote))
 
 
 @app.command()

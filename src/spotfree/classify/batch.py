@@ -24,7 +24,8 @@ import numpy as np
 import pandas as pd
 
 from spotfree.classify import DEFAULT_METHOD, make_classifier
-from spotfree.classify.segments import change_points, check_penalty, segment_signal, segment_vote
+from spotfree.classify.segments import (change_points, check_penalty, event_background, event_ends, segment_signal,
+                                       segment_vote)
 from spotfree.classify.smoothing import check_smoothing, majority_vote
 from spotfree.errors import InputError
 from spotfree.io.checks import write_text
@@ -56,7 +57,8 @@ class Labels:
 
     ``meta`` says how they were made: ``method``, ``alignment`` (``causal`` / ``centred``), ``offset`` (samples),
     ``window``, ``step``, ``smoothing`` (samples, 0 for none), ``segments`` (the segment vote's penalty, 0 for
-    none) and its ``keep``, and the model's ``classes``.
+    none) and its ``keep``, ``events`` (the event vote's background class, ``""`` for none), and the model's
+    ``classes``.
     """
 
     time: np.ndarray
@@ -144,19 +146,22 @@ def alignment_offset(model: DictionaryModel, centred: bool) -> int:
 
 def classify_recording(model: DictionaryModel, rec: Recording, method: str = DEFAULT_METHOD, centred: bool = False,
                        smoothing: int | None = None, classifier=None, segments: float | None = None,
-                       keep: tuple[str, ...] = ()) -> Labels:
+                       keep: tuple[str, ...] = (), events: tuple[str, ...] = ()) -> Labels:
     """Label every sample of ``rec`` (a raw IMU log or a log of the model's channels), see the module docstring.
 
     ``smoothing``: majority vote over that many samples (:mod:`spotfree.classify.smoothing`), None for none.
     ``segments``: the penalty of the offline segment vote (:mod:`spotfree.classify.segments`), None for none;
-    ``keep``: classes it leaves as labelled.
+    ``keep``: classes it leaves as labelled. ``events``: the model's background class, to run the event vote after
+    it (:func:`~spotfree.classify.segments.event_ends`; empty for none).
     ``classifier``: a classifier already fitted by :func:`dictionary_classifier` (fitted here when None).
     """
     smoothing, penalty = check_smoothing(smoothing), check_penalty(segments)
-    unknown = sorted(set(keep) - {str(c) for c in model.classes})
-    if unknown:
-        raise InputError(f"--keep {', '.join(unknown)}: not a class of the model "
-                         f"({', '.join(map(str, model.classes))})")
+    for option, names in (("--keep", keep), ("--events", events)):
+        unknown = sorted(set(names) - {str(c) for c in model.classes})
+        if unknown:
+            raise InputError(f"{option} {', '.join(unknown)}: not a class of the model "
+                             f"({', '.join(map(str, model.classes))})")
+    background = event_background(events, model.classes)
     feats = model_features(model, rec)
     segments = feats.segments()
     if not any(stop - start >= model.window for start, stop in segments):
@@ -183,10 +188,12 @@ def classify_recording(model: DictionaryModel, rec: Recording, method: str = DEF
         if penalty:
             x = segment_signal({c: feats.channels[c][start:stop] for c in model.channels}, model.channels)
             label[start:stop] = segment_vote(label[start:stop], change_points(x, penalty), keep)
+        if background:
+            label[start:stop] = segment_vote(label[start:stop], event_ends(label[start:stop], background), keep)
     return Labels(
         time=feats.time, label=label, rate=feats.rate, experiment=feats.experiment, source=rec.source,
         meta={"method": method, "alignment": "centred" if centred else "causal", "offset": offset,
               "window": model.window, "step": model.step, "smoothing": smoothing or 0,
-              "segments": penalty or 0, "keep": list(keep),
+              "segments": penalty or 0, "keep": list(keep), "events": background or "",
               "classes": [str(c) for c in model.classes]},
     )

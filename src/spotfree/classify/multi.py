@@ -60,17 +60,19 @@ def _check_models(models: Mapping[str, DictionaryModel]) -> None:
 
 def classify_models(models: Mapping[str, DictionaryModel], rec: Recording, method: str = DEFAULT_METHOD,
                     centred: bool = False, smoothing: int | None = None, segments: float | None = None,
-                    keep: tuple[str, ...] = ()) -> pd.DataFrame:
+                    keep: tuple[str, ...] = (), events: tuple[str, ...] = ()) -> pd.DataFrame:
     """One label column per model (named by its key) for every sample of ``rec``, after ``experiment`` (when the
     recording has one) and ``time`` (s); ``""`` where a model gives no label (see
     :mod:`spotfree.classify.batch`). The ride features of a raw IMU log are computed once for all models.
-    ``segments``, ``keep``: the segment vote of every model (:mod:`spotfree.classify.segments`), each keeping the
-    classes of ``keep`` it has; a class no model has is an error."""
+    ``segments``, ``keep``, ``events``: the segment and event votes of every model
+    (:mod:`spotfree.classify.segments`), each keeping the classes of ``keep`` it has and running the event vote
+    when one of ``events`` is its class; a class no model has is an error."""
     _check_models(models)
     known = {str(c) for model in models.values() for c in model.classes}
-    if set(keep) - known:
-        raise InputError(f"--keep {', '.join(sorted(set(keep) - known))}: not a class of any model "
-                         f"({', '.join(sorted(known))})")
+    for option, names in (("--keep", keep), ("--events", events)):
+        if set(names) - known:
+            raise InputError(f"{option} {', '.join(sorted(set(names) - known))}: not a class of any model "
+                             f"({', '.join(sorted(known))})")
     first = next(iter(models.values()))
     if first.features == "ride" and rec.has_imu:
         rec = ride_features(rec, orientation=first.orientation, derived=True)
@@ -80,7 +82,8 @@ def classify_models(models: Mapping[str, DictionaryModel], rec: Recording, metho
     table["time"] = rec.time
     for name, model in models.items():
         table[name] = classify_recording(model, rec, method=method, centred=centred, smoothing=smoothing,
-                                         segments=segments, keep=kept_classes(keep, model.classes)).label
+                                         segments=segments, keep=kept_classes(keep, model.classes),
+                                         events=kept_classes(events, model.classes)).label
     return pd.DataFrame(table)
 
 

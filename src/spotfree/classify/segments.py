@@ -17,6 +17,12 @@ flicker. The segment vote finds the changes in the signal itself and lets each s
    without a label stay without one, and the classes in ``keep`` (short events such as ``kerb``) keep their labels
    and cast no vote.
 
+The event vote (:func:`event_ends`) is the same vote over other segments: the runs of labels other than a model's
+background class. It is for models whose other classes are whole manoeuvres separated by the background, named by
+the manoeuvre as a whole: a turn whose yaw rate peaks high is a sharp turn from its first degree of yaw to its last,
+though it starts and ends as gently as a gentle turn. Not for the braking model (a sudden stop passes through normal
+braking as the lean builds up and eases off, and is labelled so).
+
 Seeing the whole stretch, this is for offline use (``spotfree classify --segments``), not for a live stream.
 """
 
@@ -116,6 +122,23 @@ def kept_classes(keep: Iterable[str], classes: Iterable) -> tuple[str, ...]:
     """The classes of ``keep`` that are among a model's ``classes``."""
     names = {str(c) for c in classes}
     return tuple(c for c in keep if c in names)
+
+
+def event_background(events: Iterable[str], classes: Iterable) -> str | None:
+    """The one class of ``events`` (background classes given for the event vote) that is among a model's
+    ``classes``; None when there is none."""
+    found = kept_classes(events, classes)
+    if len(found) > 1:
+        raise InputError(f"--events {', '.join(found)}: give one background class per model")
+    return found[0] if found else None
+
+
+def event_ends(labels: np.ndarray, background: str) -> np.ndarray:
+    """Ends (exclusive) of the runs of ``labels`` that alternate between ``background`` (or no label, ``""``) and
+    the other classes; the last is ``len(labels)``."""
+    labels = np.asarray(labels).astype(str)
+    inside = (labels != background) & (labels != "")
+    return np.r_[np.flatnonzero(inside[1:] != inside[:-1]) + 1, len(labels)]
 
 
 def segment_vote(labels: np.ndarray, ends: np.ndarray, keep: Iterable[str] = ()) -> np.ndarray:

@@ -345,7 +345,8 @@ def _ride_models(ev: Evaluation) -> str:
         rows.append(["all", f"{result.overall.correct} / {result.overall.total}", _pct(result.overall), "",
                      _pct(result.segmented_overall), ""])
         warned = f"\n\nTraining warnings: {'; '.join(result.warnings)}." if result.warnings else ""
-        kept = f", {', '.join(spec.keep)} kept" if spec.keep else ""
+        kept = (f", {', '.join(spec.keep)} kept" if spec.keep else "") \
+            + (f"; then the event vote outside {CLASSES[spec.scenario][0]}" if spec.events else "")
         parts.append(f"""### {name}
 
 Channels {', '.join(model.channels)}; window {model.window} samples ({model.window / model.rate:.2f} s);
@@ -364,7 +365,8 @@ manoeuvre or road event and one without any, each declaring only the classes it 
 (`spotfree.evaluation.lateral_road`); it labels the rides of three held-out riders with causal windows and kernel
 CRC_RLS, scored per true class (the goal: 98 % per class). The causal labels are what a live ride shows; the
 segment vote (`spotfree classify --segments`, offline: it sees the whole ride) cuts each ride where the model's
-channels change (PELT) and gives every segment the label most of its samples carry.
+channels change (PELT) and gives every segment the label most of its samples carry; the lateral model's event vote
+(`--events straight`) then gives each run of turn labels, one turn or slalom, the label most of its samples carry.
 
 {models}
 
