@@ -145,7 +145,8 @@ def test_quick_run_report_scores_every_lateral_and_road_class_and_times_the_thre
             assert row and 0 < int(row[2]) and int(row[1]) <= int(row[2]), (scenario, name)
             assert float(row[3]) == pytest.approx(100 * int(row[1]) / int(row[2]), abs=0.006)
             assert (row[6] == "yes") == (float(row[5]) >= 98.0)
-        assert f"Segment vote: penalty {MODELS[scenario].segments:g}" in section
+        assert f"Offline vote: the segment vote at penalty {MODELS[scenario].segments:g}" in section
+        assert ("then the event vote outside straight" in section) == MODELS[scenario].events
     assert re.search(r"- median \d+\.\d us, p99 \d+\.\d us per raw sample, (within|over) the 50 us budget", report)
     assert "- stream labels unlike the batch labels of the same rides: 0." in report
 

@@ -351,9 +351,9 @@ def _ride_models(ev: Evaluation) -> str:
 
 Channels {', '.join(model.channels)}; window {model.window} samples ({model.window / model.rate:.2f} s);
 {model.dictionary.shape[1]} dictionary columns; classes named by the training: {', '.join(map(str, model.classes))}.
-Segment vote: penalty {spec.segments:g}{kept}.
+Offline vote: the segment vote at penalty {spec.segments:g}{kept}.
 
-{_table(["true class", "right / samples (causal)", "causal (%)", ">= 98 %", "segment vote (%)", ">= 98 %"],
+{_table(["true class", "right / samples (causal)", "causal (%)", ">= 98 %", "offline vote (%)", ">= 98 %"],
         rows)}{warned}""")
     models = "\n\n".join(parts)
     median, p99 = np.percentile(ride.stream.micros, [50, 99])
