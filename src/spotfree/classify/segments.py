@@ -23,7 +23,8 @@ the manoeuvre as a whole: a turn whose yaw rate peaks high is a sharp turn from 
 though it starts and ends as gently as a gentle turn. Not for the braking model (a sudden stop passes through normal
 braking as the lean builds up and eases off, and is labelled so).
 
-Seeing the whole stretch, this is for offline use (``spotfree classify --segments``), not for a live stream.
+Seeing the whole stretch, both are for offline use (``spotfree classify --segments``, ``--events``), not for a live
+stream.
 """
 
 from __future__ import annotations
