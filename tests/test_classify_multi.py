@@ -7,7 +7,7 @@ from classify_fixtures import truth_model, with_gap
 from typer.testing import CliRunner
 
 from spotfree.classify.batch import classify_recording
-from spotfree.classify.multi import MultiModelStream, classify_models, model_names
+from spotfree.classify.multi import MultiModelStream, classify_models, model_names, model_penalties
 from spotfree.cli import app
 from spotfree.errors import InputError
 from spotfree.io.csvlog import write_csv
@@ -101,3 +101,35 @@ def test_the_segment_and_event_votes_run_per_model_with_only_the_classes_each_ha
     for option in ("keep", "events"):
         with pytest.raises(InputError, match=f"--{option} slalm: not a class of any model"):
             classify_models(models, ride, segments=4.0, **{option: ("slalm",)})
+
+
+def test_penalties_are_given_for_every_model_or_per_model_name():
+    names = ["braking", "lateral", "road"]
+    assert model_penalties(["4", "road=8"], names) == {"braking": 4.0, "lateral": 4.0, "road": 8.0}
+    assert model_penalties(["lateral=4"], names) == {"braking": 0.0, "lateral": 4.0, "road": 0.0}
+    assert model_penalties([], names) == dict.fromkeys(names, 0.0)
+    with pytest.raises(InputError, match="--segments latral=4: no model is named latral"):
+        model_penalties(["latral=4"], names)
+    with pytest.raises(InputError, match="--segments road=high: give a penalty"):
+        model_penalties(["road=high"], names)
+
+
+def test_cli_segments_per_model_vote_each_model_at_its_own_penalty(models, ride, tmp_path):
+    for name, model in models.items():
+        model.save(tmp_path / f"{name}.npz")
+    write_csv(ride, tmp_path / "ride.csv")
+    paths = [str(tmp_path / f"{name}.npz") for name in models]
+    run = lambda out, *extra: CliRunner().invoke(  # noqa: E731
+        app, ["classify", *paths, str(tmp_path / "ride.csv"), "-o", str(tmp_path / out), *extra])
+    result = run("votes.csv", "--segments", "lateral=4", "--segments", "road=8", "--keep", "kerb")
+    assert result.exit_code == 0, result.output
+    assert "segment vote at penalty lateral 4, road 8, kerb kept" in result.output
+    table = pd.read_csv(tmp_path / "votes.csv", keep_default_na=False)
+    expected = classify_models(models, ride, segments={"lateral": 4.0, "road": 8.0}, keep=("kerb",))
+    for name in models:
+        np.testing.assert_array_equal(table[name].astype(str).to_numpy(), expected[name].to_numpy())
+    np.testing.assert_array_equal(expected["braking"], classify_models(models, ride)["braking"])
+    assert not np.array_equal(expected["road"], classify_models(models, ride, segments=4.0, keep=("kerb",))["road"])
+    bad = run("bad.csv", "--segments", "latral=4")
+    assert bad.exit_code == 2 and "no model is named latral" in bad.output
+    assert not (tmp_path / "bad.csv").exists()

@@ -225,10 +225,11 @@ def classify(
     centred: bool = typer.Option(False, "--centred", help="label each sample by the window centred on it "
                                  "(offline); default: the window ending at it, as a live stream does"),
     smooth: int = typer.Option(0, "--smooth", help="majority vote over N samples (0: none)"),
-    segments: float = typer.Option(0.0, "--segments", help="offline segment vote: cut the ride where the model's "
-                                   "channels change (PELT, this penalty per change; larger: fewer segments; "
-                                   "4-8 suit the lateral and road models) and give each segment its majority "
-                                   "label (0: none)"),
+    segments: list[str] = typer.Option([], "--segments", metavar="[MODEL=]PENALTY",
+                                       help="offline segment vote: cut the ride where the model's channels change "
+                                       "(PELT, this penalty per change; larger: fewer segments; 4 suits the lateral "
+                                       "model, 8 the road model) and give each segment its majority label (0: none); "
+                                       "MODEL=PENALTY for the model of that file stem alone, repeat for several"),
     keep: list[str] = typer.Option([], "--keep", help="a class the segment and event votes leave as labelled (short "
                                    "events such as kerb); repeat for several"),
     events: list[str] = typer.Option([], "--events", help="offline event vote: a model's background class (straight "
@@ -237,15 +238,19 @@ def classify(
 ) -> None:
     """Label every sample of a log with a trained model, or with several models at once (one feature pass)."""
     from spotfree.classify.batch import classify_recording
+    from spotfree.classify.multi import model_names, model_penalties
     from spotfree.io import read_recording
     from spotfree.model import DictionaryModel
 
     if len(paths) < 2:
         raise InputError("classify needs MODEL.npz [MODEL2.npz ...] IN: at least one model file and the log")
     *model_paths, source = paths
-    vote = {"segments": segments, "keep": tuple(keep), "events": tuple(events)}
+    names = model_names(model_paths)
+    penalties = model_penalties(segments, names)
+    vote = {"segments": penalties if len(names) > 1 else penalties[names[0]], "keep": tuple(keep),
+            "events": tuple(events)}
     if len(model_paths) > 1:
-        _classify_several(model_paths, source, output, method, centred, smooth, vote)
+        _classify_several(dict(zip(names, model_paths)), source, output, method, centred, smooth, vote)
         return
     dictionary = DictionaryModel.load(model_paths[0])
     rec = read_recording(source, rate=dictionary.rate)
@@ -262,22 +267,28 @@ def classify(
 
 
 def _vote_note(vote: dict) -> str:
-    """The summary's words on the segment and event votes (``vote``: their options of ``classify_recording``)."""
-    votes = ([f"segment vote at penalty {vote['segments']:g}"] if vote["segments"] else []) \
+    """The summary's words on the segment and event votes (``vote``: their options of ``classify_recording``, or of
+    ``classify_models`` with a penalty per model name)."""
+    penalties = vote["segments"] if isinstance(vote["segments"], dict) else {"": vote["segments"]}
+    if len(set(penalties.values())) == 1:
+        penalties = {"": next(iter(penalties.values()))}
+    said = ", ".join(f"{name} {p:g}".strip() for name, p in penalties.items() if p)
+    votes = ([f"segment vote at penalty {said}"] if said else []) \
         + ([f"event vote outside {', '.join(vote['events'])}"] if vote["events"] else [])
     if not votes:
         return ""
     return "; " + " and ".join(votes) + (f", {', '.join(vote['keep'])} kept" if vote["keep"] else "")
 
 
-def _classify_several(model_paths: list[str], source: str, output: Path, method: str, centred: bool,
+def _classify_several(model_paths: dict[str, str], source: str, output: Path, method: str, centred: bool,
                       smooth: int, vote: dict) -> None:
-    """``classify`` with several models: one label column per model (file stem), see :mod:`spotfree.classify.multi`."""
-    from spotfree.classify.multi import classify_models, model_names, write_labels
+    """``classify`` with several models (``model_paths``: file by name): one label column per model, see
+    :mod:`spotfree.classify.multi`."""
+    from spotfree.classify.multi import classify_models, write_labels
     from spotfree.io import read_recording
     from spotfree.model import DictionaryModel
 
-    models = dict(zip(model_names(model_paths), (DictionaryModel.load(p) for p in model_paths)))
+    models = {name: DictionaryModel.load(path) for name, path in model_paths.items()}
     rec = read_recording(source, rate=next(iter(models.values())).rate)
     table = classify_models(models, rec, method=method, centred=centred, smoothing=smooth, **vote)
     write_labels(table, output)

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Mapping
+from typing import Iterable, Mapping
 
 import numpy as np
 import pandas as pd
@@ -41,6 +41,27 @@ def model_names(paths) -> list[str]:
     return names
 
 
+def model_penalties(values: Iterable[str], names: list[str]) -> dict[str, float]:
+    """Segment-vote penalty per model name from ``--segments`` values: ``P`` for every model, ``NAME=P`` for the
+    model named ``NAME`` (it wins over ``P``); 0 (no vote) where none is given. The numbers are checked where the
+    vote runs (:func:`~spotfree.classify.segments.check_penalty`)."""
+    default, own = 0.0, {}
+    for value in values:
+        name, _, number = str(value).rpartition("=")
+        try:
+            penalty = float(number)
+        except ValueError:
+            raise InputError(f"--segments {value}: give a penalty (a number) or MODEL=PENALTY, MODEL one of "
+                             f"{', '.join(names)}") from None
+        if name and name not in names:
+            raise InputError(f"--segments {value}: no model is named {name} (models: {', '.join(names)})")
+        if name:
+            own[name] = penalty
+        else:
+            default = penalty
+    return {name: own.get(name, default) for name in names}
+
+
 def _check_models(models: Mapping[str, DictionaryModel]) -> None:
     """One feature pass must serve every model: same rate, same attitude filter, same kind of features."""
     if not models:
@@ -59,13 +80,15 @@ def _check_models(models: Mapping[str, DictionaryModel]) -> None:
 
 
 def classify_models(models: Mapping[str, DictionaryModel], rec: Recording, method: str = DEFAULT_METHOD,
-                    centred: bool = False, smoothing: int | None = None, segments: float | None = None,
-                    keep: tuple[str, ...] = (), events: tuple[str, ...] = ()) -> pd.DataFrame:
+                    centred: bool = False, smoothing: int | None = None,
+                    segments: float | Mapping[str, float] | None = None, keep: tuple[str, ...] = (),
+                    events: tuple[str, ...] = ()) -> pd.DataFrame:
     """One label column per model (named by its key) for every sample of ``rec``, after ``experiment`` (when the
     recording has one) and ``time`` (s); ``""`` where a model gives no label (see
     :mod:`spotfree.classify.batch`). The ride features of a raw IMU log are computed once for all models.
     ``segments``, ``keep``, ``events``: the segment and event votes of every model
-    (:mod:`spotfree.classify.segments`), each keeping the classes of ``keep`` it has and running the event vote
+    (:mod:`spotfree.classify.segments`): ``segments`` one penalty for all or one per model name (none for a model
+    it does not name), each model keeping the classes of ``keep`` it has and running the event vote
     when one of ``events`` is its class; a class no model has is an error."""
     _check_models(models)
     known = {str(c) for model in models.values() for c in model.classes}
@@ -82,7 +105,8 @@ def classify_models(models: Mapping[str, DictionaryModel], rec: Recording, metho
     table["time"] = rec.time
     for name, model in models.items():
         table[name] = classify_recording(model, rec, method=method, centred=centred, smoothing=smoothing,
-                                         segments=segments, keep=kept_classes(keep, model.classes),
+                                         segments=segments.get(name) if isinstance(segments, Mapping) else segments,
+                                         keep=kept_classes(keep, model.classes),
                                          events=kept_classes(events, model.classes)).label
     return pd.DataFrame(table)
 
