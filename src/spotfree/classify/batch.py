@@ -24,8 +24,8 @@ import numpy as np
 import pandas as pd
 
 from spotfree.classify import DEFAULT_METHOD, make_classifier
-from spotfree.classify.segments import (change_points, check_penalty, event_background, event_ends, segment_signal,
-                                       segment_vote)
+from spotfree.classify.segments import (change_points, check_classes, check_penalty, event_background, event_ends,
+                                       segment_signal, segment_vote)
 from spotfree.classify.smoothing import check_smoothing, majority_vote
 from spotfree.errors import InputError
 from spotfree.io.checks import write_text
@@ -156,11 +156,8 @@ def classify_recording(model: DictionaryModel, rec: Recording, method: str = DEF
     ``classifier``: a classifier already fitted by :func:`dictionary_classifier` (fitted here when None).
     """
     smoothing, penalty = check_smoothing(smoothing), check_penalty(segments)
-    for option, names in (("--keep", keep), ("--events", events)):
-        unknown = sorted(set(names) - {str(c) for c in model.classes})
-        if unknown:
-            raise InputError(f"{option} {', '.join(unknown)}: not a class of the model "
-                             f"({', '.join(map(str, model.classes))})")
+    check_classes("--keep", keep, model.classes)
+    check_classes("--events", events, model.classes)
     background = event_background(events, model.classes)
     feats = model_features(model, rec)
     segments = feats.segments()

@@ -21,7 +21,7 @@ import pandas as pd
 from spotfree.classify import DEFAULT_METHOD
 from spotfree.classify.batch import classify_recording, dictionary_classifier
 from spotfree.classify.ring import ModelRing
-from spotfree.classify.segments import kept_classes
+from spotfree.classify.segments import check_classes, kept_classes
 from spotfree.classify.smoothing import check_smoothing
 from spotfree.classify.stream import MAX_GAP, PRODUCED, starts_segment
 from spotfree.errors import InputError
@@ -91,11 +91,9 @@ def classify_models(models: Mapping[str, DictionaryModel], rec: Recording, metho
     it does not name), each model keeping the classes of ``keep`` it has and running the event vote
     when one of ``events`` is its class; a class no model has is an error."""
     _check_models(models)
-    known = {str(c) for model in models.values() for c in model.classes}
-    for option, names in (("--keep", keep), ("--events", events)):
-        if set(names) - known:
-            raise InputError(f"{option} {', '.join(sorted(set(names) - known))}: not a class of any model "
-                             f"({', '.join(sorted(known))})")
+    known = [c for model in models.values() for c in model.classes]
+    check_classes("--keep", keep, known, "any model")
+    check_classes("--events", events, known, "any model")
     first = next(iter(models.values()))
     if first.features == "ride" and rec.has_imu:
         rec = ride_features(rec, orientation=first.orientation, derived=True)

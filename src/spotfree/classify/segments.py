@@ -119,6 +119,15 @@ def _pelt_l2(x: np.ndarray, penalty: float, min_size: int) -> np.ndarray:  # pra
     return np.array(ends[::-1])
 
 
+def check_classes(option: str, names: Iterable[str], classes: Iterable, whose: str = "the model") -> None:
+    """Refuse the class ``names`` given to ``option`` (``--keep``, ``--events``) that are not among ``classes``
+    (those of ``whose``)."""
+    known = sorted({str(c) for c in classes})
+    unknown = sorted(set(names) - set(known))
+    if unknown:
+        raise InputError(f"{option} {', '.join(unknown)}: not a class of {whose} ({', '.join(known)})")
+
+
 def kept_classes(keep: Iterable[str], classes: Iterable) -> tuple[str, ...]:
     """The classes of ``keep`` that are among a model's ``classes``."""
     names = {str(c) for c in classes}

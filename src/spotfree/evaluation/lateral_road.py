@@ -50,12 +50,17 @@ class ModelSpec:
     keep: tuple[str, ...] = ()
     events: bool = False
 
+    @property
+    def background(self) -> str:
+        """The scenario's background class (the first of :data:`~spotfree.sim.scenarios.CLASSES`)."""
+        return CLASSES[self.scenario][0]
+
     def config(self, seed: int, **changes) -> TrainingConfig:
         """The :class:`~spotfree.training.TrainingConfig` of this spec (``changes`` override fields); names are not
         aligned to the lean (``timing=None``): these classes are not defined by it."""
         fields = dict(channels=self.channels, window=self.window, train_step=self.train_step,
                       extra_clusters=self.extra_clusters, max_columns=self.max_columns,
-                      background=CLASSES[self.scenario][0], timing=None, single_manoeuvre=self.one_kind, seed=seed)
+                      background=self.background, timing=None, single_manoeuvre=self.one_kind, seed=seed)
         fields.update(changes)
         return TrainingConfig(**fields)
 
@@ -176,7 +181,7 @@ def segment_options(spec: ModelSpec, model: DictionaryModel) -> dict:
     """The segment vote of ``spec`` for ``model``: its penalty, the classes of ``spec.keep`` the model has, and the
     background class of the event vote when ``spec.events``."""
     return {"segments": spec.segments, "keep": kept_classes(spec.keep, model.classes),
-            "events": (CLASSES[spec.scenario][0],) if spec.events else ()}
+            "events": (spec.background,) if spec.events else ()}
 
 
 def train_and_score(spec: ModelSpec, data: Split, seed: int, **changes) -> ModelScore:

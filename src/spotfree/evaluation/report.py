@@ -346,7 +346,7 @@ def _ride_models(ev: Evaluation) -> str:
                      _pct(result.segmented_overall), ""])
         warned = f"\n\nTraining warnings: {'; '.join(result.warnings)}." if result.warnings else ""
         kept = (f", {', '.join(spec.keep)} kept" if spec.keep else "") \
-            + (f"; then the event vote outside {CLASSES[spec.scenario][0]}" if spec.events else "")
+            + (f"; then the event vote outside {spec.background}" if spec.events else "")
         parts.append(f"""### {name}
 
 Channels {', '.join(model.channels)}; window {model.window} samples ({model.window / model.rate:.2f} s);
