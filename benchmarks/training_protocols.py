@@ -14,7 +14,8 @@ protocols, each from the same four training riders (experiments 1-4) and scored 
 
 Each model labels the tests with kernel CRC_RLS (the product's classifier), with the nearest columns, and with
 kernel CRC_RLS followed by the offline segment vote at the spec's penalty (:mod:`spotfree.classify.segments`), and
-for the lateral model that followed by the event vote (the spec's ``events``).
+for the lateral model that followed by the event vote (the spec's ``events``) and then by its event edges (the spec's
+``edges``).
 
 Run: ``python benchmarks/training_protocols.py [--model lateral|road] [--seeds 0 1 2 3 4 5 6 7 100]
 [--protocols "one kind" ...]``.
@@ -40,9 +41,10 @@ from spotfree.training import train
 
 def labellings(spec, model) -> dict[str, dict]:
     """Label column -> options of :func:`classify_recording` for ``model`` of ``spec``."""
-    events = {"kcrc, segment and event vote": segment_options(spec, model)} if spec.events else {}
+    events = {"kcrc, segment and event vote": segment_options(replace(spec, edges=()), model)} if spec.events else {}
+    edges = {"kcrc, both votes and event edges": segment_options(spec, model)} if spec.edges else {}
     return {"kcrc": {}, "nearest": {"method": "nearest"},
-            "kcrc, segment vote": segment_options(replace(spec, events=False), model), **events}
+            "kcrc, segment vote": segment_options(replace(spec, events=False, edges=()), model), **events, **edges}
 
 
 def protocols(name: str) -> dict[str, tuple]:

@@ -103,6 +103,19 @@ def test_the_segment_and_event_votes_run_per_model_with_only_the_classes_each_ha
             classify_models(models, ride, segments=4.0, **{option: ("slalm",)})
 
 
+def test_event_edges_run_on_the_model_with_the_channel_and_are_refused_elsewhere(models, ride):
+    edged = classify_models(models, ride, segments=4.0, events=("straight",), edges={"yaw_rate": 0.09})
+    voted = classify_models(models, ride, segments=4.0, events=("straight",))
+    alone = classify_recording(models["lateral"], ride, segments=4.0, events=("straight",), edges={"yaw_rate": 0.09})
+    np.testing.assert_array_equal(edged["lateral"].to_numpy(), alone.label)
+    assert not np.array_equal(edged["lateral"], voted["lateral"])
+    np.testing.assert_array_equal(edged[["braking", "road"]], voted[["braking", "road"]])
+    with pytest.raises(InputError, match="--edges yaw: not a channel of any model"):
+        classify_models(models, ride, events=("straight",), edges={"yaw": 0.09})
+    with pytest.raises(InputError, match="--edges vib_z: model road runs no event vote"):
+        classify_models(models, ride, events=("straight",), edges={"vib_z": 0.5})
+
+
 def test_penalties_are_given_for_every_model_or_per_model_name():
     names = ["braking", "lateral", "road"]
     assert model_penalties(["4", "road=8"], names) == {"braking": 4.0, "lateral": 4.0, "road": 8.0}

@@ -5,8 +5,8 @@ import pytest
 from classify_fixtures import model, raw, with_gap  # noqa: F401 (fixtures)
 
 from spotfree.classify.batch import classify_recording
-from spotfree.classify.segments import (LEVEL_FLOOR, change_points, check_penalty, event_background, event_ends,
-                                       segment_signal, segment_vote)
+from spotfree.classify.segments import (LEVEL_FLOOR, change_points, check_penalty, edge_levels, event_background,
+                                       event_edges, event_ends, model_edge, segment_signal, segment_vote)
 from spotfree.errors import InputError
 
 
@@ -55,6 +55,36 @@ def test_the_event_background_is_the_one_given_class_a_model_has():
         event_background(("straight", "gentle-turn"), classes)
 
 
+def test_event_edges_move_to_where_the_channel_crosses_the_level_off_the_background_median():
+    labels = np.array(["straight"] * 10 + ["sharp"] * 6 + ["straight"] * 10, dtype=object)
+    values = np.r_[np.zeros(7), np.full(7, 0.3), np.full(12, 0.05)] + 1.0  # a bias of 1 cancels
+    edged = event_edges(labels, values, "straight", 0.1, reach=20)
+    assert list(np.flatnonzero(edged == "sharp")) == list(range(7, 14))  # started 3 samples sooner, ended 2 sooner
+    short = event_edges(labels, values, "straight", 0.1, reach=2)
+    assert list(np.flatnonzero(short == "sharp")) == list(range(8, 14))  # at most 2 samples either way
+    blank = labels.copy()
+    blank[8] = ""
+    assert list(np.flatnonzero(event_edges(blank, values, "straight", 0.1, 20) == "sharp")) == list(range(9, 14))
+    quiet = event_edges(labels, np.zeros(26), "straight", 0.1, reach=20)
+    assert list(np.flatnonzero(quiet == "sharp")) == [15]  # an event never vanishes
+    np.testing.assert_array_equal(event_edges(labels, values, "straight", 5.0, reach=0), labels)
+
+
+def test_edge_levels_and_the_model_edge_are_checked():
+    assert edge_levels(["yaw_rate=0.09"]) == {"yaw_rate": 0.09} and edge_levels([]) == {}
+    for bad in ("yaw_rate", "yaw_rate=-1", "=0.1", "yaw_rate=fast", "yaw_rate=nan"):
+        with pytest.raises(InputError, match=f"--edges {bad}: give CHANNEL=LEVEL"):
+            edge_levels([bad])
+    assert model_edge({}, ["yaw_rate"], None) is None
+    assert model_edge({"yaw_rate": 0.09}, ["yaw_rate"], "straight") == ("yaw_rate", 0.09)
+    with pytest.raises(InputError, match=r"--edges roll: not a channel of the model \(yaw_rate\)"):
+        model_edge({"roll": 0.1}, ["yaw_rate"], "straight")
+    with pytest.raises(InputError, match="--edges yaw_rate, roll: give one channel per model"):
+        model_edge({"yaw_rate": 0.09, "roll": 0.1}, ["yaw_rate", "roll"], "straight")
+    with pytest.raises(InputError, match="--edges yaw_rate: the model runs no event vote; .* --events"):
+        model_edge({"yaw_rate": 0.09}, ["yaw_rate"], None)
+
+
 @pytest.mark.parametrize("bad", [-1.0, float("nan"), float("inf"), True, "4"])
 def test_a_bad_penalty_is_refused(bad):
     with pytest.raises(InputError, match=r"--segments"):
@@ -97,6 +127,21 @@ def test_the_event_vote_makes_each_stop_one_label_and_is_in_the_meta(model, raw)
     assert stops and all(len(set(stop)) == 1 for stop in stops)
     with pytest.raises(InputError, match=r"--events straight: not a class of the model"):
         classify_recording(model, ride, events=("straight",))
+
+
+def test_event_edges_move_labels_only_within_a_window_of_an_event_edge_and_are_in_the_meta(model, raw):
+    ride = raw.select_experiment(2)
+    voted = classify_recording(model, ride, segments=4.0, events=("cruising",))
+    edged = classify_recording(model, ride, segments=4.0, events=("cruising",), edges={"lean": 0.04})
+    assert edged.meta["edges"] == {"lean": 0.04} and voted.meta["edges"] == {}
+    np.testing.assert_array_equal(edged.labelled(), voted.labelled())
+    moved = np.flatnonzero(edged.label != voted.label)
+    assert len(moved)
+    inside = (voted.label != "cruising") & (voted.label != "")
+    edges = np.flatnonzero(inside[1:] != inside[:-1]) + 1
+    assert all(np.min(np.abs(edges - k)) <= model.window for k in moved)
+    with pytest.raises(InputError, match="--edges lean: the model runs no event vote"):
+        classify_recording(model, ride, edges={"lean": 0.04})
 
 
 def test_change_points_equal_the_breakpoints_of_ruptures_pelt():

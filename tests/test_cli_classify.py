@@ -99,6 +99,11 @@ def test_the_segment_vote_is_said_and_keeps_the_labelled_samples(folder):
     events = invoke("classify", folder / "model.npz", folder / "ride.csv", "-o", folder / "events.csv",
                     "--events", "cruising")
     assert events.exit_code == 0 and "; event vote outside cruising" in events.output, events.output
+    edges = invoke("classify", folder / "model.npz", folder / "ride.csv", "-o", folder / "edges.csv",
+                   "--events", "cruising", "--edges", "pitch_rate=0.05")
+    assert edges.exit_code == 0, edges.output
+    said = " ".join(edges.output.split())
+    assert "event vote outside cruising and event edges at pitch_rate 0.05 off its background median" in said
     voted = pd.read_csv(folder / "voted.csv", keep_default_na=False)
     plain = pd.read_csv(folder / "plain.csv", keep_default_na=False)
     np.testing.assert_array_equal(voted["label"] == "", plain["label"] == "")
@@ -106,7 +111,8 @@ def test_the_segment_vote_is_said_and_keeps_the_labelled_samples(folder):
     assert flips(voted["label"]) < flips(plain["label"])
 
 
-@pytest.mark.parametrize("case", ["rate", "model", "method", "smooth", "segments", "keep", "events"])
+@pytest.mark.parametrize("case", ["rate", "model", "method", "smooth", "segments", "keep", "events", "edges",
+                                  "edge-level", "edges-alone"])
 def test_bad_input_is_one_line_and_exit_2_and_writes_nothing(folder, case):
     source, model, extra = folder / "ride.csv", folder / "model.npz", []
     if case == "rate":
@@ -122,8 +128,14 @@ def test_bad_input_is_one_line_and_exit_2_and_writes_nothing(folder, case):
         extra = ["--segments", "-1"]
     elif case == "keep":
         extra = ["--segments", "4", "--keep", "kerb"]
-    else:
+    elif case == "events":
         extra = ["--events", "straight"]
+    elif case == "edges":
+        extra = ["--events", "cruising", "--edges", "yaw_rate=0.09"]
+    elif case == "edge-level":
+        extra = ["--events", "cruising", "--edges", "pitch_rate=steep"]
+    else:
+        extra = ["--edges", "pitch_rate=0.05"]
     result = invoke("classify", model, source, "-o", folder / f"bad_{case}.csv", *extra)
     assert result.exit_code == 2
     lines = [line for line in result.output.splitlines() if line.strip()]
@@ -132,6 +144,9 @@ def test_bad_input_is_one_line_and_exit_2_and_writes_nothing(folder, case):
                 "model": "missing.npz: no such model file", "method": "'lasso' is unknown",
                 "smooth": r"\(--smooth\).* got -3", "segments": r"\(--segments\).* got -1",
                 "keep": "--keep kerb: not a class of the model",
-                "events": "--events straight: not a class of the model"}[case]
+                "events": "--events straight: not a class of the model",
+                "edges": r"--edges yaw_rate: not a channel of the model \(acc_long, pitch_rate\)",
+                "edge-level": "--edges pitch_rate=steep: give CHANNEL=LEVEL",
+                "edges-alone": "--edges pitch_rate: the model runs no event vote"}[case]
     assert pd.Series(lines).str.contains(expected).any(), result.output
     assert not (folder / f"bad_{case}.csv").exists()

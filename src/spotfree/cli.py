@@ -235,10 +235,15 @@ def classify(
     events: list[str] = typer.Option([], "--events", help="offline event vote: a model's background class (straight "
                                      "for the lateral model); each run of its other labels is one manoeuvre and "
                                      "takes its majority label; repeat for several models"),
+    edges: list[str] = typer.Option([], "--edges", metavar="CHANNEL=LEVEL",
+                                    help="offline, after the event vote: move each event's start and end, by at most "
+                                    "a window, to where CHANNEL's distance from its background median crosses LEVEL "
+                                    "(its units; yaw_rate=0.09 for the lateral model)"),
 ) -> None:
     """Label every sample of a log with a trained model, or with several models at once (one feature pass)."""
     from spotfree.classify.batch import classify_recording
     from spotfree.classify.multi import model_names, model_penalties
+    from spotfree.classify.segments import edge_levels
     from spotfree.io import read_recording
     from spotfree.model import DictionaryModel
 
@@ -248,7 +253,7 @@ def classify(
     names = model_names(model_paths)
     penalties = model_penalties(segments, names)
     vote = {"segments": penalties if len(names) > 1 else penalties[names[0]], "keep": tuple(keep),
-            "events": tuple(events)}
+            "events": tuple(events), "edges": edge_levels(edges)}
     if len(model_paths) > 1:
         _classify_several(dict(zip(names, model_paths)), source, output, method, centred, smooth, vote)
         return
@@ -274,7 +279,8 @@ def _vote_note(vote: dict) -> str:
         penalties = {"": next(iter(penalties.values()))}
     said = ", ".join(f"{name} {p:g}".strip() for name, p in penalties.items() if p)
     votes = ([f"segment vote at penalty {said}"] if said else []) \
-        + ([f"event vote outside {', '.join(vote['events'])}"] if vote["events"] else [])
+        + ([f"event vote outside {', '.join(vote['events'])}"] if vote["events"] else []) \
+        + [f"event edges at {c} {level:g} off its background median" for c, level in vote["edges"].items()]
     if not votes:
         return ""
     return "; " + " and ".join(votes) + (f", {', '.join(vote['keep'])} kept" if vote["keep"] else "")

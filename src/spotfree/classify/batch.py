@@ -19,13 +19,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Mapping
 
 import numpy as np
 import pandas as pd
 
 from spotfree.classify import DEFAULT_METHOD, make_classifier
-from spotfree.classify.segments import (change_points, check_classes, check_penalty, event_background, event_ends,
-                                       segment_signal, segment_vote)
+from spotfree.classify.segments import (change_points, check_classes, check_penalty, event_background, event_edges,
+                                       event_ends, model_edge, segment_signal, segment_vote)
 from spotfree.classify.smoothing import check_smoothing, majority_vote
 from spotfree.errors import InputError
 from spotfree.io.checks import write_text
@@ -146,19 +147,23 @@ def alignment_offset(model: DictionaryModel, centred: bool) -> int:
 
 def classify_recording(model: DictionaryModel, rec: Recording, method: str = DEFAULT_METHOD, centred: bool = False,
                        smoothing: int | None = None, classifier=None, segments: float | None = None,
-                       keep: tuple[str, ...] = (), events: tuple[str, ...] = ()) -> Labels:
+                       keep: tuple[str, ...] = (), events: tuple[str, ...] = (),
+                       edges: Mapping[str, float] | None = None) -> Labels:
     """Label every sample of ``rec`` (a raw IMU log or a log of the model's channels), see the module docstring.
 
     ``smoothing``: majority vote over that many samples (:mod:`spotfree.classify.smoothing`), None for none.
     ``segments``: the penalty of the offline segment vote (:mod:`spotfree.classify.segments`), None for none;
     ``keep``: classes it leaves as labelled. ``events``: the model's background class, to run the event vote after
-    it (:func:`~spotfree.classify.segments.event_ends`; empty for none).
+    it (:func:`~spotfree.classify.segments.event_ends`; empty for none). ``edges``: ``{channel: level}``, the event
+    edges after the event vote for the one channel of the model named (:func:`~spotfree.classify.segments.event_edges`,
+    reach one window; None or no channel of the model: none).
     ``classifier``: a classifier already fitted by :func:`dictionary_classifier` (fitted here when None).
     """
     smoothing, penalty = check_smoothing(smoothing), check_penalty(segments)
     check_classes("--keep", keep, model.classes)
     check_classes("--events", events, model.classes)
     background = event_background(events, model.classes)
+    edge = model_edge(edges or {}, model.channels, background)
     feats = model_features(model, rec)
     segments = feats.segments()
     if not any(stop - start >= model.window for start, stop in segments):
@@ -187,10 +192,14 @@ def classify_recording(model: DictionaryModel, rec: Recording, method: str = DEF
             label[start:stop] = segment_vote(label[start:stop], change_points(x, penalty), keep)
         if background:
             label[start:stop] = segment_vote(label[start:stop], event_ends(label[start:stop], background), keep)
+        if edge:
+            label[start:stop] = event_edges(label[start:stop], feats.channels[edge[0]][start:stop], background,
+                                            edge[1], model.window)
     return Labels(
         time=feats.time, label=label, rate=feats.rate, experiment=feats.experiment, source=rec.source,
         meta={"method": method, "alignment": "centred" if centred else "causal", "offset": offset,
               "window": model.window, "step": model.step, "smoothing": smoothing or 0,
               "segments": penalty or 0, "keep": list(keep), "events": background or "",
+              "edges": dict([edge]) if edge else {},
               "classes": [str(c) for c in model.classes]},
     )

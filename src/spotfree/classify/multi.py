@@ -21,7 +21,7 @@ import pandas as pd
 from spotfree.classify import DEFAULT_METHOD
 from spotfree.classify.batch import classify_recording, dictionary_classifier
 from spotfree.classify.ring import ModelRing
-from spotfree.classify.segments import check_classes, kept_classes
+from spotfree.classify.segments import check_classes, event_background, kept_classes, model_edge
 from spotfree.classify.smoothing import check_smoothing
 from spotfree.classify.stream import MAX_GAP, PRODUCED, starts_segment
 from spotfree.errors import InputError
@@ -82,18 +82,25 @@ def _check_models(models: Mapping[str, DictionaryModel]) -> None:
 def classify_models(models: Mapping[str, DictionaryModel], rec: Recording, method: str = DEFAULT_METHOD,
                     centred: bool = False, smoothing: int | None = None,
                     segments: float | Mapping[str, float] | None = None, keep: tuple[str, ...] = (),
-                    events: tuple[str, ...] = ()) -> pd.DataFrame:
+                    events: tuple[str, ...] = (), edges: Mapping[str, float] | None = None) -> pd.DataFrame:
     """One label column per model (named by its key) for every sample of ``rec``, after ``experiment`` (when the
     recording has one) and ``time`` (s); ``""`` where a model gives no label (see
     :mod:`spotfree.classify.batch`). The ride features of a raw IMU log are computed once for all models.
     ``segments``, ``keep``, ``events``: the segment and event votes of every model
     (:mod:`spotfree.classify.segments`): ``segments`` one penalty for all or one per model name (none for a model
     it does not name), each model keeping the classes of ``keep`` it has and running the event vote
-    when one of ``events`` is its class; a class no model has is an error."""
+    when one of ``events`` is its class, then its event edges when one of ``edges`` (``{channel: level}``) is its
+    channel; a class or channel no model has is an error."""
     _check_models(models)
     known = [c for model in models.values() for c in model.classes]
     check_classes("--keep", keep, known, "any model")
     check_classes("--events", events, known, "any model")
+    channels = sorted({c for model in models.values() for c in model.channels})
+    model_edge({c: level for c, level in (edges or {}).items() if c not in channels}, channels, None, "any model")
+    own_edges = {name: {c: level for c, level in (edges or {}).items() if c in model.channels}
+                 for name, model in models.items()}
+    for name, model in models.items():
+        model_edge(own_edges[name], model.channels, event_background(events, model.classes), f"model {name}")
     first = next(iter(models.values()))
     if first.features == "ride" and rec.has_imu:
         rec = ride_features(rec, orientation=first.orientation, derived=True)
@@ -105,7 +112,8 @@ def classify_models(models: Mapping[str, DictionaryModel], rec: Recording, metho
         table[name] = classify_recording(model, rec, method=method, centred=centred, smoothing=smoothing,
                                          segments=segments.get(name) if isinstance(segments, Mapping) else segments,
                                          keep=kept_classes(keep, model.classes),
-                                         events=kept_classes(events, model.classes)).label
+                                         events=kept_classes(events, model.classes),
+                                         edges=own_edges[name]).label
     return pd.DataFrame(table)
 
 

@@ -23,18 +23,26 @@ the manoeuvre as a whole: a turn whose yaw rate peaks high is a sharp turn from 
 though it starts and ends as gently as a gentle turn. Not for the braking model (a sudden stop passes through normal
 braking as the lean builds up and eases off, and is labelled so).
 
-Seeing the whole stretch, both are for offline use (``spotfree classify --segments``, ``--events``), not for a live
-stream.
+Event edges (:func:`event_edges`, after the event vote): where a manoeuvre starts and ends is a convention (a turn is
+a turn from a yaw rate of 0.10 rad/s on, say) that windows named without labels cannot learn, and a causal window
+sees a manoeuvre only some samples after it began. Given a channel and the level that convention uses, each edge
+between an event and the background moves, by at most one window, to where the channel's distance from its
+background median crosses that level.
+
+Seeing the whole stretch, all three are for offline use (``spotfree classify --segments``, ``--events``,
+``--edges``), not for a live stream.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import math
+from collections.abc import Iterable, Mapping
 
 import numba
 import numpy as np
 
 from spotfree.errors import InputError
+from spotfree.io.checks import true_runs
 from spotfree.signal.features import LEVEL_CHANNELS
 
 LEVEL_FLOOR = 1e-3
@@ -149,6 +157,79 @@ def event_ends(labels: np.ndarray, background: str) -> np.ndarray:
     labels = np.asarray(labels).astype(str)
     inside = (labels != background) & (labels != "")
     return np.r_[np.flatnonzero(inside[1:] != inside[:-1]) + 1, len(labels)]
+
+
+def edge_levels(values: Iterable[str]) -> dict[str, float]:
+    """``--edges CHANNEL=LEVEL`` values as ``{channel: level}``; a level must be a number > 0 (channel units)."""
+    levels = {}
+    for value in values:
+        channel, _, number = str(value).partition("=")
+        try:
+            level = float(number)
+        except ValueError:
+            level = math.nan
+        if not channel or not math.isfinite(level) or level <= 0:
+            raise InputError(f"--edges {value}: give CHANNEL=LEVEL, a channel of the model and a level > 0 in its "
+                             "units (yaw_rate=0.09 for the lateral model)")
+        levels[channel] = level
+    return levels
+
+
+def model_edge(edges: Mapping[str, float], channels: Iterable[str], background: str | None,
+               whose: str = "the model") -> tuple[str, float] | None:
+    """The ``(channel, level)`` of ``edges`` (:func:`edge_levels`) for a model with these ``channels`` and event-vote
+    ``background`` class, or None when ``edges`` is empty; refused when it names another channel, more than one,
+    or the model runs no event vote."""
+    if not edges:
+        return None
+    unknown = sorted(set(edges) - {str(c) for c in channels})
+    if unknown:
+        raise InputError(f"--edges {', '.join(unknown)}: not a channel of {whose} ({', '.join(channels)})")
+    if len(edges) > 1:
+        raise InputError(f"--edges {', '.join(edges)}: give one channel per model ({whose})")
+    if background is None:
+        raise InputError(f"--edges {next(iter(edges))}: {whose} runs no event vote; give its background class "
+                         "with --events")
+    return next(iter(edges.items()))
+
+
+def event_edges(labels: np.ndarray, values: np.ndarray, background: str, level: float, reach: int) -> np.ndarray:
+    """``labels`` of one stretch with each edge between the ``background`` class and an event (a run of other
+    labels) moved to where ``u[t] = |values[t] - m|`` crosses ``level``, ``m`` the median of ``values`` over the
+    samples labelled ``background`` (0 when there are none; a gyro bias cancels):
+
+    * an edge whose background neighbours have ``u >= level`` moves into the background while they do;
+    * else an edge whose event samples have ``u < level`` moves into the event while they do (one sample of the
+      event stays);
+
+    each by at most ``reach`` samples. Samples without a label (``""``) stop an edge; samples taken keep the label
+    of the event's end they join."""
+    labels = np.asarray(labels, dtype=object)
+    values = np.asarray(values, dtype=float)
+    out = labels.copy()
+    quiet = labels.astype(str) == background
+    centre = float(np.nanmedian(values[quiet])) if quiet.any() else 0.0
+    away = np.abs(values - centre) >= level
+    for start, stop in true_runs(~quiet & (labels != "")):
+        onset = start
+        while onset > 0 and start - onset < reach and quiet[onset - 1] and away[onset - 1]:
+            onset -= 1
+        if onset < start:
+            out[onset:start] = labels[start]
+        else:
+            while onset < stop - 1 and onset - start < reach and not away[onset]:
+                onset += 1
+            out[start:onset] = background
+        end = stop
+        while end < len(labels) and end - stop < reach and quiet[end] and away[end]:
+            end += 1
+        if end > stop:
+            out[stop:end] = labels[stop - 1]
+        else:
+            while end > onset + 1 and stop - end < reach and not away[end - 1]:
+                end -= 1
+            out[end:stop] = background
+    return out
 
 
 def segment_vote(labels: np.ndarray, ends: np.ndarray, keep: Iterable[str] = ()) -> np.ndarray:

@@ -49,6 +49,7 @@ class ModelSpec:
     segments: float = 0.0
     keep: tuple[str, ...] = ()
     events: bool = False
+    edges: tuple[tuple[str, float], ...] = ()
 
     @property
     def background(self) -> str:
@@ -67,7 +68,7 @@ class ModelSpec:
 
 MODELS = {
     "lateral": ModelSpec("lateral", ("yaw_rate",), 20, extra_clusters=15, one_kind=True, segments=4.0,
-                         events=True),
+                         events=True, edges=(("yaw_rate", 0.09),)),
     "road": ModelSpec("road", ("rough_y", "rough_z"), 6, one_kind=True, segments=8.0, keep=("kerb",)),
 }
 """The chosen channels and windows (grid on development seeds: ``benchmarks/lateral_road.py``, BENCHMARKS.md). The
@@ -178,10 +179,10 @@ def score(model: DictionaryModel, test: Recording, scenario: str, **votes) -> tu
 
 
 def segment_options(spec: ModelSpec, model: DictionaryModel) -> dict:
-    """The segment vote of ``spec`` for ``model``: its penalty, the classes of ``spec.keep`` the model has, and the
-    background class of the event vote when ``spec.events``."""
+    """The segment vote of ``spec`` for ``model``: its penalty, the classes of ``spec.keep`` the model has, the
+    background class of the event vote when ``spec.events`` and its event edges ``spec.edges``."""
     return {"segments": spec.segments, "keep": kept_classes(spec.keep, model.classes),
-            "events": (spec.background,) if spec.events else ()}
+            "events": (spec.background,) if spec.events else (), "edges": dict(spec.edges) if spec.events else {}}
 
 
 def train_and_score(spec: ModelSpec, data: Split, seed: int, **changes) -> ModelScore:

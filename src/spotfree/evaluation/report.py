@@ -346,7 +346,8 @@ def _ride_models(ev: Evaluation) -> str:
                      _pct(result.segmented_overall), ""])
         warned = f"\n\nTraining warnings: {'; '.join(result.warnings)}." if result.warnings else ""
         kept = (f", {', '.join(spec.keep)} kept" if spec.keep else "") \
-            + (f"; then the event vote outside {spec.background}" if spec.events else "")
+            + (f"; then the event vote outside {spec.background}" if spec.events else "") \
+            + "".join(f"; then the event edges at {c} {level:g}" for c, level in spec.edges)
         parts.append(f"""### {name}
 
 Channels {', '.join(model.channels)}; window {model.window} samples ({model.window / model.rate:.2f} s);
@@ -366,7 +367,9 @@ manoeuvre or road event and one without any, each declaring only the classes it 
 CRC_RLS, scored per true class (the goal: 98 % per class). The causal labels are what a live ride shows; the
 segment vote (`spotfree classify --segments`, offline: it sees the whole ride) cuts each ride where the model's
 channels change (PELT) and gives every segment the label most of its samples carry; the lateral model's event vote
-(`--events straight`) then gives each run of turn labels, one turn or slalom, the label most of its samples carry.
+(`--events straight`) then gives each run of turn labels, one turn or slalom, the label most of its samples carry,
+and its event edges (`--edges yaw_rate=0.09`) move each turn's start and end to where the yaw rate crosses 0.09 rad/s
+(the labels' convention starts a turn at 0.10 rad/s; no window named without labels can learn where).
 
 {models}
 
