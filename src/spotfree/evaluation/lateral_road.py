@@ -37,7 +37,8 @@ from spotfree.training import TrainingConfig, TrainingExperiment, train
 class ModelSpec:
     """A model of one scenario's classes: feature channels, window (samples), training stride, and columns kept
     per class (100: on development seeds 100 and 101, 600 columns, the braking model's default, gave the lateral
-    model 0.786 of the samples right against 0.802 and the road model 0.804 against 0.803)."""
+    model 0.786 of the samples right against 0.802 and the road model 0.804 against 0.803); its offline votes
+    (:func:`segment_options`): segment penalty, classes kept, event vote and event edges ``(channel, level)``."""
 
     scenario: str
     channels: tuple[str, ...]
@@ -83,7 +84,10 @@ penalties (``segments``; ``keep``: classes left as labelled), chosen on developm
 0.899; penalties 12-24 within 0.005 of it, 32 merged a rough patch into the smooth road on seed 100). The lateral
 model's turns are whole events (``events``: the event vote outside ``straight`` after the segment vote; test seeds
 0-7 and 100: sharp turns 0.880 of the samples right against 0.832, slaloms 0.982 against 0.926, no seed worse;
-BENCHMARKS.md). The road's surfaces are not: a rough patch can run into cobblestone."""
+BENCHMARKS.md). The road's surfaces are not: a rough patch can run into cobblestone. The lateral model's event
+edges (``edges``: where the yaw rate crosses 0.09 rad/s, the labels starting a turn at 0.10; chosen on development
+seeds 100-103 over 0.06-0.12) bring every lateral class to 0.986 or more on each of test seeds 0-7 and 100 (all
+samples 0.974 -> 0.993; BENCHMARKS.md)."""
 
 
 KIND_RIDES = {"lateral": (("gentle",), ("sharp",), ("slalom",), ()),
