@@ -239,11 +239,14 @@ def classify(
                                     help="offline, after the event vote: move each event's start and end, by at most "
                                     "a window, to where CHANNEL's distance from its background median crosses LEVEL "
                                     "(its units; yaw_rate=0.09 for the lateral model)"),
+    offline: bool = typer.Option(False, "--offline", help="each model's offline votes stored in its file ('spotfree "
+                                 "votes'), instead of the vote options"),
 ) -> None:
     """Label every sample of a log with a trained model, or with several models at once (one feature pass)."""
     from spotfree.classify.batch import classify_recording
     from spotfree.classify.multi import model_names, model_penalties
     from spotfree.classify.segments import edge_levels
+    from spotfree.classify.votes import stored_votes
     from spotfree.io import read_recording
     from spotfree.model import DictionaryModel
 
@@ -251,13 +254,19 @@ def classify(
         raise InputError("classify needs MODEL.npz [MODEL2.npz ...] IN: at least one model file and the log")
     *model_paths, source = paths
     names = model_names(model_paths)
+    if offline and (segments or keep or events or edges):
+        raise InputError("--offline takes the votes stored in the model files; give either --offline or the vote "
+                         "options --segments, --keep, --events, --edges")
     penalties = model_penalties(segments, names)
     vote = {"segments": penalties if len(names) > 1 else penalties[names[0]], "keep": tuple(keep),
             "events": tuple(events), "edges": edge_levels(edges)}
     if len(model_paths) > 1:
-        _classify_several(dict(zip(names, model_paths)), source, output, method, centred, smooth, vote)
+        _classify_several(dict(zip(names, model_paths)), source, output, method, centred, smooth,
+                          None if offline else vote)
         return
     dictionary = DictionaryModel.load(model_paths[0])
+    if offline:
+        vote = stored_votes(dictionary)
     rec = read_recording(source, rate=dictionary.rate)
     labels = classify_recording(dictionary, rec, method=method, centred=centred, smoothing=smooth, **vote)
     labels.write_csv(output)
@@ -266,9 +275,19 @@ def classify(
     where = f"centred on it (offset {labels.meta['offset']} samples)" if centred else "ending at it"
     out.print(f"wrote {output}: {int(labels.labelled().sum())} of {len(labels)} samples labelled by {method}; "
               f"windows: {labels.meta['alignment']}, each label from the window of {window} {where}"
-              + (f"; majority vote over {smooth} samples" if smooth else "") + _vote_note(vote))
+              + (f"; majority vote over {smooth} samples" if smooth else "")
+              + (_stored_note({names[0]: vote}) if offline else _vote_note(vote)))
     for gap in labels.breaks():
         out.print(f"{gap} (gap in {rec.source}; no label across it)")
+
+
+def _stored_note(votes: dict) -> str:
+    """The summary's words on the offline votes stored in the model files (``votes``: per model name)."""
+    from spotfree.classify.votes import describe
+
+    return "; offline votes stored in the model: " + ", ".join(
+        f"{name} {describe(vote) or 'none'}" if len(votes) > 1 else describe(vote) or "none"
+        for name, vote in votes.items())
 
 
 def _vote_note(vote: dict) -> str:
@@ -287,22 +306,57 @@ def _vote_note(vote: dict) -> str:
 
 
 def _classify_several(model_paths: dict[str, str], source: str, output: Path, method: str, centred: bool,
-                      smooth: int, vote: dict) -> None:
+                      smooth: int, vote: dict | None) -> None:
     """``classify`` with several models (``model_paths``: file by name): one label column per model, see
-    :mod:`spotfree.classify.multi`."""
+    :mod:`spotfree.classify.multi`; ``vote`` None: each model's stored votes."""
     from spotfree.classify.multi import classify_models, write_labels
+    from spotfree.classify.votes import stored_votes
     from spotfree.io import read_recording
     from spotfree.model import DictionaryModel
 
     models = {name: DictionaryModel.load(path) for name, path in model_paths.items()}
+    stored = None if vote else {name: stored_votes(model) for name, model in models.items()}
     rec = read_recording(source, rate=next(iter(models.values())).rate)
-    table = classify_models(models, rec, method=method, centred=centred, smoothing=smooth, **vote)
+    table = classify_models(models, rec, method=method, centred=centred, smoothing=smooth,
+                            **({"votes": stored} if stored else vote))
     write_labels(table, output)
     _report_repairs_and_gaps(rec)
     windows = ", ".join(f"{name} {m.window} samples" for name, m in models.items())
     out.print(f"wrote {output}: {len(table)} samples, one label column per model ({', '.join(models)}) by {method}; "
               f"windows {'centred on' if centred else 'ending at'} each sample: {windows}"
-              + (f"; majority vote over {smooth} samples" if smooth else "") + _vote_note(vote))
+              + (f"; majority vote over {smooth} samples" if smooth else "")
+              + (_stored_note(stored) if stored else _vote_note(vote)))
+
+
+@app.command()
+@user_errors
+def votes(
+    model_path: Path = typer.Argument(..., metavar="MODEL.npz", help="model file written by 'spotfree train'"),
+    segments: Optional[float] = typer.Option(None, "--segments", metavar="PENALTY",
+                                             help="segment-vote penalty (as for classify)"),
+    keep: list[str] = typer.Option([], "--keep", help="a class the votes leave as labelled; repeat for several"),
+    events: list[str] = typer.Option([], "--events", help="the model's background class for the event vote"),
+    edges: list[str] = typer.Option([], "--edges", metavar="CHANNEL=LEVEL", help="event edges (as for classify)"),
+    clear: bool = typer.Option(False, "--clear", help="remove the stored votes"),
+) -> None:
+    """Show a model's offline votes, or store them in its file for 'spotfree classify --offline' (all replaced)."""
+    from spotfree.classify.segments import edge_levels
+    from spotfree.classify.votes import describe, stored_votes, with_votes
+    from spotfree.model import DictionaryModel
+
+    model = DictionaryModel.load(model_path)
+    given = segments is not None or keep or events or edges
+    if clear and given:
+        raise InputError("--clear removes the stored votes; give either --clear or the votes to store")
+    if not (clear or given):
+        out.print(f"{model_path}: {describe(stored_votes(model)) or 'no offline vote stored'}")
+        return
+    model = with_votes(model, segments, keep, events, edge_levels(edges))
+    model.save(model_path)
+    if clear:
+        out.print(f"removed the offline votes from {model_path}")
+        return
+    out.print(f"stored in {model_path}: {describe(stored_votes(model))}; 'spotfree classify --offline' uses them")
 
 
 @app.command()

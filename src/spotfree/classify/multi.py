@@ -82,7 +82,8 @@ def _check_models(models: Mapping[str, DictionaryModel]) -> None:
 def classify_models(models: Mapping[str, DictionaryModel], rec: Recording, method: str = DEFAULT_METHOD,
                     centred: bool = False, smoothing: int | None = None,
                     segments: float | Mapping[str, float] | None = None, keep: tuple[str, ...] = (),
-                    events: tuple[str, ...] = (), edges: Mapping[str, float] | None = None) -> pd.DataFrame:
+                    events: tuple[str, ...] = (), edges: Mapping[str, float] | None = None,
+                    votes: Mapping[str, Mapping] | None = None) -> pd.DataFrame:
     """One label column per model (named by its key) for every sample of ``rec``, after ``experiment`` (when the
     recording has one) and ``time`` (s); ``""`` where a model gives no label (see
     :mod:`spotfree.classify.batch`). The ride features of a raw IMU log are computed once for all models.
@@ -90,7 +91,8 @@ def classify_models(models: Mapping[str, DictionaryModel], rec: Recording, metho
     (:mod:`spotfree.classify.segments`): ``segments`` one penalty for all or one per model name (none for a model
     it does not name), each model keeping the classes of ``keep`` it has and running the event vote
     when one of ``events`` is its class, then its event edges when one of ``edges`` (``{channel: level}``) is its
-    channel; a class or channel no model has is an error."""
+    channel; a class or channel no model has is an error. ``votes``: instead, each model's own options of
+    :func:`~spotfree.classify.batch.classify_recording` by name (:func:`spotfree.classify.votes.stored_votes`)."""
     _check_models(models)
     known = [c for model in models.values() for c in model.classes]
     check_classes("--keep", keep, known, "any model")
@@ -109,11 +111,12 @@ def classify_models(models: Mapping[str, DictionaryModel], rec: Recording, metho
         table["experiment"] = rec.experiment
     table["time"] = rec.time
     for name, model in models.items():
+        own = dict(votes[name]) if votes is not None else {
+            "segments": segments.get(name) if isinstance(segments, Mapping) else segments,
+            "keep": kept_classes(keep, model.classes), "events": kept_classes(events, model.classes),
+            "edges": own_edges[name]}
         table[name] = classify_recording(model, rec, method=method, centred=centred, smoothing=smoothing,
-                                         segments=segments.get(name) if isinstance(segments, Mapping) else segments,
-                                         keep=kept_classes(keep, model.classes),
-                                         events=kept_classes(events, model.classes),
-                                         edges=own_edges[name]).label
+                                         **own).label
     return pd.DataFrame(table)
 
 
