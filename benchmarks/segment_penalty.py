@@ -40,8 +40,11 @@ def main() -> None:
     print(f"# segment_penalty --model {args.model} {now:%Y-%m-%d %H:%M} UTC: {os.cpu_count()} cores (shared), "
           f"load average {os.getloadavg()[0]:.1f}; kept: {', '.join(spec.keep) or 'none'}")
     setting = f"{spec.edges[0][0]} edge (penalty {spec.segments:g})" if args.edges else "penalty"
-    specs = ([(level, replace(spec, edges=((spec.edges[0][0], level),) if level else ())) for level in [0.0, *args.edges]]
-             if args.edges else [(p, replace(spec, segments=p)) for p in [0.0, *args.penalties]])
+    if args.edges:
+        channel = spec.edges[0][0]
+        specs = [(level, replace(spec, edges=((channel, level),) if level else ())) for level in [0.0, *args.edges]]
+    else:
+        specs = [(p, replace(spec, segments=p)) for p in [0.0, *args.penalties]]
     print(f"| seed | {setting} | {' | '.join(classes)} | all |")
     print("|---:|---:|" + "---:|" * (len(classes) + 1))
     rates: dict[float, list] = {}

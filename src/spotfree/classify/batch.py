@@ -58,8 +58,8 @@ class Labels:
 
     ``meta`` says how they were made: ``method``, ``alignment`` (``causal`` / ``centred``), ``offset`` (samples),
     ``window``, ``step``, ``smoothing`` (samples, 0 for none), ``segments`` (the segment vote's penalty, 0 for
-    none) and its ``keep``, ``events`` (the event vote's background class, ``""`` for none), and the model's
-    ``classes``.
+    none) and its ``keep``, ``events`` (the event vote's background class, ``""`` for none), ``edges``
+    (``{channel: level}`` of the event edges, empty for none), and the model's ``classes``.
     """
 
     time: np.ndarray
@@ -154,9 +154,9 @@ def classify_recording(model: DictionaryModel, rec: Recording, method: str = DEF
     ``smoothing``: majority vote over that many samples (:mod:`spotfree.classify.smoothing`), None for none.
     ``segments``: the penalty of the offline segment vote (:mod:`spotfree.classify.segments`), None for none;
     ``keep``: classes it leaves as labelled. ``events``: the model's background class, to run the event vote after
-    it (:func:`~spotfree.classify.segments.event_ends`; empty for none). ``edges``: ``{channel: level}``, the event
-    edges after the event vote for the one channel of the model named (:func:`~spotfree.classify.segments.event_edges`,
-    reach one window; None or no channel of the model: none).
+    it (:func:`~spotfree.classify.segments.event_ends`; empty for none). ``edges``: ``{channel: level}`` for one of
+    the model's channels, the event edges after the event vote (:func:`~spotfree.classify.segments.event_edges`,
+    reach one window; None or empty: none).
     ``classifier``: a classifier already fitted by :func:`dictionary_classifier` (fitted here when None).
     """
     smoothing, penalty = check_smoothing(smoothing), check_penalty(segments)

@@ -21,7 +21,7 @@ import pandas as pd
 from spotfree.classify import DEFAULT_METHOD
 from spotfree.classify.batch import classify_recording, dictionary_classifier
 from spotfree.classify.ring import ModelRing
-from spotfree.classify.segments import check_classes, event_background, kept_classes, model_edge
+from spotfree.classify.segments import check_channels, check_classes, event_background, kept_classes, model_edge
 from spotfree.classify.smoothing import check_smoothing
 from spotfree.classify.stream import MAX_GAP, PRODUCED, starts_segment
 from spotfree.errors import InputError
@@ -97,9 +97,9 @@ def classify_models(models: Mapping[str, DictionaryModel], rec: Recording, metho
     known = [c for model in models.values() for c in model.classes]
     check_classes("--keep", keep, known, "any model")
     check_classes("--events", events, known, "any model")
-    channels = sorted({c for model in models.values() for c in model.channels})
-    model_edge({c: level for c, level in (edges or {}).items() if c not in channels}, channels, None, "any model")
-    own_edges = {name: {c: level for c, level in (edges or {}).items() if c in model.channels}
+    edges = dict(edges or {})
+    check_channels("--edges", edges, [c for model in models.values() for c in model.channels], "any model")
+    own_edges = {name: {c: level for c, level in edges.items() if c in model.channels}
                  for name, model in models.items()}
     for name, model in models.items():
         model_edge(own_edges[name], model.channels, event_background(events, model.classes), f"model {name}")

@@ -130,10 +130,19 @@ def _pelt_l2(x: np.ndarray, penalty: float, min_size: int) -> np.ndarray:  # pra
 def check_classes(option: str, names: Iterable[str], classes: Iterable, whose: str = "the model") -> None:
     """Refuse the class ``names`` given to ``option`` (``--keep``, ``--events``) that are not among ``classes``
     (those of ``whose``)."""
-    known = sorted({str(c) for c in classes})
+    _refuse_unknown(option, names, classes, "class", whose)
+
+
+def check_channels(option: str, names: Iterable[str], channels: Iterable, whose: str = "the model") -> None:
+    """Refuse the channel ``names`` given to ``option`` (``--edges``) that are not among ``channels``."""
+    _refuse_unknown(option, names, channels, "channel", whose)
+
+
+def _refuse_unknown(option: str, names: Iterable[str], known: Iterable, kind: str, whose: str) -> None:
+    known = sorted({str(c) for c in known})
     unknown = sorted(set(names) - set(known))
     if unknown:
-        raise InputError(f"{option} {', '.join(unknown)}: not a class of {whose} ({', '.join(known)})")
+        raise InputError(f"{option} {', '.join(unknown)}: not a {kind} of {whose} ({', '.join(known)})")
 
 
 def kept_classes(keep: Iterable[str], classes: Iterable) -> tuple[str, ...]:
@@ -182,9 +191,7 @@ def model_edge(edges: Mapping[str, float], channels: Iterable[str], background: 
     or the model runs no event vote."""
     if not edges:
         return None
-    unknown = sorted(set(edges) - {str(c) for c in channels})
-    if unknown:
-        raise InputError(f"--edges {', '.join(unknown)}: not a channel of {whose} ({', '.join(channels)})")
+    check_channels("--edges", edges, channels, whose)
     if len(edges) > 1:
         raise InputError(f"--edges {', '.join(edges)}: give one channel per model ({whose})")
     if background is None:

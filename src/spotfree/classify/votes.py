@@ -15,13 +15,9 @@ from dataclasses import replace
 from spotfree.classify.segments import check_classes, check_penalty, event_background, model_edge
 from spotfree.model import DictionaryModel
 
-NONE = {"segments": None, "keep": (), "events": (), "edges": {}}
-"""The options of :func:`~spotfree.classify.batch.classify_recording` for no vote."""
-
-
 def stored_votes(model: DictionaryModel) -> dict:
     """The offline votes stored in ``model`` as options of :func:`~spotfree.classify.batch.classify_recording`
-    (:data:`NONE` when it has none)."""
+    (no vote where it stores none)."""
     votes = model.parameters.get("votes") or {}
     return {"segments": votes.get("segments"), "keep": tuple(votes.get("keep", ())),
             "events": tuple(votes.get("events", ())), "edges": dict(votes.get("edges", {}))}
