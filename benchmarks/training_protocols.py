@@ -15,7 +15,8 @@ protocols, each from the same four training riders (experiments 1-4) and scored 
 Each model labels the tests with kernel CRC_RLS (the product's classifier), with the nearest columns, and with
 kernel CRC_RLS followed by the offline segment vote at the spec's penalty (:mod:`spotfree.classify.segments`), and
 for the lateral model that followed by the event vote (the spec's ``events``) and then by its event edges (the spec's
-``edges``).
+``edges``). The spec's short classes (``detections``: kerbs) are also scored as events detected within 0.5 s
+(:func:`~spotfree.evaluation.metrics.event_detection`), summed over the seeds.
 
 Run: ``python benchmarks/training_protocols.py [--model lateral|road] [--seeds 0 1 2 3 4 5 6 7 100]
 [--protocols "one kind" ...]``.
@@ -33,7 +34,7 @@ from dataclasses import replace
 import numpy as np
 
 from spotfree.classify.batch import classify_recording
-from spotfree.evaluation.lateral_road import MODELS, segment_options, spec_split
+from spotfree.evaluation.lateral_road import MODELS, detections, segment_options, spec_split
 from spotfree.evaluation.metrics import Score, class_accuracy
 from spotfree.sim.scenarios import CLASSES
 from spotfree.training import train
@@ -81,7 +82,7 @@ def main() -> None:
     classes = CLASSES[MODELS[args.model].scenario]
     print(f"| seed | protocol | labels | {' | '.join(classes)} | all | classes with columns | training s |")
     print("|---:|---|---|" + "---:|" * (len(classes) + 1) + "---|---:|")
-    overall = {}
+    overall, events = {}, {}
     for seed in args.seeds:
         splits = {}  # one simulation per training protocol (mixed or one kind) and seed
         for name, (spec, changes) in chosen.items():
@@ -96,6 +97,9 @@ def main() -> None:
                 per_class = class_accuracy(labels, data.test.truth["label"], classes)
                 total = sum(per_class.values(), Score(0, 0))
                 overall.setdefault((name, labelling), []).append([s.rate for s in per_class.values()] + [total.rate])
+                for event, found in detections(spec, labels, data.test).items():
+                    key = (name, labelling, event)
+                    events[key] = events[key] + found if key in events else found
                 print(f"| {seed} | {name} | {labelling} | " + " | ".join(f"{s.rate:.3f}" for s in per_class.values())
                       + f" | {total.rate:.3f} | {len(model.classes)} | {seconds:.0f} |", flush=True)
     print()
@@ -105,6 +109,13 @@ def main() -> None:
         means = np.nanmean(np.array(rates), axis=0)
         print(f"| {name} | {labelling} | " + " | ".join(f"{m:.3f}" for m in means)
               + f" | {np.min(np.array(rates)[:, -1]):.3f} |")
+    if events:
+        print()
+        print("| protocol | labels | class | events detected | false alarms | per hour of riding |")
+        print("|---|---|---|---:|---:|---:|")
+        for (name, labelling, event), found in events.items():
+            print(f"| {name} | {labelling} | {event} | {found.detected} / {found.events} ({found.rate:.3f}) | "
+                  f"{found.false_alarms} | {found.false_alarms_per_hour:.0f} |")
 
 
 if __name__ == "__main__":

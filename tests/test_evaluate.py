@@ -14,10 +14,12 @@ from spotfree.errors import InputError
 from spotfree.evaluation.lateral_road import MODELS
 from spotfree.sim.scenarios import CLASSES
 from spotfree.evaluation.metrics import (
+    EventScore,
     Score,
     accuracy,
     class_accuracy,
     confusion_matrix,
+    event_detection,
     label_count,
     near_transitions,
 )
@@ -73,6 +75,39 @@ def test_the_papers_count_is_one_label_out_of_all_labels():
     label = np.array([""] * 19 + ["cruising"] * 6000 + ["normal-braking"] * 1794 + ["sudden-braking"] * 6)
     assert label_count(label, "sudden-braking") == Score(6, 7800)
     assert label_count(label, "sudden-braking").rate == pytest.approx(6 / 7800)
+
+
+def test_an_event_is_detected_by_a_label_run_within_the_tolerance_and_a_run_meeting_none_is_a_false_alarm():
+    truth = np.array(list("ssssskkksssssssssssssssskkkssssssssssssss"))  # events at 5-8 and 24-27
+    label = np.array(list("ssssssskkkksssskssssssssssssssskssssssss"  # late by 2; alarm at 15; 31 is 4 after 27
+                          "s"))
+    # at 10 Hz the tolerance of 0.5 s is 5 samples: the run at 15 starts 7 after the first event, 9 before the second
+    assert event_detection(label, truth, "k", rate=10.0) == EventScore(2, 2, 1, 4.1)
+    # 0.3 s (3 samples) still reaches the first (7 < 8 + 3) but not the second from 31 (31 >= 27 + 3)
+    assert event_detection(label, truth, "k", rate=10.0, tolerance=0.3) == EventScore(1, 2, 2, 4.1)
+    score = event_detection(label, truth, "k", rate=10.0)
+    assert score.rate == 1.0 and score.false_alarms_per_hour == pytest.approx(3600 / 4.1)
+
+
+def test_event_detection_scores_each_experiment_alone_and_counts_labelled_seconds_only():
+    truth = np.array(list("sskkss" "ssssss"))
+    label = np.array(list("ssssss" "kk" + "ss" + "ss"))  # the run would meet the event across the border
+    label[0] = ""
+    experiment = np.repeat([1, 2], 6)
+    # tolerance 1.5 s = 3 samples: the run at 6 would meet the event at 2-4 within one ride (6 < 4 + 3)
+    assert event_detection(label, truth, "k", experiment, rate=2.0, tolerance=1.5) == EventScore(0, 1, 1, 5.5)
+    assert event_detection(label, truth, "k", None, rate=2.0, tolerance=1.5) == EventScore(1, 1, 0, 5.5)
+    assert np.isnan(event_detection(label, truth, "x", rate=2.0).rate)
+
+
+def test_event_detection_refuses_a_bad_rate_tolerance_or_experiment_column():
+    truth = np.array(["k", "s"])
+    with pytest.raises(InputError, match="rate > 0 Hz and a tolerance >= 0 s"):
+        event_detection(truth, truth, "k", rate=0.0)
+    with pytest.raises(InputError, match="rate > 0 Hz and a tolerance >= 0 s"):
+        event_detection(truth, truth, "k", tolerance=float("nan"))
+    with pytest.raises(InputError, match="one number per sample"):
+        event_detection(truth, truth, "k", experiment=[1, 1, 1])
 
 
 def test_metrics_refuse_streams_of_different_lengths():
@@ -147,6 +182,13 @@ def test_quick_run_report_scores_every_lateral_and_road_class_and_times_the_thre
             assert (row[6] == "yes") == (float(row[5]) >= 98.0)
         assert f"Offline vote: the segment vote at penalty {MODELS[scenario].segments:g}" in section
         assert ("then the event vote outside straight" in section) == MODELS[scenario].events
+        for name in MODELS[scenario].detections:
+            counts = re.findall(rf"(\d+) of (\d+) detected \((\d+\.\d) %\), (\d+) false alarms \((\d+) per hour",
+                                section.split(f"As events ({name} samples", 1)[1].split("\n\n", 1)[0])
+            assert len(counts) == 2, (scenario, name)  # causal, then after the offline vote
+            for hit, events, rate, _, _ in counts:
+                assert 0 < int(events) and float(rate) == pytest.approx(100 * int(hit) / int(events), abs=0.06)
+        assert ("As events" in section) == bool(MODELS[scenario].detections)
     assert re.search(r"- median \d+\.\d us, p99 \d+\.\d us per raw sample, (within|over) the 50 us budget", report)
     assert "- stream labels unlike the batch labels of the same rides: 0." in report
 

@@ -14,7 +14,8 @@ manoeuvre: each training rider rides once per kind of manoeuvre or road event an
 (:data:`KIND_RIDES`), and names with rule 6 of :mod:`spotfree.naming` (a group absent from the plain rides takes the
 one class of its ride). Tests are labelled causally by :func:`~spotfree.classify.batch.classify_recording` and
 scored per true class (:func:`~spotfree.evaluation.metrics.class_accuracy`); then again after the offline segment
-vote (:mod:`spotfree.classify.segments`) at the spec's penalty, and the event vote where the spec asks for it.
+vote (:mod:`spotfree.classify.segments`) at the spec's penalty, and the event vote where the spec asks for it. The
+spec's short classes (kerbs) are scored as detected events too (:func:`~spotfree.evaluation.metrics.event_detection`).
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ import numpy as np
 
 from spotfree.classify.batch import classify_recording
 from spotfree.classify.segments import kept_classes
-from spotfree.evaluation.metrics import Score, class_accuracy
+from spotfree.evaluation.metrics import EventScore, Score, class_accuracy, event_detection
 from spotfree.io.recording import Recording
 from spotfree.model import DictionaryModel
 from spotfree.signal.features import ride_features
@@ -38,7 +39,9 @@ class ModelSpec:
     """A model of one scenario's classes: feature channels, window (samples), training stride, and columns kept
     per class (100: on development seeds 100 and 101, 600 columns, the braking model's default, gave the lateral
     model 0.786 of the samples right against 0.802 and the road model 0.804 against 0.803); its offline votes
-    (:func:`segment_options`): segment penalty, classes kept, event vote and event edges ``(channel, level)``."""
+    (:func:`segment_options`): segment penalty, classes kept, event vote and event edges ``(channel, level)``;
+    ``detections``: short classes also scored as detected events
+    (:func:`~spotfree.evaluation.metrics.event_detection`)."""
 
     scenario: str
     channels: tuple[str, ...]
@@ -51,6 +54,7 @@ class ModelSpec:
     keep: tuple[str, ...] = ()
     events: bool = False
     edges: tuple[tuple[str, float], ...] = ()
+    detections: tuple[str, ...] = ()
 
     @property
     def background(self) -> str:
@@ -70,7 +74,8 @@ class ModelSpec:
 MODELS = {
     "lateral": ModelSpec("lateral", ("yaw_rate",), 20, extra_clusters=15, one_kind=True, segments=4.0,
                          events=True, edges=(("yaw_rate", 0.09),)),
-    "road": ModelSpec("road", ("rough_y", "rough_z"), 6, one_kind=True, segments=8.0, keep=("kerb",)),
+    "road": ModelSpec("road", ("rough_y", "rough_z"), 6, one_kind=True, segments=8.0, keep=("kerb",),
+                      detections=("kerb",)),
 }
 """The chosen channels and windows (grid on development seeds: ``benchmarks/lateral_road.py``, BENCHMARKS.md). The
 lateral model trains on rides of one kind of manoeuvre with 15 extra groups, on the yaw rate alone (development
@@ -87,7 +92,8 @@ model's turns are whole events (``events``: the event vote outside ``straight`` 
 BENCHMARKS.md). The road's surfaces are not: a rough patch can run into cobblestone. The lateral model's event
 edges (``edges``: where the yaw rate crosses 0.09 rad/s, the labels starting a turn at 0.10; chosen on development
 seeds 100-103 over 0.06-0.12) bring every lateral class to 0.986 or more on each of test seeds 0-7 and 100 (all
-samples 0.974 -> 0.993; BENCHMARKS.md)."""
+samples 0.974 -> 0.993; BENCHMARKS.md). Kerbs, marked for the 0.35-0.6 s their strike alone moves the platform
+by more than 1 m/s^2, are also scored as strikes detected within 0.5 s (``detections``)."""
 
 
 KIND_RIDES = {"lateral": (("gentle",), ("sharp",), ("slalom",), ()),
@@ -124,6 +130,10 @@ class ModelScore:
     warnings: list[str] = field(default_factory=list)
     segmented: dict[str, Score] = field(default_factory=dict)
     segmented_overall: Score = Score(0, 0)
+    detected: dict[str, EventScore] = field(default_factory=dict)
+    """Per class of the spec's ``detections``, its events detected by the causal labels."""
+    segmented_detected: dict[str, EventScore] = field(default_factory=dict)
+    """The same after the offline votes."""
 
     @property
     def worst(self) -> float:
@@ -176,10 +186,19 @@ def split(scenario: str, seed: int, repeats: int = 7, n_train: int = 4, rate: fl
 def score(model: DictionaryModel, test: Recording, scenario: str, **votes) -> tuple[dict[str, Score], Score]:
     """Per-class and overall accuracy of the causal labels of ``test`` (every labelled sample), after the segment
     and event votes of ``votes`` (:func:`segment_options`) when given."""
-    labels = classify_recording(model, test, **votes).label
-    truth = test.truth["label"]
-    per_class = class_accuracy(labels, truth, CLASSES[scenario])
+    return score_labels(classify_recording(model, test, **votes).label, test, scenario)
+
+
+def score_labels(labels: np.ndarray, test: Recording, scenario: str) -> tuple[dict[str, Score], Score]:
+    """Per-class and overall accuracy of ``labels`` (one per sample of ``test``)."""
+    per_class = class_accuracy(labels, test.truth["label"], CLASSES[scenario])
     return per_class, sum(per_class.values(), Score(0, 0))
+
+
+def detections(spec: ModelSpec, labels: np.ndarray, test: Recording) -> dict[str, EventScore]:
+    """The events of each class of ``spec.detections`` that ``labels`` detect in ``test``, per experiment."""
+    return {name: event_detection(labels, test.truth["label"], name, test.experiment, test.rate)
+            for name in spec.detections}
 
 
 def segment_options(spec: ModelSpec, model: DictionaryModel) -> dict:
@@ -192,10 +211,15 @@ def segment_options(spec: ModelSpec, model: DictionaryModel) -> dict:
 def train_and_score(spec: ModelSpec, data: Split, seed: int, **changes) -> ModelScore:
     """Train ``spec`` on ``data.training`` and score it on ``data.test``."""
     result = train(data.training, spec.config(seed, **changes))
-    per_class, overall = score(result.model, data.test, spec.scenario)
-    segmented, segmented_overall = (score(result.model, data.test, spec.scenario, **segment_options(spec, result.model))
-                                    if spec.segments else ({}, Score(0, 0)))
-    return ModelScore(result.model, per_class, overall, result.warnings, segmented, segmented_overall)
+    causal = classify_recording(result.model, data.test).label
+    per_class, overall = score_labels(causal, data.test, spec.scenario)
+    scored = ModelScore(result.model, per_class, overall, result.warnings,
+                        detected=detections(spec, causal, data.test))
+    if spec.segments:
+        voted = classify_recording(result.model, data.test, **segment_options(spec, result.model)).label
+        scored.segmented, scored.segmented_overall = score_labels(voted, data.test, spec.scenario)
+        scored.segmented_detected = detections(spec, voted, data.test)
+    return scored
 
 
 def spec_split(spec: ModelSpec, seed: int, **options) -> Split:

@@ -10,6 +10,11 @@ experiment). A window straddling ``c`` holds two states, so a score may leave ou
     { k : c - h <= k < c + h },    h = round(band * f_s)
 
 of ``2 h`` samples (``band`` = 0.5 s: the last ``h`` samples of the old state and the first ``h`` of the new).
+
+Events: a short class (a kerb strike, a few tenths of a second) may also be scored as events rather than samples
+(:func:`event_detection`): each run of true samples of the class is one event, detected when a run of that label
+starts or ends within ``tolerance`` seconds of it (overlapping ``[start - t, stop + t)``); a run of the label that
+meets no true event that way is a false alarm.
 """
 
 from __future__ import annotations
@@ -17,10 +22,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
 from spotfree.errors import InputError
+from spotfree.io.checks import true_runs
 
 TRANSITION_BAND = 0.5
 """Half-width (s) of the band around a true label change that :func:`near_transitions` marks."""
+EVENT_TOLERANCE = 0.5
+"""Seconds by which a label run may miss a true event and still detect it (:func:`event_detection`)."""
 
 
 @dataclass(frozen=True)
@@ -37,6 +46,31 @@ class Score:
 
     def __add__(self, other: "Score") -> "Score":
         return Score(self.correct + other.correct, self.total + other.total)
+
+
+@dataclass(frozen=True)
+class EventScore:
+    """``detected`` of ``events`` true events of one class, ``false_alarms`` label runs that meet none, over
+    ``seconds`` of labelled riding."""
+
+    detected: int
+    events: int
+    false_alarms: int
+    seconds: float
+
+    @property
+    def rate(self) -> float:
+        """``detected / events``; NaN when there was no event."""
+        return self.detected / self.events if self.events else float("nan")
+
+    @property
+    def false_alarms_per_hour(self) -> float:
+        """False alarms per hour of labelled riding; NaN when nothing was labelled."""
+        return 3600.0 * self.false_alarms / self.seconds if self.seconds else float("nan")
+
+    def __add__(self, other: "EventScore") -> "EventScore":
+        return EventScore(self.detected + other.detected, self.events + other.events,
+                          self.false_alarms + other.false_alarms, self.seconds + other.seconds)
 
 
 def _check(predicted, truth) -> tuple[np.ndarray, np.ndarray]:
@@ -76,6 +110,29 @@ def class_accuracy(predicted, truth, classes) -> dict[str, Score]:
     """Per true class: labelled samples of that class labelled as it (the class's recall)."""
     predicted, truth = _check(predicted, truth)
     return {c: accuracy(predicted, truth, truth == c) for c in classes}
+
+
+def event_detection(predicted, truth, name: str, experiment=None, rate: float = 20.0,
+                    tolerance: float = EVENT_TOLERANCE) -> EventScore:
+    """Events of class ``name`` detected by the runs of the label ``name`` (module docstring), each experiment on
+    its own (``experiment``: one number per sample, or None for one ride)."""
+    predicted, truth = _check(predicted, truth)
+    if not np.isfinite(rate) or rate <= 0 or not np.isfinite(tolerance) or tolerance < 0:
+        raise InputError(f"event detection needs a rate > 0 Hz and a tolerance >= 0 s, got {rate!r} and {tolerance!r}")
+    groups = np.zeros(len(truth)) if experiment is None else np.asarray(experiment)
+    if groups.shape != truth.shape:
+        raise InputError(f"experiment has shape {groups.shape} and truth {truth.shape}; give one number per sample")
+    reach = int(round(tolerance * rate))
+    total = EventScore(0, 0, 0, 0.0)
+    for group in np.unique(groups):
+        inside = groups == group
+        events = true_runs(truth[inside] == name)
+        runs = true_runs(predicted[inside] == name)
+        meets = [[a < stop + reach and b > start - reach for a, b in runs] for start, stop in events]
+        detected = sum(any(row) for row in meets)
+        alarms = sum(not any(row[k] for row in meets) for k in range(len(runs)))
+        total += EventScore(detected, len(events), alarms, float(np.sum(predicted[inside] != "")) / rate)
+    return total
 
 
 def confusion_matrix(predicted, truth, classes) -> np.ndarray:

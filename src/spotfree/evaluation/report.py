@@ -13,7 +13,9 @@ import numpy as np
 from spotfree.classify.latency import onset_latency
 from spotfree.evaluation.measure import ALIGNMENTS, HEADLINE, METHODS, MethodRuns
 from spotfree.evaluation.metrics import (
+    EVENT_TOLERANCE,
     TRANSITION_BAND,
+    EventScore,
     Score,
     accuracy,
     class_accuracy,
@@ -345,6 +347,8 @@ def _ride_models(ev: Evaluation) -> str:
         rows.append(["all", f"{result.overall.correct} / {result.overall.total}", _pct(result.overall), "",
                      _pct(result.segmented_overall), ""])
         warned = f"\n\nTraining warnings: {'; '.join(result.warnings)}." if result.warnings else ""
+        detected = "".join(f"\n\n{_detections(name, result.detected[name], result.segmented_detected.get(name))}"
+                           for name in spec.detections)
         kept = (f", {', '.join(spec.keep)} kept" if spec.keep else "") \
             + (f"; then the event vote outside {spec.background}" if spec.events else "") \
             + "".join(f"; then the event edges at {c} {level:g}" for c, level in spec.edges)
@@ -355,7 +359,7 @@ Channels {', '.join(model.channels)}; window {model.window} samples ({model.wind
 Offline vote: the segment vote at penalty {spec.segments:g}{kept}.
 
 {_table(["true class", "right / samples (causal)", "causal (%)", ">= 98 %", "offline vote (%)", ">= 98 %"],
-        rows)}{warned}""")
+        rows)}{detected}{warned}""")
     models = "\n\n".join(parts)
     median, p99 = np.percentile(ride.stream.micros, [50, 99])
     verdict = "within" if median <= STREAM_GOAL_US else "over"
@@ -380,6 +384,17 @@ own window), fed the held-out raw lateral rides one sample at a time ({ride.stre
 
 - median {median:.1f} us, p99 {p99:.1f} us per raw sample, {verdict} the {STREAM_GOAL_US:g} us budget;
 - stream labels unlike the batch labels of the same rides: {ride.stream.differing}."""
+
+
+def _detections(name: str, causal: EventScore, voted: EventScore | None) -> str:
+    """The line that scores ``name`` as events (:func:`~spotfree.evaluation.metrics.event_detection`)."""
+    def one(score: EventScore) -> str:
+        return (f"{score.detected} of {score.events} detected ({100 * score.rate:.1f} %), "
+                f"{score.false_alarms} false alarms ({score.false_alarms_per_hour:.0f} per hour of riding)")
+
+    after = f"; after the offline vote {one(voted)}" if voted is not None else ""
+    return (f"As events ({name} samples in a row are one event, detected by a run of {name} labels within "
+            f"{EVENT_TOLERANCE:g} s of it): causal {one(causal)}{after}.")
 
 
 def _figures(ev: Evaluation) -> str:
