@@ -19,7 +19,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from spotfree.evaluation.lateral_road import MODELS, score, segment_options, spec_split
+from spotfree.classify.batch import classify_recording, offline_votes
+from spotfree.evaluation.lateral_road import MODELS, score_labels, segment_options, spec_split
 from spotfree.sim.scenarios import CLASSES
 from spotfree.training import train
 
@@ -51,9 +52,11 @@ def main() -> None:
     for seed in args.seeds:
         data = spec_split(spec, seed)
         model = train(data.training, spec.config(seed)).model
+        causal = classify_recording(model, data.test)
         for value, variant in specs:
             options = segment_options(variant, model) if variant.segments else {}
-            per_class, overall = score(model, data.test, spec.scenario, **options)
+            per_class, overall = score_labels(offline_votes(model, data.test, causal, **options).label, data.test,
+                                              spec.scenario)
             row = [s.rate for s in per_class.values()] + [overall.rate]
             rates.setdefault(value, []).append(row)
             print(f"| {seed} | {value:g} | " + " | ".join(f"{r:.3f}" for r in row) + " |", flush=True)

@@ -33,7 +33,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from spotfree.classify.batch import classify_recording
+from spotfree.classify.batch import classify_recording, offline_votes
 from spotfree.evaluation.lateral_road import MODELS, detections, segment_options, spec_split
 from spotfree.evaluation.metrics import Score, class_accuracy
 from spotfree.sim.scenarios import CLASSES
@@ -92,8 +92,10 @@ def main() -> None:
             start = time.perf_counter()
             model = train(data.training, spec.config(seed, **changes)).model
             seconds = time.perf_counter() - start
+            causal = classify_recording(model, data.test)
             for labelling, options in labellings(spec, model).items():
-                labels = classify_recording(model, data.test, **options).label
+                labels = (offline_votes(model, data.test, causal, **options) if "method" not in options else
+                          classify_recording(model, data.test, **options)).label
                 per_class = class_accuracy(labels, data.test.truth["label"], classes)
                 total = sum(per_class.values(), Score(0, 0))
                 overall.setdefault((name, labelling), []).append([s.rate for s in per_class.values()] + [total.rate])

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from classify_fixtures import model, raw, with_gap  # noqa: F401 (fixtures)
 
-from spotfree.classify.batch import classify_recording
+from spotfree.classify.batch import classify_recording, offline_votes
 from spotfree.classify.segments import (LEVEL_FLOOR, change_points, check_penalty, edge_levels, event_background,
                                        event_edges, event_ends, model_edge, segment_signal, segment_vote)
 from spotfree.errors import InputError
@@ -142,6 +142,23 @@ def test_event_edges_move_labels_only_within_a_window_of_an_event_edge_and_are_i
     assert all(np.min(np.abs(edges - k)) <= model.window for k in moved)
     with pytest.raises(InputError, match="--edges lean: the model runs no event vote"):
         classify_recording(model, ride, edges={"lean": 0.04})
+
+
+def test_votes_on_labels_already_made_equal_the_votes_of_one_classification(model, raw):
+    ride = with_gap(raw.select_experiment(2), 400, 440)
+    plain = classify_recording(model, ride)
+    votes = dict(segments=4.0, keep=("sudden-braking",), events=("cruising",), edges={"lean": 0.04})
+    once = classify_recording(model, ride, **votes)
+    again = offline_votes(model, ride, plain, **votes)
+    np.testing.assert_array_equal(again.label, once.label)
+    assert again.meta == once.meta and plain.meta["segments"] == 0
+    assert offline_votes(model, ride, plain) is plain
+    with pytest.raises(InputError, match="labels of this recording made without votes"):
+        offline_votes(model, ride, once, segments=4.0)
+    with pytest.raises(InputError, match="labels of this recording made without votes"):
+        offline_votes(model, raw.select_experiment(1), plain, segments=4.0)
+    with pytest.raises(InputError, match="--events straight: not a class of the model"):
+        offline_votes(model, ride, plain, events=("straight",))
 
 
 def test_change_points_equal_the_breakpoints_of_ruptures_pelt():

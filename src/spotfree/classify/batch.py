@@ -156,21 +156,13 @@ def classify_recording(model: DictionaryModel, rec: Recording, method: str = DEF
     ``keep``: classes it leaves as labelled. ``events``: the model's background class, to run the event vote after
     it (:func:`~spotfree.classify.segments.event_ends`; empty for none). ``edges``: ``{channel: level}`` for one of
     the model's channels, the event edges after the event vote (:func:`~spotfree.classify.segments.event_edges`,
-    reach one window; None or empty: none).
+    reach one window; None or empty: none). The votes are :func:`offline_votes` on the labels made without them.
     ``classifier``: a classifier already fitted by :func:`dictionary_classifier` (fitted here when None).
     """
-    smoothing, penalty = check_smoothing(smoothing), check_penalty(segments)
-    check_classes("--keep", keep, model.classes)
-    check_classes("--events", events, model.classes)
-    background = event_background(events, model.classes)
-    edge = model_edge(edges or {}, model.channels, background)
-    feats = model_features(model, rec)
+    smoothing = check_smoothing(smoothing)
+    votes = _vote_options(model, segments, keep, events, edges)
+    feats = _classifiable(model, rec)
     segments = feats.segments()
-    if not any(stop - start >= model.window for start, stop in segments):
-        raise InputError(
-            f"{rec.source}: no gap-free stretch is as long as the model's window ({model.window} samples = "
-            f"{model.window / model.rate:.2f} s); nothing to classify"
-        )
     clf = classifier if classifier is not None else dictionary_classifier(model, method, causal=not centred)
     scaling = ChannelScaling(tuple(model.channels), model.scale)
     windows = recording_windows(feats, tuple(model.channels), model.window, model.step, scaling,
@@ -187,6 +179,54 @@ def classify_recording(model: DictionaryModel, rec: Recording, method: str = DEF
         label[samples] = predicted[i + (samples - samples[0]) // model.step]
         if smoothing:
             label[start:stop] = majority_vote(label[start:stop], smoothing, centred)
+    labels = Labels(
+        time=feats.time, label=label, rate=feats.rate, experiment=feats.experiment, source=rec.source,
+        meta={"method": method, "alignment": "centred" if centred else "causal", "offset": offset,
+              "window": model.window, "step": model.step, "smoothing": smoothing or 0,
+              "segments": 0, "keep": [], "events": "", "edges": {}, "classes": [str(c) for c in model.classes]},
+    )
+    return _voted(model, feats, labels, *votes)
+
+
+def offline_votes(model: DictionaryModel, rec: Recording, labels: Labels, segments: float | None = None,
+                  keep: tuple[str, ...] = (), events: tuple[str, ...] = (),
+                  edges: Mapping[str, float] | None = None) -> Labels:
+    """``labels`` (made by :func:`classify_recording` from ``model`` and ``rec`` without votes) after the offline
+    votes that :func:`classify_recording` takes the same options for, so that one classification serves both."""
+    if len(labels) != len(rec) or labels.meta.get("segments") or labels.meta.get("events"):
+        raise InputError(f"{rec.source}: offline votes need the labels of this recording made without votes")
+    votes = _vote_options(model, segments, keep, events, edges)
+    return _voted(model, _classifiable(model, rec), labels, *votes)
+
+
+def _vote_options(model: DictionaryModel, segments, keep, events, edges) -> tuple:
+    """``(penalty, keep, background, edge)`` of the offline votes, checked against ``model``."""
+    penalty = check_penalty(segments)
+    check_classes("--keep", keep, model.classes)
+    check_classes("--events", events, model.classes)
+    background = event_background(events, model.classes)
+    return penalty, tuple(keep), background, model_edge(edges or {}, model.channels, background)
+
+
+def _classifiable(model: DictionaryModel, rec: Recording) -> Recording:
+    """:func:`model_features` of ``rec``, refused when no gap-free stretch holds a window."""
+    feats = model_features(model, rec)
+    if not any(stop - start >= model.window for start, stop in feats.segments()):
+        raise InputError(
+            f"{rec.source}: no gap-free stretch is as long as the model's window ({model.window} samples = "
+            f"{model.window / model.rate:.2f} s); nothing to classify"
+        )
+    return feats
+
+
+def _voted(model: DictionaryModel, feats: Recording, labels: Labels, penalty: float | None, keep: tuple[str, ...],
+           background: str | None, edge: tuple[str, float] | None) -> Labels:
+    """``labels`` of ``feats`` after the segment vote, the event vote and the event edges, each per gap-free
+    stretch; ``labels`` itself when none is asked for."""
+    if not (penalty or background):
+        return labels
+    label = np.asarray(labels.label, dtype=object).copy()
+    for start, stop in feats.segments():
         if penalty:
             x = segment_signal({c: feats.channels[c][start:stop] for c in model.channels}, model.channels)
             label[start:stop] = segment_vote(label[start:stop], change_points(x, penalty), keep)
@@ -195,11 +235,7 @@ def classify_recording(model: DictionaryModel, rec: Recording, method: str = DEF
         if edge:
             label[start:stop] = event_edges(label[start:stop], feats.channels[edge[0]][start:stop], background,
                                             edge[1], model.window)
-    return Labels(
-        time=feats.time, label=label, rate=feats.rate, experiment=feats.experiment, source=rec.source,
-        meta={"method": method, "alignment": "centred" if centred else "causal", "offset": offset,
-              "window": model.window, "step": model.step, "smoothing": smoothing or 0,
-              "segments": penalty or 0, "keep": list(keep), "events": background or "",
-              "edges": dict([edge]) if edge else {},
-              "classes": [str(c) for c in model.classes]},
-    )
+    meta = dict(labels.meta, segments=penalty or 0, keep=list(keep), events=background or "",
+                edges=dict([edge]) if edge else {})
+    return Labels(time=labels.time, label=label, rate=labels.rate, experiment=labels.experiment,
+                  source=labels.source, meta=meta)

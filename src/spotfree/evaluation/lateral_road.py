@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from spotfree.classify.batch import classify_recording
+from spotfree.classify.batch import classify_recording, offline_votes
 from spotfree.classify.segments import kept_classes
 from spotfree.evaluation.metrics import EventScore, Score, class_accuracy, event_detection
 from spotfree.io.recording import Recording
@@ -211,12 +211,12 @@ def segment_options(spec: ModelSpec, model: DictionaryModel) -> dict:
 def train_and_score(spec: ModelSpec, data: Split, seed: int, **changes) -> ModelScore:
     """Train ``spec`` on ``data.training`` and score it on ``data.test``."""
     result = train(data.training, spec.config(seed, **changes))
-    causal = classify_recording(result.model, data.test).label
-    per_class, overall = score_labels(causal, data.test, spec.scenario)
+    causal = classify_recording(result.model, data.test)
+    per_class, overall = score_labels(causal.label, data.test, spec.scenario)
     scored = ModelScore(result.model, per_class, overall, result.warnings,
-                        detected=detections(spec, causal, data.test))
+                        detected=detections(spec, causal.label, data.test))
     if spec.segments:
-        voted = classify_recording(result.model, data.test, **segment_options(spec, result.model)).label
+        voted = offline_votes(result.model, data.test, causal, **segment_options(spec, result.model)).label
         scored.segmented, scored.segmented_overall = score_labels(voted, data.test, spec.scenario)
         scored.segmented_detected = detections(spec, voted, data.test)
     return scored
