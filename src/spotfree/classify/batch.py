@@ -160,7 +160,7 @@ def classify_recording(model: DictionaryModel, rec: Recording, method: str = DEF
     ``classifier``: a classifier already fitted by :func:`dictionary_classifier` (fitted here when None).
     """
     smoothing = check_smoothing(smoothing)
-    votes = _vote_options(model, segments, keep, events, edges)
+    votes = vote_options(model, segments, keep, events, edges)
     feats = _classifiable(model, rec)
     segments = feats.segments()
     clf = classifier if classifier is not None else dictionary_classifier(model, method, causal=not centred)
@@ -195,12 +195,13 @@ def offline_votes(model: DictionaryModel, rec: Recording, labels: Labels, segmen
     votes that :func:`classify_recording` takes the same options for, so that one classification serves both."""
     if len(labels) != len(rec) or labels.meta.get("segments") or labels.meta.get("events"):
         raise InputError(f"{rec.source}: offline votes need the labels of this recording made without votes")
-    votes = _vote_options(model, segments, keep, events, edges)
+    votes = vote_options(model, segments, keep, events, edges)
     return _voted(model, _classifiable(model, rec), labels, *votes)
 
 
-def _vote_options(model: DictionaryModel, segments, keep, events, edges) -> tuple:
-    """``(penalty, keep, background, edge)`` of the offline votes, checked against ``model``."""
+def vote_options(model: DictionaryModel, segments, keep, events, edges) -> tuple:
+    """``(penalty, keep, background, edge)`` of the offline votes (options of :func:`classify_recording`), checked
+    against ``model``."""
     penalty = check_penalty(segments)
     check_classes("--keep", keep, model.classes)
     check_classes("--events", events, model.classes)

@@ -12,8 +12,9 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 from dataclasses import replace
 
-from spotfree.classify.segments import check_classes, check_penalty, event_background, model_edge
+from spotfree.classify.batch import vote_options
 from spotfree.model import DictionaryModel
+
 
 def stored_votes(model: DictionaryModel) -> dict:
     """The offline votes stored in ``model`` as options of :func:`~spotfree.classify.batch.classify_recording`
@@ -27,10 +28,8 @@ def with_votes(model: DictionaryModel, segments: float | None = None, keep: Iter
                events: Iterable[str] = (), edges: Mapping[str, float] | None = None) -> DictionaryModel:
     """A copy of ``model`` storing these votes (all of them replaced; none given: no stored vote), each checked
     against the model as :func:`~spotfree.classify.batch.classify_recording` checks it."""
-    penalty, keep, events, edges = check_penalty(segments), tuple(keep), tuple(events), dict(edges or {})
-    check_classes("--keep", keep, model.classes)
-    check_classes("--events", events, model.classes)
-    model_edge(edges, model.channels, event_background(events, model.classes))
+    keep, events, edges = tuple(keep), tuple(events), dict(edges or {})
+    penalty = vote_options(model, segments, keep, events, edges)[0]
     votes = {"segments": penalty, "keep": list(keep), "events": list(events), "edges": edges}
     stored = {k: v for k, v in votes.items() if v}
     parameters = {k: v for k, v in model.parameters.items() if k != "votes"} | ({"votes": stored} if stored else {})

@@ -347,8 +347,8 @@ def _ride_models(ev: Evaluation) -> str:
         rows.append(["all", f"{result.overall.correct} / {result.overall.total}", _pct(result.overall), "",
                      _pct(result.segmented_overall), ""])
         warned = f"\n\nTraining warnings: {'; '.join(result.warnings)}." if result.warnings else ""
-        detected = "".join(f"\n\n{_detections(name, result.detected[name], result.segmented_detected.get(name))}"
-                           for name in spec.detections)
+        detected = "".join(f"\n\n{_detections(c, result.detected[c], result.segmented_detected.get(c))}"
+                           for c in spec.detections)
         kept = (f", {', '.join(spec.keep)} kept" if spec.keep else "") \
             + (f"; then the event vote outside {spec.background}" if spec.events else "") \
             + "".join(f"; then the event edges at {c} {level:g}" for c, level in spec.edges)
