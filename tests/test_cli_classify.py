@@ -16,12 +16,12 @@ runner = CliRunner()
 
 @pytest.fixture(scope="module")
 def folder(tmp_path_factory):
-    """A model trained (no labels read) on the first 25 s of two simulated rides, and a two-ride log."""
+    """A model trained (no labels read) on the first 40 s of two simulated rides, and a two-ride log."""
     root = tmp_path_factory.mktemp("classify")
     experiments = []
     for scenario, seed, classes in (("normal-braking", 0, ["cruising", "normal-braking"]),
                                     ("sudden-braking", 1, ["cruising", "normal-braking", "sudden-braking"])):
-        write_csv(simulate_scenario(scenario, repeats=1, seed=seed).take(slice(0, 500)), root / f"{scenario}.csv")
+        write_csv(simulate_scenario(scenario, repeats=1, seed=seed).take(slice(0, 800)), root / f"{scenario}.csv")
         experiments.append(TrainingExperiment(feature_recording(str(root / f"{scenario}.csv")), classes))
     train(experiments, TrainingConfig(seed=0)).model.save(root / "model.npz")
     result = runner.invoke(app, ["simulate", "sudden-braking", "-o", str(root / "ride.csv"), "--repeats", "2",

@@ -35,14 +35,23 @@ def test_sudden_braking_is_a_small_share_with_confounders(experiments):
     assert any(e for e in sb.truth["event"])
 
 
-IMPURE = {1: "normal braking 0.84"}
-"""Seeds of the protocol where some class is below 0.98 (``benchmarks/training_purity.py --seeds 0 1 2 3 4 5 6 7``,
-BENCHMARKS.md); every class is pure on the seven others."""
+IMPURE = {
+    1: "normal braking 0.83: a slow-down at 0.34 m/s^2 in the normal-braking ride",
+    3: "normal braking 0.00: the normal-braking rider's cruising named normal braking",
+    8: "sudden braking 0.92", 11: "sudden braking 0.85", 12: "no normal-braking group", 14: "normal braking 0.78",
+    16: "sudden braking 0.00: cruising and a crossing stop named sudden braking", 17: "normal braking 0.78",
+    18: "no sudden-braking column", 19: "sudden braking 0.90", 23: "normal braking 0.96", 29: "no normal-braking group",
+    30: "no sudden-braking column", 31: "sudden braking 0.92", 32: "sudden braking 0.91",
+    33: "no sudden-braking column", 34: "normal and sudden braking 0.00", 38: "sudden braking 0.67",
+}
+"""Seeds of the protocol where some class is below 0.98 or has no column (``benchmarks/training_purity.py --seeds 0 ...
+39``, BENCHMARKS.md): every class is pure on the 22 others. Seeds 0-7 are the ones the training's defaults were
+chosen on; on seeds 8-39 the defaults are pure on 16 of 32."""
 
 
 @pytest.mark.parametrize("seed", [
     pytest.param(s, marks=pytest.mark.xfail(strict=True, reason=f"measured: {IMPURE[s]}") if s in IMPURE else ())
-    for s in range(8)
+    for s in range(40)
 ])
 def test_dictionary_is_pure_and_beats_the_papers_literal_recipe(seed):
     experiments = _experiments(seed)
@@ -119,12 +128,13 @@ def test_causal_columns_include_the_first_windows_of_a_manoeuvre():
 
 
 def test_causal_names_give_the_ends_of_a_nested_run_to_the_class_it_passes_through():
-    """Half a window at each end of a sudden-braking run is normal braking for the causal columns; short runs and
-    recordings that do not declare both classes are left alone."""
+    """Half a window at each end of a sudden-braking run is normal braking for the causal columns; short runs,
+    recordings that do not declare both classes, and training where no window was named normal braking (seed 12 of
+    the purity protocol) are left alone."""
     from spotfree.training import _causal_names
 
     names = np.array(["cruising"] * 12 + ["sudden-braking"] * 12 + ["cruising"] * 4 + ["sudden-braking"] * 8
-                     + ["cruising"] * 4, dtype=object).astype(str)
+                     + ["cruising"] * 4 + ["normal-braking"] * 3, dtype=object).astype(str)
     config = TrainingConfig(window=8, train_step=1)  # half a window: 4 windows
     cut, alone = _causal_names([names, names], [SB, ["cruising", "sudden-braking"]], config)
     expected = names.copy()
@@ -132,6 +142,16 @@ def test_causal_names_give_the_ends_of_a_nested_run_to_the_class_it_passes_throu
     np.testing.assert_array_equal(cut, expected)
     np.testing.assert_array_equal(alone, names)
     assert (names[12:16] == "sudden-braking").all()  # the input is not changed
+    unnamed = np.where(names == "normal-braking", "cruising", names)
+    np.testing.assert_array_equal(_causal_names([unnamed], [SB], config)[0], unnamed)
+
+
+def test_a_model_without_an_outer_class_still_trains():
+    """Seed 12: sudden braking named, normal braking given no cluster; the causal columns used to fail on it."""
+    experiments = _experiments(12)
+    result = train(experiments, TrainingConfig(seed=0))
+    assert "normal-braking" not in result.model.classes and "sudden-braking" in result.model.classes
+    assert any("'normal-braking' was given no cluster" in w for w in result.warnings)
 
 
 def test_the_model_carries_the_landmarks_its_kernel_classifier_uses(evidence):
@@ -231,10 +251,9 @@ def test_the_inner_class_keeps_only_its_most_confident_quarter_and_is_pure(seed)
     assert min(quarter.values()) >= 0.98
 
 
-def test_closing_the_gaps_joins_a_stop_clustered_in_pieces_into_pure_columns():
-    """Seed 4: each sudden stop is named in pieces split by a few background windows, so purification dropped every
-    piece and the dictionary had no sudden-braking column."""
-    experiments = _experiments(4)
+def test_closing_the_gaps_joins_a_stop_clustered_in_pieces_into_pure_columns(experiments):
+    """Seed 0 (seed 4 before the simulator's first-sample fix): each sudden stop is named in pieces split by a few
+    background windows, so purification dropped every piece and the dictionary had no sudden-braking column."""
     apart = train(experiments, TrainingConfig(seed=0, close_gaps=0)).model
     joined = train(experiments, TrainingConfig(seed=0))
     sudden = list(apart.classes).index("sudden-braking")
