@@ -136,14 +136,14 @@ def test_causal_names_give_the_ends_of_a_nested_run_to_the_class_it_passes_throu
     names = np.array(["cruising"] * 12 + ["sudden-braking"] * 12 + ["cruising"] * 4 + ["sudden-braking"] * 8
                      + ["cruising"] * 4 + ["normal-braking"] * 3, dtype=object).astype(str)
     config = TrainingConfig(window=8, train_step=1)  # half a window: 4 windows
-    cut, alone = _causal_names([names, names], [SB, ["cruising", "sudden-braking"]], config)
+    cut, alone = _causal_names([names, names], [SB, ["cruising", "sudden-braking"]], SB, config)
     expected = names.copy()
     expected[12:16] = expected[20:24] = "normal-braking"
     np.testing.assert_array_equal(cut, expected)
     np.testing.assert_array_equal(alone, names)
     assert (names[12:16] == "sudden-braking").all()  # the input is not changed
     unnamed = np.where(names == "normal-braking", "cruising", names)
-    np.testing.assert_array_equal(_causal_names([unnamed], [SB], config)[0], unnamed)
+    np.testing.assert_array_equal(_causal_names([unnamed], [SB], ["cruising", "sudden-braking"], config)[0], unnamed)
 
 
 def test_a_model_without_an_outer_class_still_trains():
@@ -189,7 +189,8 @@ def test_names_are_moved_to_the_timing_of_the_lean():
     assert (np.flatnonzero(aligned == "normal-braking") == np.arange(17, 29)).all()
     assert (aligned[-3:] == "").all()
     config.timing = None
-    np.testing.assert_array_equal(_align_names([names], rides, windows, "cruising", config, lambda m: None)[0][0], names)
+    unaligned = _align_names([names], rides, windows, "cruising", config, lambda m: None)[0][0]
+    np.testing.assert_array_equal(unaligned, names)
     config.timing = "lean"
     bare = [SimpleNamespace(recording=SimpleNamespace(channels={}))]
     assert _align_names([names], bare, windows, "cruising", config, lambda m: None)[1] is None

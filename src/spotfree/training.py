@@ -201,7 +201,8 @@ def train(experiments: list[TrainingExperiment], config: TrainingConfig | None =
     column_source = [column_source[k] for k in chosen]
     warnings += [f"class '{classes[i]}': no column reached the margin {config.min_margin:g}; its {n} columns are "
                  "less confident" for i, n in capped]
-    causal = _causal_columns(windows, _causal_names(names_per_window, declared, config), kept, classes, depth, config)
+    causal_names = _causal_names(names_per_window, declared, classes, config)
+    causal = _causal_columns(windows, causal_names, kept, classes, depth, config)
     model = DictionaryModel(
         classes=classes,
         channels=list(config.channels),
@@ -569,7 +570,7 @@ def _causal_columns(windows, names_per_window, kept, classes, depth, config):
     return np.array(columns).T[:, chosen], np.array(column_class)[chosen]
 
 
-def _causal_names(names_per_window, declared, config) -> list[np.ndarray]:
+def _causal_names(names_per_window, declared, classes, config) -> list[np.ndarray]:
     """The window names the causal columns take: ``names_per_window`` with, for every nesting pair ``(inner, outer)``
     declared in a recording, the first and last half window of each run named ``inner`` named ``outer``.
 
@@ -579,14 +580,13 @@ def _causal_names(names_per_window, declared, config) -> list[np.ndarray]:
     (``benchmarks/evaluation_seeds.py``, BENCHMARKS.md), causal kernel CRC_RLS with 64 landmarks: 91.81 % -> 92.36 %
     on development seeds 10-14, and with cuts of 0.4 / 0.6 of a window 92.16 / 92.48 %; once names are aligned to
     the lean (:func:`_align_names`) the cut is within noise, kept because it names these stretches as the truth
-    does. A pair whose outer class no window was named keeps its runs whole: the model has no such class."""
+    does. A pair whose outer class is not among ``classes`` (no window was named it) keeps its runs whole."""
     half = (config.window // 2) // config.train_step
-    named = {n for per in names_per_window for n in per[per != ""]}
     out = []
-    for per, classes in zip(names_per_window, declared):
+    for per, here in zip(names_per_window, declared):
         per = per.copy()
         for inner, outer in config.nesting:
-            if inner not in classes or outer not in classes or outer not in named:
+            if inner not in here or outer not in here or outer not in classes:
                 continue
             for start, stop in true_runs(per == inner):
                 if stop - start > 2 * half:
