@@ -175,7 +175,8 @@ def test_train_single_manoeuvre_names_turning_groups_by_their_rides(tmp_path):
     assert renamed and {c["name"] for c in renamed} == {"gentle-turn/sharp-turn"}
 
 
-@pytest.mark.parametrize("option, value", [("--inner-quantile", "1.5"), ("--close-gaps", "-1")])
+@pytest.mark.parametrize("option, value", [("--inner-quantile", "1.5"), ("--outer-quantile", "1.0"),
+                                           ("--inner-depth", "1.5"), ("--close-gaps", "-1")])
 def test_train_refuses_an_option_out_of_range_and_keeps_the_model_there(tmp_path, option, value):
     ride = tmp_path / "sb.csv"
     assert runner.invoke(app, ["simulate", "sudden-braking", "-o", str(ride), "--repeats", "1"]).exit_code == 0

@@ -126,6 +126,12 @@ def train(
     inner_quantile: float = typer.Option(
         0.75, "--inner-quantile", help="keep the inner class's columns at or above this quantile of their margins: a "
         "purer dictionary, fewer of its windows found by centred labels (0: every confident column)"),
+    outer_quantile: float = typer.Option(
+        0.75, "--outer-quantile", help="the same for the outer class, whose windows include the rider's gentler "
+        "slow-downs (0: every confident column)"),
+    inner_depth: float = typer.Option(
+        0.8, "--inner-depth", help="the inner class takes columns only where the lean is at least this share of its "
+        "deepest in the run (0: off)"),
     close_gaps: int = typer.Option(
         5, "--close-gaps", help="a run of at most this many training windows named the background inside a "
         "manoeuvre's run takes the manoeuvre's name (0: none)"),
@@ -149,7 +155,8 @@ def train(
         window=window, step=step, recipe=recipe, background=background, overrides=_parse_names(name),
         extra_clusters=extra_clusters, affine=affine, clustering=clustering, max_columns=max_columns, seed=seed,
         nesting=NESTING if nested is None else _parse_nesting(nested), inner_quantile=inner_quantile,
-        single_manoeuvre=single_manoeuvre, close_gaps=close_gaps,
+        outer_quantile=outer_quantile, inner_depth=inner_depth, single_manoeuvre=single_manoeuvre,
+        close_gaps=close_gaps,
     )
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=err,
                   transient=True) as bar:
