@@ -32,6 +32,7 @@ CONFIGS = {
     "inner-depth-0.7": {"inner_depth": 0.7},
     "inner-depth-0.9": {"inner_depth": 0.9},
     "every-outer": {"outer_quantile": 0.0},
+    "outer-0.75": {"outer_quantile": 0.75},
     "neither": {"inner_depth": 0.0, "outer_quantile": 0.0},
     "osc": {"clustering": "osc"},
     "lean-acc_x-osc": {"channels": ("lean", "acc_x"), "clustering": "osc", "extra_clusters": 3},

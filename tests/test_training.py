@@ -36,17 +36,18 @@ def test_sudden_braking_is_a_small_share_with_confounders(experiments):
 
 
 IMPURE = {
-    1: "normal braking 0.50: a slow-down at 0.34 m/s^2 in the normal-braking ride",
+    1: "normal braking 0.72: a slow-down at 0.34 m/s^2 in the normal-braking ride",
     3: "normal braking 0.00: the normal-braking rider's cruising named normal braking",
     12: "no normal-braking group", 16: "sudden braking 0.00: cruising and a crossing stop named sudden braking",
-    18: "no sudden-braking group", 23: "normal braking 0.97", 29: "no normal-braking group",
+    17: "normal braking 0.97: one column on cobblestone", 18: "no sudden-braking group",
+    23: "normal braking 0.97", 29: "no normal-braking group",
     30: "no sudden-braking column", 33: "no sudden-braking column",
     34: "normal braking 0.00: cruising named normal braking; no sudden-braking column",
 }
 """Seeds of the protocol where some class is below 0.98 or has no column (``benchmarks/training_purity.py --seeds 0 ...
-79``, BENCHMARKS.md): every class is pure on the 30 others. Seeds 0-7 are the ones the training's defaults were
+79``, BENCHMARKS.md): every class is pure on the 29 others. Seeds 0-7 are the ones the training's defaults were
 chosen on, seed 8 the one the lean depth was (:func:`spotfree.training._shallow_inner`); on seeds 40-79, which played
-no part in any choice, every class is pure on 29 of 40."""
+no part in choosing the rules, every class is pure on 28 of 40."""
 
 
 @pytest.mark.parametrize("seed", [

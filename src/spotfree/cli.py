@@ -127,7 +127,7 @@ def train(
         0.75, "--inner-quantile", help="keep the inner class's columns at or above this quantile of their margins: a "
         "purer dictionary, fewer of its windows found by centred labels (0: every confident column)"),
     outer_quantile: float = typer.Option(
-        0.75, "--outer-quantile", help="the same for the outer class, whose windows include the rider's gentler "
+        0.5, "--outer-quantile", help="the same for the outer class, whose windows include the rider's gentler "
         "slow-downs (0: every confident column)"),
     inner_depth: float = typer.Option(
         0.8, "--inner-depth", help="the inner class takes columns only where the lean is at least this share of its "
