@@ -92,6 +92,38 @@ def test_user_can_override_a_name(experiments):
     assert result.names[0].name == "parked" and result.names[0].rule == "named by the user"
 
 
+def test_each_window_takes_the_name_most_clusterings_gave_it(monkeypatch):
+    """Runs with seeds 0, 1, 2 (stand-ins for the evidence recipe); a tie keeps the first run's name; levels and
+    cluster names are the first run's; a user's override makes one run."""
+    import spotfree.training as training
+
+    given = {0: ["a", "a", "b", "c"], 1: ["b", "a", "b", "b"], 2: ["b", "c", "a", "a"]}
+    seeds = []
+
+    def recipe(windows, declared, background, config, say):
+        seeds.append(config.seed)
+        return [np.array(given[config.seed])], f"levels {config.seed}", f"names {config.seed}", []
+
+    monkeypatch.setattr(training, "_evidence_recipe", recipe)
+    voted, levels, names, _ = training._voted_names([None], [SB], "cruising", TrainingConfig(votes=3), print)
+    assert voted[0].tolist() == ["b", "a", "b", "c"] and (levels, names) == ("levels 0", "names 0")
+    assert seeds == [0, 1, 2]
+    seeds.clear()
+    training._voted_names([None], [SB], "cruising", TrainingConfig(votes=3, overrides={0: "x"}), print)
+    assert seeds == [0]
+    with pytest.raises(InputError, match="votes"):
+        train(_experiments(), TrainingConfig(votes=0))
+
+
+def test_a_vote_of_five_clusterings_keeps_the_sudden_stop_one_clustering_lost():
+    """Seed 48: with clustering seed 0 alone, sudden braking keeps no column; the vote of seeds 0-4 is pure."""
+    experiments = _experiments(48)
+    one = train(experiments, TrainingConfig(seed=0)).model.summary["columns_per_class"]
+    voted = dictionary_purity(train(experiments, TrainingConfig(seed=0, votes=5)), experiments)
+    assert one.get("sudden-braking", 0) == 0
+    assert set(voted) == set(SB) and min(voted.values()) >= 0.98
+
+
 def test_bad_declarations_are_clear_errors(experiments):
     with pytest.raises(InputError, match="every --experiment"):
         train([TrainingExperiment(experiments[0].recording, ["normal-braking"]),

@@ -138,6 +138,9 @@ def train(
     single_manoeuvre: bool = typer.Option(
         False, "--single-manoeuvre", help="a group absent from the recordings that declare only the background takes, "
         "in a recording declaring one manoeuvre, that manoeuvre (for one recording per manoeuvre and some without)"),
+    votes: int = typer.Option(
+        1, "--votes", help="cluster and name with this many seeds (SEED, SEED+1, ...); each window takes its most "
+        "frequent name (5 is steadier for braking; with --name only the first clustering is made)"),
     seed: int = typer.Option(0, "--seed"),
     figure: Optional[Path] = typer.Option(None, "--figure", help="diagnostic figure (default: MODEL.png)"),
 ) -> None:
@@ -156,7 +159,7 @@ def train(
         extra_clusters=extra_clusters, affine=affine, clustering=clustering, max_columns=max_columns, seed=seed,
         nesting=NESTING if nested is None else _parse_nesting(nested), inner_quantile=inner_quantile,
         outer_quantile=outer_quantile, inner_depth=inner_depth, single_manoeuvre=single_manoeuvre,
-        close_gaps=close_gaps,
+        close_gaps=close_gaps, votes=votes,
     )
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=err,
                   transient=True) as bar:
