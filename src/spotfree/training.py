@@ -319,11 +319,11 @@ def _voted_names(windows, declared, background, config, say):
         return runs[0]
     voted = []
     for r in range(len(windows)):
-        stack = np.array([run[0][r] for run in runs])
+        stack = np.array([run[0][r] for run in runs])  # runs x windows
         names, index = np.unique(stack, return_inverse=True)
-        counts = np.stack([(index.reshape(stack.shape) == j).sum(axis=0) for j in range(len(names))])
-        first = counts[index.reshape(stack.shape)[0], np.arange(stack.shape[1])]
-        voted.append(np.where(first == counts.max(axis=0), stack[0], names[counts.argmax(axis=0)]))
+        counts = (index.reshape(stack.shape)[None] == np.arange(len(names))[:, None, None]).sum(axis=1)
+        first_is_best = counts.max(axis=0) == counts[index.reshape(stack.shape)[0], np.arange(stack.shape[1])]
+        voted.append(np.where(first_is_best, stack[0], names[counts.argmax(axis=0)]))
     return voted, *runs[0][1:]
 
 
