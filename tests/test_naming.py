@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from spotfree.errors import InputError
-from spotfree.naming import (ClusterName, background_class, name_clusters, name_nested, presence_matrix, rename_habits,
-                             single_manoeuvre_names)
+from spotfree.naming import (ClusterName, background_class, name_clusters, name_deep_outer, name_nested,
+                             presence_matrix, rename_habits, single_manoeuvre_names)
 
 NB = ["cruising", "normal-braking"]
 SB = ["cruising", "normal-braking", "sudden-braking"]
@@ -133,3 +133,24 @@ def test_a_group_absent_from_the_straight_rides_takes_the_one_manoeuvre_of_each_
     keep = recording < 3
     assert single_manoeuvre_names(labels[keep], recording[keep], per_window[keep], without, "straight",
                                   names)[0].tolist() == ["straight"] * 15
+
+
+def test_a_background_group_leaning_deep_where_the_outer_class_is_at_home_takes_it():
+    """Groups 1 and 2 lean x4 and x-4 (away from the hard stop: speeding up) in the normal-braking ride, group 0 is
+    the usual stance, group 3 is sudden braking; only group 1 becomes normal braking, and nothing changes once a
+    group is named normal braking, at a higher ratio, or when group 1 leans as usual."""
+    labels = np.repeat([0, 1, 2, 3, 0, 3], [20, 5, 5, 2, 20, 8])
+    recording = np.repeat([0, 0, 0, 0, 1, 1], [20, 5, 5, 2, 20, 8])
+    depth = np.repeat([1.0, 4.0, -4.0, 4.0, 1.0, 4.0], [20, 5, 5, 2, 20, 8])
+    names = [ClusterName(j, "cruising", "shared", 0.5) for j in range(3)] + [ClusterName(3, "sudden-braking", "x", 1)]
+    named = name_deep_outer(labels, recording, names, [NB, SB], "cruising", [("sudden-braking", "normal-braking")],
+                            depth)
+    assert [n.name for n in named] == ["cruising", "normal-braking", "cruising", "sudden-braking"]
+    assert "x4.0" in named[1].rule and named[1].confidence == pytest.approx(0.25)
+    assert [n.name for n in names] == ["cruising"] * 3 + ["sudden-braking"]  # the input is not changed
+    assert name_deep_outer(labels, recording, named, [NB, SB], "cruising", [("sudden-braking", "normal-braking")],
+                           depth * 2)[2].name == "cruising"
+    for ratio, d in ((5.0, depth), (3.0, np.where(labels == 1, 1.0, depth))):
+        kept = name_deep_outer(labels, recording, names, [NB, SB], "cruising",
+                               [("sudden-braking", "normal-braking")], d, ratio)
+        assert [n.name for n in kept] == [n.name for n in names]

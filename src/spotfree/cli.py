@@ -132,6 +132,12 @@ def train(
     inner_depth: float = typer.Option(
         0.8, "--inner-depth", help="the inner class takes columns only where the lean is at least this share of its "
         "deepest in the run (0: off)"),
+    deepest_inner: bool = typer.Option(
+        True, "--deepest-inner/--no-deepest-inner", help="in a recording declaring the inner class, the windows at "
+        "its deepest lean take that class when deeper than any lean of the recordings without it"),
+    outer_depth: float = typer.Option(
+        3.0, "--outer-depth", help="a background group leaning this many times the usual depth towards the hardest "
+        "stop, in the recordings made for the outer class, takes that class when evidence gave it none (0: off)"),
     close_gaps: int = typer.Option(
         5, "--close-gaps", help="a run of at most this many training windows named the background inside a "
         "manoeuvre's run takes the manoeuvre's name (0: none)"),
@@ -158,7 +164,8 @@ def train(
         window=window, step=step, recipe=recipe, background=background, overrides=_parse_names(name),
         extra_clusters=extra_clusters, affine=affine, clustering=clustering, max_columns=max_columns, seed=seed,
         nesting=NESTING if nested is None else _parse_nesting(nested), inner_quantile=inner_quantile,
-        outer_quantile=outer_quantile, inner_depth=inner_depth, single_manoeuvre=single_manoeuvre,
+        outer_quantile=outer_quantile, inner_depth=inner_depth, deepest_inner=deepest_inner,
+        outer_depth=outer_depth, single_manoeuvre=single_manoeuvre,
         close_gaps=close_gaps, votes=votes,
     )
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=err,

@@ -83,8 +83,9 @@ from spotfree.errors import InputError
 from spotfree.io.checks import true_runs
 from spotfree.io.recording import Recording
 from spotfree.model import DictionaryModel
-from spotfree.naming import (ENRICHMENT, ClusterName, background_class, class_enrichment, class_homes,
-                             name_clusters, name_nested, presence_matrix, rename_habits, single_manoeuvre_names)
+from spotfree.naming import (DEPTH_RATIO, ENRICHMENT, ClusterName, background_class, class_enrichment, class_homes,
+                             name_clusters, name_deep_outer, name_nested, presence_matrix, rename_habits,
+                             single_manoeuvre_names)
 from spotfree.windows import ChannelScaling, WindowedRecording, recording_windows, with_affine_row
 
 RECIPES = ("evidence", "paper")
@@ -114,7 +115,11 @@ class TrainingConfig:
     takes its most frequent name (:func:`_voted_names`). ``inner_quantile``, ``outer_quantile``: the inner / outer
     class of a ``nesting`` pair keeps its columns at or above this quantile of their margins (:func:`_cap`; 0: every
     confident column). ``inner_depth``: the inner class takes no column from a window centred where ``timing`` is
-    shallower than this share of its run's deepest (:func:`_shallow_inner`; 0: off). ``close_gaps``: a run of at
+    shallower than this share of its run's deepest (:func:`_shallow_inner`; 0: off). ``deepest_inner``: in a recording
+    declaring the inner class, the windows at its deepest ``timing`` take that class when they go beyond every window
+    of the recordings without it (:func:`_deepest_inner`). ``outer_depth``: a background group that leans this
+    many times the usual depth towards the inner class's deepest, in the outer class's home recordings, takes the
+    outer class when evidence gave it no group (:func:`~spotfree.naming.name_deep_outer`; 0: off). ``close_gaps``: a run of at
     most this many training windows named the background between two runs of one manoeuvre takes the manoeuvre's
     name (:func:`_close_gaps`; 0: none). ``single_manoeuvre``: a group absent from the recordings that declare only
     the background takes, in a recording declaring one manoeuvre, that manoeuvre's name
@@ -137,6 +142,8 @@ class TrainingConfig:
     inner_quantile: float = 0.75
     outer_quantile: float = 0.5
     inner_depth: float = 0.8
+    deepest_inner: bool = True
+    outer_depth: float = DEPTH_RATIO
     single_manoeuvre: bool = False
     close_gaps: int = 5
     votes: int = 1
@@ -181,8 +188,10 @@ def train(experiments: list[TrainingExperiment], config: TrainingConfig | None =
     refined = config.recipe != "paper"  # the paper's recipe, kept to measure the gain, is taken literally
     if refined:
         background = background_class(declared, config.background)
-        names_per_window, levels, names, warnings = _voted_names(windows, declared, background, config, say)
+        lean = _lean_towards_inner(_timing_offset(experiments, windows, config), declared, config.nesting)
+        names_per_window, levels, names, warnings = _voted_names(windows, declared, background, lean, config, say)
         names_per_window, lag = _align_names(names_per_window, experiments, windows, background, config, say)
+        names_per_window = _deepest_inner(names_per_window, experiments, windows, config)
         names_per_window = _close_gaps(names_per_window, background, config.close_gaps)
         away = _away_from_home(names_per_window, declared, background)
         shallow = _shallow_inner(names_per_window, experiments, windows, config)
@@ -234,7 +243,8 @@ def train(experiments: list[TrainingExperiment], config: TrainingConfig | None =
                     "train_step": config.train_step, "max_columns": config.max_columns,
                     "min_margin": config.min_margin, "inner_quantile": config.inner_quantile,
                     "outer_quantile": config.outer_quantile,
-                    "inner_depth": config.inner_depth,
+                    "inner_depth": config.inner_depth, "deepest_inner": config.deepest_inner,
+                    "outer_depth": config.outer_depth,
                     "single_manoeuvre": config.single_manoeuvre, "close_gaps": config.close_gaps,
                     "nesting": [list(p) for p in config.nesting],
                     "causal_onsets": config.causal_onsets, "landmarks": config.landmarks,
@@ -284,6 +294,9 @@ def _validate(experiments: list[TrainingExperiment], config: TrainingConfig) -> 
         raise InputError(f"close_gaps (--close-gaps) must be 0 or more training windows, got {config.close_gaps}")
     if not 0.0 <= config.inner_depth <= 1.0:
         raise InputError(f"inner_depth (--inner-depth) must be between 0 and 1, got {config.inner_depth}")
+    if not (config.outer_depth == 0 or config.outer_depth >= 1):
+        raise InputError(f"outer_depth (--outer-depth) must be 0 (off) or at least 1 (the usual depth), got "
+                         f"{config.outer_depth}")
     for name in ("inner_quantile", "outer_quantile"):
         if not 0.0 <= getattr(config, name) < 1.0:
             raise InputError(f"{name} (--{name.replace('_', '-')}) must be at least 0 and below 1, "
@@ -301,7 +314,7 @@ def _cluster(matrix: np.ndarray, n_clusters: int, seed: int, method: str = "osc"
     return OrderedSubspaceClustering(n_clusters=n_clusters, random_state=seed).fit(matrix.T).labels_
 
 
-def _voted_names(windows, declared, background, config, say):
+def _voted_names(windows, declared, background, lean, config, say):
     """:func:`_evidence_recipe` run with ``config.votes`` clustering seeds; each window takes the name most of the
     runs gave it (a tie: the first run's name). Levels, cluster names and warnings are the first run's, for the
     summary and the figure. With ``config.overrides`` (names given to clusters by number) only the first run is made.
@@ -313,7 +326,7 @@ def _voted_names(windows, declared, background, config, say):
     with it (0.95 on one test seed) and it costs as many trainings as votes.
     """
     votes = 1 if config.overrides else config.votes  # a user's name is for a cluster of the first clustering
-    runs = [_evidence_recipe(windows, declared, background, replace(config, seed=config.seed + i), say)
+    runs = [_evidence_recipe(windows, declared, background, lean, replace(config, seed=config.seed + i), say)
             for i in range(votes)]
     if len(runs) == 1:
         return runs[0]
@@ -327,7 +340,10 @@ def _voted_names(windows, declared, background, config, say):
     return voted, *runs[0][1:]
 
 
-def _evidence_recipe(windows, declared, background, config, say):
+def _evidence_recipe(windows, declared, background, lean, config, say):
+    """Cluster the pooled windows, name the groups by evidence (``lean``: :func:`_lean_towards_inner`, for
+    :func:`~spotfree.naming.name_deep_outer`, off when None or ``config.outer_depth`` is 0) and nest; return the
+    names per recording, the two levels of cluster labels, the cluster names and no warnings."""
     n_classes = len({c for d in declared for c in d})
     pooled = np.hstack([w.matrix for w in windows])
     recording = np.concatenate([np.full(w.matrix.shape[1], r) for r, w in enumerate(windows)])
@@ -337,6 +353,9 @@ def _evidence_recipe(windows, declared, background, config, say):
     names = name_clusters(counts, declared, background)
     names = rename_habits(pooled, recording, labels, names, declared, background)
     names = name_nested(pooled, recording, labels, names, declared, background, config.nesting)
+    if lean is not None and config.outer_depth:
+        names = name_deep_outer(labels, recording, names, declared, background, config.nesting, lean,
+                                config.outer_depth)
     for cluster, name in config.overrides.items():
         if not 0 <= cluster < len(names):
             raise InputError(f"--name {cluster}={name}: there are only clusters 0..{len(names) - 1}")
@@ -540,11 +559,70 @@ def _away_from_home(names_per_window, declared, background) -> list[np.ndarray]:
     return away
 
 
+def _timing_offset(experiments, windows, config) -> list[np.ndarray] | None:
+    """Per recording, ``x_k - m`` at its window centres, ``x`` the timing channel ``config.timing`` and ``m`` its
+    median over the recording (for the lean: radians from the rider's usual stance); None when ``timing`` is None or
+    a recording lacks it. Its magnitude is the window's depth."""
+    channel = config.timing
+    if channel is None or any(channel not in e.recording.channels for e in experiments):
+        return None
+    traces = [np.asarray(e.recording.channels[channel], dtype=float) for e in experiments]
+    return [np.nan_to_num(t[w.ends - config.window // 2] - np.nanmedian(t)) for t, w in zip(traces, windows)]
+
+
+def _lean_towards_inner(offset, declared, nesting) -> np.ndarray | None:
+    """Every window's timing offset (:func:`_timing_offset`), pooled over the recordings, signed so that the deepest
+    window of the recordings declaring an inner class of ``nesting`` is positive, in units of its recording's median
+    ``|offset|``: the depth :func:`spotfree.naming.name_deep_outer` reads. None without an offset or such a
+    recording."""
+    inner = {i for i, _ in nesting}
+    homes = [x for x, classes in zip(offset or [], declared) if inner & set(classes) and len(x)]
+    if not homes:
+        return None
+    deepest = max(homes, key=lambda x: np.abs(x).max())
+    sign = np.sign(deepest[np.argmax(np.abs(deepest))]) or 1.0
+    return np.concatenate([sign * x / max(np.median(np.abs(x)), 1e-12) if len(x) else x for x in offset])
+
+
+def _deepest_inner(names_per_window, experiments, windows, config) -> list[np.ndarray]:
+    """``names_per_window`` with, in each recording that declares the inner class of a nesting pair, the windows at
+    its deepest named that class, when the deepest goes beyond every window of the recordings that do not declare it:
+    with ``d`` the timing depth (:func:`_timing_offset`) and ``L`` its maximum over those other recordings, window
+    ``k`` is renamed when ``d_k > L`` and ``d_k >= inner_depth * max d``, and so are the purification margin's
+    windows on each side of them (:func:`_change_margin`), which purification drops, so that the deepest windows
+    are kept. Unchanged when ``deepest_inner`` is off, the timing channel is missing, or every recording declares
+    the inner class.
+
+    The inner class is the extreme of the outer one (a hard stop is a deeper lean than any normal stop), yet it
+    fills a second or two of a ride, and the clustering may leave it no group of its own or name its group after the
+    lean-in shared with normal braking (no sudden-braking column on 10 of 80 seeds of the training test's protocol).
+    Measured (``benchmarks/training_purity.py``, BENCHMARKS.md): every class pure on 60 instead of 57 of seeds 0-79
+    and on 59 instead of 56 of seeds 80-159, which played no part in designing it; renaming every window beyond
+    ``L`` (each run's deepest part) instead gave 65 and 54.
+    """
+    offset = _timing_offset(experiments, windows, config)
+    if not config.deepest_inner or offset is None:
+        return names_per_window
+    depth = [np.abs(x) for x in offset]
+    declared = [set(e.classes) for e in experiments]
+    out = [per.astype(object) for per in names_per_window]  # a fixed-width str array would cut a longer name
+    for inner, _ in config.nesting:
+        others = [d for d, classes in zip(depth, declared) if inner not in classes and len(d)]
+        if not others:
+            continue
+        limit = max(d.max() for d in others)
+        for per, d, classes in zip(out, depth, declared):
+            if inner in classes and len(d):
+                deepest = (d > limit) & (d >= config.inner_depth * d.max())
+                per[np.convolve(deepest, np.ones(2 * _change_margin(config) + 1), "same") > 0] = inner
+    return [per.astype(str) for per in out]
+
+
 def _shallow_inner(names_per_window, experiments, windows, config) -> list[np.ndarray]:
-    """Per recording, the windows named the inner class of a nesting pair whose centre lies where the timing
-    channel ``config.timing`` is shallower than ``config.inner_depth`` of its deepest in their run: with ``x`` the
-    channel at the window centres and ``m`` its median over the recording, window ``k`` of a run is shallow when
-    ``|x_k - m| < inner_depth * max_run |x - m|``. All False when the depth is 0 or a recording lacks the channel.
+    """Per recording, the windows named the inner class of a nesting pair whose centre lies where the timing depth
+    (:func:`_timing_offset`) is shallower than ``config.inner_depth`` of its deepest in their run: window ``k`` of a
+    run is shallow when ``d_k < inner_depth * max_run d``. All False when the depth is 0 or a recording lacks the
+    timing channel.
 
     The inner class is the extreme of the outer one (the hard plateau of a stop that passes through normal braking),
     and its run of names spans every window holding part of it, half a window on each side of the plateau; the
@@ -557,22 +635,25 @@ def _shallow_inner(names_per_window, experiments, windows, config) -> list[np.nd
     seeds unchanged.
     """
     shallow = [np.zeros(len(per), dtype=bool) for per in names_per_window]
-    channel = config.timing
-    if channel is None or config.inner_depth == 0 or any(channel not in e.recording.channels for e in experiments):
+    offset = _timing_offset(experiments, windows, config)
+    if offset is None or config.inner_depth == 0:
         return shallow
-    for per, w, e, out in zip(names_per_window, windows, experiments, shallow):
-        trace = np.asarray(e.recording.channels[channel], dtype=float)
-        depth = np.abs(np.nan_to_num(trace[w.ends - config.window // 2] - np.nanmedian(trace)))
+    for per, d, out in zip(names_per_window, map(np.abs, offset), shallow):
         for inner in {i for i, _ in config.nesting}:
             for start, stop in true_runs(per == inner):
-                out[start:stop] = depth[start:stop] < config.inner_depth * depth[start:stop].max()
+                out[start:stop] = d[start:stop] < config.inner_depth * d[start:stop].max()
     return shallow
+
+
+def _change_margin(config) -> int:
+    """Windows on each side of a change of name that purification drops (``config.margin``; default half a window)."""
+    return config.margin if config.margin is not None else max(1, config.window // (2 * config.train_step))
 
 
 def _purify(windows, names_per_window, config, say) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """Keep windows away from a change of name and consistent with the rest of the dictionary; return the kept
     masks and every window's margin (:func:`_run_margins`; 1 where no other name exists to test against)."""
-    margin = config.margin if config.margin is not None else max(1, config.window // (2 * config.train_step))
+    margin = _change_margin(config)
     kept = []
     for per in names_per_window:
         named = per != ""
