@@ -24,7 +24,9 @@ Output: a :class:`~spotfree.model.DictionaryModel` whose columns are windows kep
    class must lie away from the recordings without that class, or it is one rider's habit and goes to the
    background), then nesting (a class that evidence left without a group and that a more specific class passes
    through, by the caller's ``nesting`` pairs, takes the shared group nearest to that class: normal braking
-   around sudden braking); the user may override any name.
+   around sudden braking; failing that, a background group whose windows lean three times the usual depth towards
+   the hardest stop in the outer class's home recordings, ``outer_depth``,
+   :func:`~spotfree.naming.name_deep_outer`); the user may override any name.
 4. Nesting: every group named a manoeuvre is checked against the known, less specific classes (background first):
    its windows are classified by CRC against those classes' windows and its own windows outside the run being
    tested; a group that a known class explains takes that name. Groups that stay are split in two by OSC again and
@@ -37,7 +39,9 @@ Output: a :class:`~spotfree.model.DictionaryModel` whose columns are windows kep
    without any: the turning windows of gentle turns, sharp turns and slaloms share groups that evidence alone calls
    the background). Then the names are moved to the timing of the
    channel that defines the classes (``timing``, default the measured ``lean``; :func:`_align_names`): a window's
-   content shows the vehicle's answer, which follows the rider's lean.
+   content shows the vehicle's answer, which follows the rider's lean. The windows at a recording's deepest lean
+   take the inner class of a nesting pair when they go beyond every recording without it (``deepest_inner``,
+   :func:`_deepest_inner`).
 5. Purification: a window named a class that its recording does not declare is dropped (the group it belongs to
    is mixed there); windows within ``margin`` windows of a change of name straddle two states and are dropped, and so
    are windows that lie nearer to another name than to their own (leave-run-out: a run of windows is compared with
@@ -596,9 +600,11 @@ def _deepest_inner(names_per_window, experiments, windows, config) -> list[np.nd
     The inner class is the extreme of the outer one (a hard stop is a deeper lean than any normal stop), yet it
     fills a second or two of a ride, and the clustering may leave it no group of its own or name its group after the
     lean-in shared with normal braking (no sudden-braking column on 10 of 80 seeds of the training test's protocol).
-    Measured (``benchmarks/training_purity.py``, BENCHMARKS.md): every class pure on 60 instead of 57 of seeds 0-79
-    and on 59 instead of 56 of seeds 80-159, which played no part in designing it; renaming every window beyond
-    ``L`` (each run's deepest part) instead gave 65 and 54.
+    Measured (``benchmarks/training_purity.py``, BENCHMARKS.md), every class pure on seeds 0-79 / 80-159 of the
+    training test's protocol: 65 / 62 with it, 60 / 58 without it, 57 / 56 without it and without
+    :func:`~spotfree.naming.name_deep_outer`; on seeds 160-239, which played no part in designing either rule, 69
+    with both and 57 with neither. Without the margin's windows (scratch): 60 / 59 with this rule alone; renaming
+    every window beyond ``L`` (scratch): 66 / 54.
     """
     offset = _timing_offset(experiments, windows, config)
     if not config.deepest_inner or offset is None:
