@@ -303,7 +303,7 @@ def test_the_inner_class_takes_no_column_where_the_lean_is_shallow_in_its_run():
     least ``inner_depth`` of the run's deepest, each run on its own scale; other classes are never marked."""
     from types import SimpleNamespace
 
-    from spotfree.training import _shallow_inner
+    from spotfree.training import _shallow_inner, _timing_offset
 
     lean = np.r_[np.zeros(10), [-0.1, -0.5, -1.0, -0.9, -0.3], np.zeros(5), [0.05, 0.2, 0.1], np.zeros(9)]
     names = np.array(["cruising"] * 8 + ["sudden-braking"] * 5 + ["cruising"] * 5 + ["sudden-braking"] * 3
@@ -311,10 +311,13 @@ def test_the_inner_class_takes_no_column_where_the_lean_is_shallow_in_its_run():
     recording = SimpleNamespace(recording=SimpleNamespace(channels={"lean": lean}))
     windows = [SimpleNamespace(ends=np.arange(len(names)) + 4)]
     config = TrainingConfig(window=4, inner_depth=0.8)
-    shallow = _shallow_inner([names], [recording], windows, config)[0]
+    def shallow_inner(config):
+        return _shallow_inner([names], _timing_offset([recording], windows, config), config)[0]
+
+    shallow = shallow_inner(config)
     assert np.flatnonzero(shallow).tolist() == [8, 9, 12, 18, 20]
-    assert not _shallow_inner([names], [recording], windows, TrainingConfig(window=4, inner_depth=0.0))[0].any()
-    assert not _shallow_inner([names], [recording], windows, TrainingConfig(window=4, timing=None))[0].any()
+    assert not shallow_inner(TrainingConfig(window=4, inner_depth=0.0)).any()
+    assert not shallow_inner(TrainingConfig(window=4, timing=None)).any()
     with pytest.raises(InputError, match="inner_depth"):
         train(_experiments(), TrainingConfig(inner_depth=1.5))
 
@@ -325,7 +328,7 @@ def test_the_deepest_lean_beyond_the_other_recordings_names_the_inner_class_with
     each side for a 4-sample window at training step 2) take the inner name; a shallower second dip does not."""
     from types import SimpleNamespace
 
-    from spotfree.training import _deepest_inner
+    from spotfree.training import _deepest_inner, _timing_offset
 
     def ride(lean, classes):
         return SimpleNamespace(recording=SimpleNamespace(channels={"lean": np.asarray(lean)}), classes=classes)
@@ -336,13 +339,17 @@ def test_the_deepest_lean_beyond_the_other_recordings_names_the_inner_class_with
     windows = [SimpleNamespace(ends=np.arange(20) + 4)] * 2
     experiments = [ride(calm, NB), ride(stop, SB)]
     config = TrainingConfig(window=4, inner_depth=0.8)
-    named = _deepest_inner(names, experiments, windows, config)
+    def deepest_inner(names, experiments, windows, config):
+        offset = _timing_offset(experiments, windows, config)
+        return _deepest_inner(names, offset, [e.classes for e in experiments], config)
+
+    named = deepest_inner(names, experiments, windows, config)
     assert np.flatnonzero(named[1] == "sudden-braking").tolist() == [9, 10, 11, 12]
     assert (named[0] == "cruising").all() and (names[1] == "cruising").all()  # the input is not changed
     for off in (TrainingConfig(window=4, deepest_inner=False), TrainingConfig(window=4, timing=None)):
-        assert (_deepest_inner(names, experiments, windows, off)[1] == "cruising").all()
+        assert (deepest_inner(names, experiments, windows, off)[1] == "cruising").all()
     shallow = [ride(np.r_[stop[:14], -0.2, stop[15:]] * 0.25, SB), ride(calm, NB)]
-    assert (_deepest_inner(names, shallow, windows, config)[0] == "cruising").all()  # never beyond 0.3
+    assert (deepest_inner(names, shallow, windows, config)[0] == "cruising").all()  # never beyond 0.3
 
 
 @pytest.mark.parametrize("seed, changed, cls", [(2, {"inner_depth": 0.0}, "sudden-braking"),
@@ -351,10 +358,10 @@ def test_the_deepest_lean_beyond_the_other_recordings_names_the_inner_class_with
                                                 (29, {"outer_depth": 0.0}, "normal-braking")])
 def test_each_lean_rule_and_the_outer_quantile_make_a_class_pure(seed, changed, cls):
     """Seed 2: the sudden-braking runs start half a window before the hard plateau, and their first centred windows
-    are normal braking (seed 8 before the deepest lean was named). Seed 14: normal braking also takes the normal-braking rider's gentle slow-downs; its most
-    confident quarter does not. Seed 18: no group is named sudden braking, but the stop leans deeper than anything in
-    the normal-braking ride. Seed 29: no group is named normal braking (both rides hold it), but one leans four times
-    the usual depth in the normal-braking ride."""
+    are normal braking (seed 8 before the deepest lean was named). Seed 14: normal braking also takes the
+    normal-braking rider's gentle slow-downs; its most confident quarter does not. Seed 18: no group is named sudden
+    braking, but the stop leans deeper than anything in the normal-braking ride. Seed 29: no group is named normal
+    braking (both rides hold it), but one leans four times the usual depth in the normal-braking ride."""
     experiments = _experiments(seed)
     without = dictionary_purity(train(experiments, TrainingConfig(seed=0, **changed)), experiments)
     default = dictionary_purity(train(experiments, TrainingConfig(seed=0)), experiments)

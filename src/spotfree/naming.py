@@ -245,8 +245,9 @@ def name_nested(pooled: np.ndarray, recording: np.ndarray, labels: np.ndarray, n
 DEPTH_RATIO = 3.0
 """Lean a background group must reach, at its median in the outer class's home recordings and in units of each
 recording's median depth, to be named that class by :func:`name_deep_outer`. Measured on the training test's
-protocol (seeds 80-99, 174 groups, on the unsigned depth): groups at x3 or more were mostly normal braking in the normal-braking ride
-(45 of 48 at least 90 % normal braking), those at x2-3 mixed (15 of 24), those under x1.5 mostly cruising."""
+protocol (seeds 80-99, 174 groups, on the unsigned depth): groups at x3 or more were mostly normal braking in the
+normal-braking ride (45 of 48 at least 90 % normal braking), those at x2-3 mixed (15 of 24), those under x1.5 mostly
+cruising."""
 
 
 def name_deep_outer(labels: np.ndarray, recording: np.ndarray, names: list[ClusterName], declared: list[list[str]],
@@ -273,11 +274,12 @@ def name_deep_outer(labels: np.ndarray, recording: np.ndarray, names: list[Clust
         at_home = np.isin(recording, home[outer])
         for n in names:
             lean = depth[(labels == n.cluster) & at_home]
-            if n.name == background and len(lean) >= 3 and np.median(lean) > ratio:
+            median = np.median(lean) if len(lean) >= 3 else 0.0
+            if n.name == background and median > ratio:
                 out[n.cluster] = ClusterName(
-                    n.cluster, outer, f"leans x{np.median(lean):.1f} of the usual depth in the recordings made for "
-                    f"{outer}, towards the deepest stop (the background group that holds it)",
-                    float(1 - ratio / np.median(lean)), n.counts)
+                    n.cluster, outer, f"leans x{median:.1f} of the usual depth in the recordings made for {outer}, "
+                    "towards the deepest stop (the background group that holds it)", float(1 - ratio / median),
+                    n.counts)
     return out
 
 

@@ -123,10 +123,10 @@ class TrainingConfig:
     declaring the inner class, the windows at its deepest ``timing`` take that class when they go beyond every window
     of the recordings without it (:func:`_deepest_inner`). ``outer_depth``: a background group that leans this
     many times the usual depth towards the inner class's deepest, in the outer class's home recordings, takes the
-    outer class when evidence gave it no group (:func:`~spotfree.naming.name_deep_outer`; 0: off). ``close_gaps``: a run of at
-    most this many training windows named the background between two runs of one manoeuvre takes the manoeuvre's
-    name (:func:`_close_gaps`; 0: none). ``single_manoeuvre``: a group absent from the recordings that declare only
-    the background takes, in a recording declaring one manoeuvre, that manoeuvre's name
+    outer class when evidence gave it no group (:func:`~spotfree.naming.name_deep_outer`; 0: off). ``close_gaps``:
+    a run of at most this many training windows named the background between two runs of one manoeuvre takes the
+    manoeuvre's name (:func:`_close_gaps`; 0: none). ``single_manoeuvre``: a group absent from the recordings that
+    declare only the background takes, in a recording declaring one manoeuvre, that manoeuvre's name
     (:func:`~spotfree.naming.single_manoeuvre_names`)."""
 
     channels: tuple[str, ...] = DEFAULT_CHANNELS
@@ -192,13 +192,14 @@ def train(experiments: list[TrainingExperiment], config: TrainingConfig | None =
     refined = config.recipe != "paper"  # the paper's recipe, kept to measure the gain, is taken literally
     if refined:
         background = background_class(declared, config.background)
-        lean = _lean_towards_inner(_timing_offset(experiments, windows, config), declared, config.nesting)
+        offset = _timing_offset(experiments, windows, config)
+        lean = _lean_towards_inner(offset, declared, config.nesting)
         names_per_window, levels, names, warnings = _voted_names(windows, declared, background, lean, config, say)
         names_per_window, lag = _align_names(names_per_window, experiments, windows, background, config, say)
-        names_per_window = _deepest_inner(names_per_window, experiments, windows, config)
+        names_per_window = _deepest_inner(names_per_window, offset, declared, config)
         names_per_window = _close_gaps(names_per_window, background, config.close_gaps)
         away = _away_from_home(names_per_window, declared, background)
-        shallow = _shallow_inner(names_per_window, experiments, windows, config)
+        shallow = _shallow_inner(names_per_window, offset, config)
         left_out = [a | s for a, s in zip(away, shallow)]
     else:
         names_per_window, levels, names, warnings = _paper_recipe(windows, declared, config, say)
@@ -588,7 +589,7 @@ def _lean_towards_inner(offset, declared, nesting) -> np.ndarray | None:
     return np.concatenate([sign * x / max(np.median(np.abs(x)), 1e-12) if len(x) else x for x in offset])
 
 
-def _deepest_inner(names_per_window, experiments, windows, config) -> list[np.ndarray]:
+def _deepest_inner(names_per_window, offset, declared, config) -> list[np.ndarray]:
     """``names_per_window`` with, in each recording that declares the inner class of a nesting pair, the windows at
     its deepest named that class, when the deepest goes beyond every window of the recordings that do not declare it:
     with ``d`` the timing depth (:func:`_timing_offset`) and ``L`` its maximum over those other recordings, window
@@ -606,11 +607,9 @@ def _deepest_inner(names_per_window, experiments, windows, config) -> list[np.nd
     with both and 57 with neither. Without the margin's windows (scratch): 60 / 59 with this rule alone; renaming
     every window beyond ``L`` (scratch): 66 / 54.
     """
-    offset = _timing_offset(experiments, windows, config)
     if not config.deepest_inner or offset is None:
         return names_per_window
     depth = [np.abs(x) for x in offset]
-    declared = [set(e.classes) for e in experiments]
     out = [per.astype(object) for per in names_per_window]  # a fixed-width str array would cut a longer name
     for inner, _ in config.nesting:
         others = [d for d, classes in zip(depth, declared) if inner not in classes and len(d)]
@@ -624,7 +623,7 @@ def _deepest_inner(names_per_window, experiments, windows, config) -> list[np.nd
     return [per.astype(str) for per in out]
 
 
-def _shallow_inner(names_per_window, experiments, windows, config) -> list[np.ndarray]:
+def _shallow_inner(names_per_window, offset, config) -> list[np.ndarray]:
     """Per recording, the windows named the inner class of a nesting pair whose centre lies where the timing depth
     (:func:`_timing_offset`) is shallower than ``config.inner_depth`` of its deepest in their run: window ``k`` of a
     run is shallow when ``d_k < inner_depth * max_run d``. All False when the depth is 0 or a recording lacks the
@@ -641,7 +640,6 @@ def _shallow_inner(names_per_window, experiments, windows, config) -> list[np.nd
     seeds unchanged.
     """
     shallow = [np.zeros(len(per), dtype=bool) for per in names_per_window]
-    offset = _timing_offset(experiments, windows, config)
     if offset is None or config.inner_depth == 0:
         return shallow
     for per, d, out in zip(names_per_window, map(np.abs, offset), shallow):
