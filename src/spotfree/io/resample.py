@@ -142,7 +142,7 @@ def _grid(streams: list[Stream], rate: float, source: str) -> np.ndarray:
     if end < start:
         raise InputError(f"{source}: the sensors do not overlap in time (common span {start:g}..{end:g} s)")
     count = int(np.floor((end - start) * rate + 1e-9)) + 1
-    return start + np.arange(count) / rate
+    return np.minimum(start + np.arange(count) / rate, end)  # the last time may pass ``end`` by a rounding error
 
 
 def _dense_on_grid(
