@@ -33,6 +33,7 @@ CONFIGS = {
     "no-deepest-inner": {"deepest_inner": False},
     "no-outer-depth": {"outer_depth": 0.0},
     "neither-depth-rule": {"deepest_inner": False, "outer_depth": 0.0},
+    "no-upright": {"upright": 0.0},
     "inner-depth-0.7": {"inner_depth": 0.7},
     "inner-depth-0.9": {"inner_depth": 0.9},
     "every-outer": {"outer_quantile": 0.0},

@@ -5,7 +5,7 @@ import pytest
 
 from spotfree.errors import InputError
 from spotfree.naming import (ClusterName, background_class, name_clusters, name_deep_outer, name_nested,
-                             presence_matrix, rename_habits, single_manoeuvre_names)
+                             presence_matrix, rename_habits, rename_upright, single_manoeuvre_names)
 
 NB = ["cruising", "normal-braking"]
 SB = ["cruising", "normal-braking", "sudden-braking"]
@@ -154,3 +154,27 @@ def test_a_background_group_leaning_deep_where_the_outer_class_is_at_home_takes_
         kept = name_deep_outer(labels, recording, names, [NB, SB], "cruising",
                                [("sudden-braking", "normal-braking")], d, ratio)
         assert [n.name for n in kept] == [n.name for n in names]
+
+
+def test_a_group_named_a_braking_class_that_does_not_lean_where_that_class_is_at_home_goes_to_the_background():
+    """Group 1, named sudden braking, is upright in the sudden-braking ride (a way of riding, median x0.2); group 2,
+    named normal braking, leans away from the stop in the normal-braking ride (speeding up); group 3 leans x4 in the
+    sudden-braking ride and keeps its name, and so do a user's name, a name given by nesting, and every name at a
+    lower threshold or with the rule off."""
+    nesting = [("sudden-braking", "normal-braking")]
+    labels = np.repeat([0, 1, 2, 3, 0, 1, 2, 3], [20, 2, 6, 1, 20, 8, 2, 6])
+    recording = np.repeat([0, 0, 0, 0, 1, 1, 1, 1], [20, 2, 6, 1, 20, 8, 2, 6])
+    depth = np.repeat([0.1, 5.0, -2.0, 4.0, 0.1, 0.2, 5.0, 4.0], [20, 2, 6, 1, 20, 8, 2, 6])
+    names = [ClusterName(0, "cruising", "shared", 0.5), ClusterName(1, "sudden-braking", "enriched x5", 0.8),
+             ClusterName(2, "normal-braking", "enriched x4", 0.7), ClusterName(3, "sudden-braking", "enriched x6", 0.8)]
+    named = rename_upright(labels, recording, names, [NB, SB], "cruising", nesting, depth)
+    assert [n.name for n in named] == ["cruising", "cruising", "cruising", "sudden-braking"]
+    assert "x0.20" in named[1].rule and named[1].confidence == pytest.approx(0.6)
+    assert "x-2.00" in named[2].rule and named[2].confidence == 1.0
+    assert [n.name for n in names][1:] == ["sudden-braking", "normal-braking", "sudden-braking"]  # input unchanged
+    assert [n.name for n in rename_upright(labels, recording, names, [NB, SB], "cruising", nesting, depth, 0.1)] == [
+        "cruising", "sudden-braking", "cruising", "sudden-braking"]
+    kept = [names[0], ClusterName(1, "sudden-braking", "named by the user", 1.0),
+            ClusterName(2, "normal-braking", "nearest", 0.5, nested=True), names[3]]
+    assert [n.name for n in rename_upright(labels, recording, kept, [NB, SB], "cruising", nesting, depth)] == [
+        n.name for n in kept]

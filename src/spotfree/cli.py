@@ -138,6 +138,9 @@ def train(
     outer_depth: float = typer.Option(
         3.0, "--outer-depth", help="a background group leaning this many times the usual depth towards the hardest "
         "stop, in the recordings made for the outer class, takes that class when evidence gave it none (0: off)"),
+    upright: float = typer.Option(
+        0.5, "--upright", help="a group named a nested class (braking) whose median lean towards the hardest stop, in "
+        "the recordings made for that class, is below this many times the usual depth goes to the background (0: off)"),
     close_gaps: int = typer.Option(
         5, "--close-gaps", help="a run of at most this many training windows named the background inside a "
         "manoeuvre's run takes the manoeuvre's name (0: none)"),
@@ -165,7 +168,7 @@ def train(
         extra_clusters=extra_clusters, affine=affine, clustering=clustering, max_columns=max_columns, seed=seed,
         nesting=NESTING if nested is None else _parse_nesting(nested), inner_quantile=inner_quantile,
         outer_quantile=outer_quantile, inner_depth=inner_depth, deepest_inner=deepest_inner,
-        outer_depth=outer_depth, single_manoeuvre=single_manoeuvre,
+        outer_depth=outer_depth, upright=upright, single_manoeuvre=single_manoeuvre,
         close_gaps=close_gaps, votes=votes,
     )
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=err,

@@ -22,11 +22,12 @@ Output: a :class:`~spotfree.model.DictionaryModel` whose columns are windows kep
    affine row, two dimensions), so OSC mixes them where k-means does not.
 3. Groups named by evidence across recordings (:mod:`spotfree.naming`): enrichment, then novelty (a group named a
    class must lie away from the recordings without that class, or it is one rider's habit and goes to the
-   background), then nesting (a class that evidence left without a group and that a more specific class passes
-   through, by the caller's ``nesting`` pairs, takes the shared group nearest to that class: normal braking
-   around sudden braking; failing that, a background group whose windows lean three times the usual depth towards
-   the hardest stop in the outer class's home recordings, ``outer_depth``,
-   :func:`~spotfree.naming.name_deep_outer`); the user may override any name.
+   background), then the lean (a group named a braking class must lean towards the stop where that class is
+   recorded, ``upright``, :func:`~spotfree.naming.rename_upright`), then nesting (a class that evidence left
+   without a group and that a more specific class passes through, by the caller's ``nesting`` pairs, takes the
+   shared group nearest to that class: normal braking around sudden braking; failing that, a background group
+   whose windows lean three times the usual depth towards the hardest stop in the outer class's home recordings,
+   ``outer_depth``, :func:`~spotfree.naming.name_deep_outer`); the user may override any name.
 4. Nesting: every group named a manoeuvre is checked against the known, less specific classes (background first):
    its windows are classified by CRC against those classes' windows and its own windows outside the run being
    tested; a group that a known class explains takes that name. Groups that stay are split in two by OSC again and
@@ -87,9 +88,9 @@ from spotfree.errors import InputError
 from spotfree.io.checks import true_runs
 from spotfree.io.recording import Recording
 from spotfree.model import DictionaryModel
-from spotfree.naming import (DEPTH_RATIO, ENRICHMENT, ClusterName, background_class, class_enrichment, class_homes,
-                             name_clusters, name_deep_outer, name_nested, presence_matrix, rename_habits,
-                             single_manoeuvre_names)
+from spotfree.naming import (DEPTH_RATIO, ENRICHMENT, UPRIGHT, ClusterName, background_class, class_enrichment,
+                             class_homes, name_clusters, name_deep_outer, name_nested, presence_matrix, rename_habits,
+                             rename_upright, single_manoeuvre_names)
 from spotfree.windows import ChannelScaling, WindowedRecording, recording_windows, with_affine_row
 
 RECIPES = ("evidence", "paper")
@@ -123,7 +124,9 @@ class TrainingConfig:
     declaring the inner class, the windows at its deepest ``timing`` take that class when they go beyond every window
     of the recordings without it (:func:`_deepest_inner`). ``outer_depth``: a background group that leans this
     many times the usual depth towards the inner class's deepest, in the outer class's home recordings, takes the
-    outer class when evidence gave it no group (:func:`~spotfree.naming.name_deep_outer`; 0: off). ``close_gaps``:
+    outer class when evidence gave it no group (:func:`~spotfree.naming.name_deep_outer`; 0: off). ``upright``: a
+    group named a class of a nesting pair by evidence whose median lean, in that class's home recordings and in the
+    same units, is below this goes to the background (:func:`~spotfree.naming.rename_upright`; 0: off). ``close_gaps``:
     a run of at most this many training windows named the background between two runs of one manoeuvre takes the
     manoeuvre's name (:func:`_close_gaps`; 0: none). ``single_manoeuvre``: a group absent from the recordings that
     declare only the background takes, in a recording declaring one manoeuvre, that manoeuvre's name
@@ -148,6 +151,7 @@ class TrainingConfig:
     inner_depth: float = 0.8
     deepest_inner: bool = True
     outer_depth: float = DEPTH_RATIO
+    upright: float = UPRIGHT
     single_manoeuvre: bool = False
     close_gaps: int = 5
     votes: int = 1
@@ -249,7 +253,7 @@ def train(experiments: list[TrainingExperiment], config: TrainingConfig | None =
                     "min_margin": config.min_margin, "inner_quantile": config.inner_quantile,
                     "outer_quantile": config.outer_quantile,
                     "inner_depth": config.inner_depth, "deepest_inner": config.deepest_inner,
-                    "outer_depth": config.outer_depth,
+                    "outer_depth": config.outer_depth, "upright": config.upright,
                     "single_manoeuvre": config.single_manoeuvre, "close_gaps": config.close_gaps,
                     "nesting": [list(p) for p in config.nesting],
                     "causal_onsets": config.causal_onsets, "landmarks": config.landmarks,
@@ -302,6 +306,9 @@ def _validate(experiments: list[TrainingExperiment], config: TrainingConfig) -> 
     if not (config.outer_depth == 0 or config.outer_depth >= 1):
         raise InputError(f"outer_depth (--outer-depth) must be 0 (off) or at least 1 (the usual depth), got "
                          f"{config.outer_depth}")
+    if config.upright < 0:
+        raise InputError(f"upright (--upright) must be 0 (off) or more, in units of the usual lean, got "
+                         f"{config.upright}")
     for name in ("inner_quantile", "outer_quantile"):
         if not 0.0 <= getattr(config, name) < 1.0:
             raise InputError(f"{name} (--{name.replace('_', '-')}) must be at least 0 and below 1, "
@@ -347,7 +354,8 @@ def _voted_names(windows, declared, background, lean, config, say):
 
 def _evidence_recipe(windows, declared, background, lean, config, say):
     """Cluster the pooled windows, name the groups by evidence (``lean``: :func:`_lean_towards_inner`, for
-    :func:`~spotfree.naming.name_deep_outer`, off when None or ``config.outer_depth`` is 0) and nest; return the
+    :func:`~spotfree.naming.rename_upright` and :func:`~spotfree.naming.name_deep_outer`, off when None or their
+    ``config`` value is 0) and nest; return the
     names per recording, the two levels of cluster labels, the cluster names and no warnings."""
     n_classes = len({c for d in declared for c in d})
     pooled = np.hstack([w.matrix for w in windows])
@@ -357,6 +365,8 @@ def _evidence_recipe(windows, declared, background, lean, config, say):
     counts = presence_matrix(labels, recording, labels.max() + 1, len(windows))
     names = name_clusters(counts, declared, background)
     names = rename_habits(pooled, recording, labels, names, declared, background)
+    if lean is not None and config.upright:
+        names = rename_upright(labels, recording, names, declared, background, config.nesting, lean, config.upright)
     names = name_nested(pooled, recording, labels, names, declared, background, config.nesting)
     if lean is not None and config.outer_depth:
         names = name_deep_outer(labels, recording, names, declared, background, config.nesting, lean,
