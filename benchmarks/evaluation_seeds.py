@@ -9,12 +9,16 @@ one seed (``spotfree evaluate``) adds the supervised peers; this shows how much 
 ``--peers`` also runs the supervised MiniRocket and 1-NN peers of the report (causal windows, every training label;
 needs aeon: ``pip install -e '.[eval]'``) on the same tests.
 
-    python benchmarks/evaluation_seeds.py --seeds 0 1 2 3 4 [--peers]
+``--set FIELD=VALUE`` changes a field of the training's configuration (:class:`~spotfree.training.TrainingConfig`;
+the value read as a Python literal), to compare a rule with and without it.
+
+    python benchmarks/evaluation_seeds.py --seeds 0 1 2 3 4 [--peers] [--set upright=0]
 """
 
 from __future__ import annotations
 
 import argparse
+import ast
 import os
 import platform
 import time
@@ -35,10 +39,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
     parser.add_argument("--peers", action="store_true", help="also the supervised MiniRocket and 1-NN peers")
+    parser.add_argument("--set", nargs="+", default=[], metavar="FIELD=VALUE",
+                        help="change fields of the training configuration, e.g. upright=0")
     args = parser.parse_args()
+    changes = {field: ast.literal_eval(value) for field, value in (item.split("=", 1) for item in args.set)}
     print(f"# evaluation_seeds {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; {platform.machine()}, "
           f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}; Python {platform.python_version()}, "
-          f"numpy {np.__version__}")
+          f"numpy {np.__version__}" + (f"; training changes {changes}" if changes else ""))
     print("| seed | purity c/n/s | columns c/n/s | method | windows | normal-braking | sudden-braking | cruising | "
           "all tests | sudden labels in normal tests |")
     print("|---:|---|---|---|---|---:|---:|---:|---:|---:|")
@@ -46,7 +53,7 @@ def main() -> None:
     for seed in args.seeds:
         protocol = Protocol(seed=seed)
         data = simulate(protocol)
-        trained = train_dictionary(data, protocol)
+        trained = train_dictionary(data, protocol, changes)
         model = trained.result.model
         purity = dictionary_purity(trained.result, trained.experiments)
         columns = {c: int((model.column_class == i).sum()) for i, c in enumerate(model.classes)}

@@ -302,8 +302,8 @@ def name_deep_outer(labels: np.ndarray, recording: np.ndarray, names: list[Clust
     shares, enrichment cannot name it (no normal-braking group on 6 of 80 seeds of the training test's protocol),
     but its windows lean three or more times deeper than the ride's usual stance. The sign matters: speeding up is a
     lean too, the other way (unsigned, the groups named this way on seeds 85 and 127 were cruising). Measured
-    (``benchmarks/training_purity.py``, BENCHMARKS.md), every class pure on seeds 0-79 / 80-159: 65 / 62 with it,
-    62 / 59 without it.
+    (``benchmarks/training_purity.py``, BENCHMARKS.md), before :func:`rename_upright`, every class pure on seeds 0-79
+    / 80-159: 65 / 62 with it, 62 / 59 without it.
     """
     out = list(names)
     _, home, _ = class_homes(declared)

@@ -611,11 +611,11 @@ def _deepest_inner(names_per_window, offset, declared, config) -> list[np.ndarra
     The inner class is the extreme of the outer one (a hard stop is a deeper lean than any normal stop), yet it
     fills a second or two of a ride, and the clustering may leave it no group of its own or name its group after the
     lean-in shared with normal braking (no sudden-braking column on 10 of 80 seeds of the training test's protocol).
-    Measured (``benchmarks/training_purity.py``, BENCHMARKS.md), every class pure on seeds 0-79 / 80-159 of the
-    training test's protocol: 65 / 62 with it, 60 / 58 without it, 57 / 56 without it and without
-    :func:`~spotfree.naming.name_deep_outer`; on seeds 160-239, which played no part in designing either rule, 69
-    with both and 57 with neither. Without the margin's windows (scratch): 60 / 59 with this rule alone; renaming
-    every window beyond ``L`` (scratch): 66 / 54.
+    Measured (``benchmarks/training_purity.py``, BENCHMARKS.md) before :func:`~spotfree.naming.rename_upright`, every
+    class pure on seeds 0-79 / 80-159 of the training test's protocol: 65 / 62 with it, 60 / 58 without it, 57 / 56
+    without it and without :func:`~spotfree.naming.name_deep_outer`; on seeds 160-239, which played no part in
+    designing either rule, 69 with both and 57 with neither. Without the margin's windows (scratch): 60 / 59 with
+    this rule alone; renaming every window beyond ``L`` (scratch): 66 / 54.
     """
     if not config.deepest_inner or offset is None:
         return names_per_window

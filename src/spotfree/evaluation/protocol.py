@@ -92,12 +92,13 @@ def simulate(protocol: Protocol) -> dict[str, ScenarioData]:
     return data
 
 
-def train_dictionary(data: dict[str, ScenarioData], protocol: Protocol) -> Trained:
-    """Spotting-free training (:func:`spotfree.training.train`, default configuration, clustering seeded with the
-    protocol's seed) on the training experiments, each declared with its scenario's classes."""
+def train_dictionary(data: dict[str, ScenarioData], protocol: Protocol, changes: dict | None = None) -> Trained:
+    """Spotting-free training (:func:`spotfree.training.train`, default configuration with ``changes`` to its
+    fields, clustering seeded with the protocol's seed) on the training experiments, each declared with its
+    scenario's classes."""
     experiments = [TrainingExperiment(data[s].training, list(CLASSES[s])) for s in TRAINED_ON]
     start = time.perf_counter()
-    result = train(experiments, TrainingConfig(seed=protocol.seed))
+    result = train(experiments, TrainingConfig(**{**(changes or {}), "seed": protocol.seed}))
     return Trained(result, experiments, time.perf_counter() - start)
 
 
