@@ -232,14 +232,19 @@ def rename_upright(labels: np.ndarray, recording: np.ndarray, names: list[Cluste
     for n in names:
         if n.name not in classes or n.nested or n.rule in ("empty", "named by the user") or not home.get(n.name):
             continue
-        lean = depth[(labels == n.cluster) & np.isin(recording, home[n.name])]
-        median = float(np.median(lean)) if len(lean) else 0.0
+        median = _median_depth(depth, (labels == n.cluster) & np.isin(recording, home[n.name]))
         if median < least:
             out[n.cluster] = ClusterName(
                 n.cluster, background, f"{n.rule}, but upright in the recordings made for {n.name} (median lean "
                 f"x{median:.2f} of the usual depth, below x{least:g}): a way of riding, not {n.name}",
                 float(min(1.0, (least - median) / least)), n.counts)
     return out
+
+
+def _median_depth(depth: np.ndarray, windows: np.ndarray, least: int = 1) -> float:
+    """Median of ``depth`` over the ``windows`` (mask): a group's lean where a class is at home; 0 (the usual stance)
+    with fewer than ``least`` windows."""
+    return float(np.median(depth[windows])) if windows.sum() >= least else 0.0
 
 
 def name_nested(pooled: np.ndarray, recording: np.ndarray, labels: np.ndarray, names: list[ClusterName],
@@ -312,8 +317,7 @@ def name_deep_outer(labels: np.ndarray, recording: np.ndarray, names: list[Clust
             continue
         at_home = np.isin(recording, home[outer])
         for n in names:
-            lean = depth[(labels == n.cluster) & at_home]
-            median = np.median(lean) if len(lean) >= 3 else 0.0
+            median = _median_depth(depth, (labels == n.cluster) & at_home, least=3)
             if n.name == background and median > ratio:
                 out[n.cluster] = ClusterName(
                     n.cluster, outer, f"leans x{median:.1f} of the usual depth in the recordings made for {outer}, "

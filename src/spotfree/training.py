@@ -588,8 +588,8 @@ def _timing_offset(experiments, windows, config) -> list[np.ndarray] | None:
 def _lean_towards_inner(offset, declared, nesting) -> np.ndarray | None:
     """Every window's timing offset (:func:`_timing_offset`), pooled over the recordings, signed so that the deepest
     window of the recordings declaring an inner class of ``nesting`` is positive, in units of its recording's median
-    ``|offset|``: the depth :func:`spotfree.naming.name_deep_outer` reads. None without an offset or such a
-    recording."""
+    ``|offset|``: the depth :func:`spotfree.naming.rename_upright` and :func:`spotfree.naming.name_deep_outer` read.
+    None without an offset or such a recording."""
     inner = {i for i, _ in nesting}
     homes = [x for x, classes in zip(offset or [], declared) if inner & set(classes) and len(x)]
     if not homes:
