@@ -29,7 +29,7 @@ import numpy as np
 from spotfree.classify.batch import classify_recording, dictionary_classifier
 from spotfree.evaluation.measure import make_peers, peer_runs
 from spotfree.evaluation.protocol import SCENARIOS, Protocol, simulate, train_dictionary
-from spotfree.training import dictionary_purity
+from spotfree.training import TrainingConfig, dictionary_purity
 
 METHODS = ("crc", "kcrc", "nearest")
 CLASSES = ("cruising", "normal-braking", "sudden-braking")
@@ -42,7 +42,15 @@ def main() -> None:
     parser.add_argument("--set", nargs="+", default=[], metavar="FIELD=VALUE",
                         help="change fields of the training configuration, e.g. upright=0")
     args = parser.parse_args()
-    changes = {field: ast.literal_eval(value) for field, value in (item.split("=", 1) for item in args.set)}
+    changes = {}
+    for item in args.set:
+        field, _, value = item.partition("=")
+        if field not in TrainingConfig.__dataclass_fields__ or not value:
+            parser.error(f"--set {item}: give FIELD=VALUE with a field of TrainingConfig, e.g. upright=0")
+        try:
+            changes[field] = ast.literal_eval(value)
+        except (ValueError, SyntaxError):
+            parser.error(f"--set {item}: the value must be a Python literal (a number, True/False, a quoted string)")
     print(f"# evaluation_seeds {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; {platform.machine()}, "
           f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}; Python {platform.python_version()}, "
           f"numpy {np.__version__}" + (f"; training changes {changes}" if changes else ""))
