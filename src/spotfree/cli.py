@@ -132,6 +132,9 @@ def train(
     inner_depth: float = typer.Option(
         0.8, "--inner-depth", help="the inner class takes columns only where the lean is at least this share of its "
         "deepest in the run (0: off)"),
+    inner_floor: float = typer.Option(
+        0.9, "--inner-floor", help="the inner class takes columns only where the lean is at least this share of the "
+        "deepest lean named that class in the recording (0: off)"),
     deepest_inner: bool = typer.Option(
         True, "--deepest-inner/--no-deepest-inner", help="in a recording declaring the inner class, the windows at "
         "its deepest lean take that class when deeper than any lean of the recordings without it"),
@@ -144,6 +147,9 @@ def train(
     close_gaps: int = typer.Option(
         5, "--close-gaps", help="a run of at most this many training windows named the background inside a "
         "manoeuvre's run takes the manoeuvre's name (0: none)"),
+    recluster: bool = typer.Option(
+        True, "--recluster/--no-recluster", help="a declared class that no group took is looked for again among the "
+        "background's windows, clustered anew"),
     single_manoeuvre: bool = typer.Option(
         False, "--single-manoeuvre", help="a group absent from the recordings that declare only the background takes, "
         "in a recording declaring one manoeuvre, that manoeuvre (for one recording per manoeuvre and some without)"),
@@ -167,9 +173,9 @@ def train(
         window=window, step=step, recipe=recipe, background=background, overrides=_parse_names(name),
         extra_clusters=extra_clusters, affine=affine, clustering=clustering, max_columns=max_columns, seed=seed,
         nesting=NESTING if nested is None else _parse_nesting(nested), inner_quantile=inner_quantile,
-        outer_quantile=outer_quantile, inner_depth=inner_depth, deepest_inner=deepest_inner,
+        outer_quantile=outer_quantile, inner_depth=inner_depth, inner_floor=inner_floor, deepest_inner=deepest_inner,
         outer_depth=outer_depth, upright=upright, single_manoeuvre=single_manoeuvre,
-        close_gaps=close_gaps, votes=votes,
+        close_gaps=close_gaps, recluster=recluster, votes=votes,
     )
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=err,
                   transient=True) as bar:
