@@ -113,12 +113,13 @@ def test_each_window_takes_the_name_most_clusterings_gave_it(monkeypatch):
 
 
 def test_a_vote_of_five_clusterings_keeps_the_sudden_stop_one_clustering_lost():
-    """Seed 48 without the deepest lean's name: with clustering seed 0 alone, sudden braking keeps no column; the
-    vote of seeds 0-4 is pure."""
+    """Seed 48 without the deepest lean's name: with clustering seed 0 alone, sudden braking keeps one column, on the
+    lean-in (it kept none before the lean's depth was taken over the windows purification keeps); the vote of seeds
+    0-4 is pure."""
     experiments = _experiments(48)
-    one = train(experiments, TrainingConfig(seed=0, deepest_inner=False)).model.summary["columns_per_class"]
+    one = dictionary_purity(train(experiments, TrainingConfig(seed=0, deepest_inner=False)), experiments)
     voted = dictionary_purity(train(experiments, TrainingConfig(seed=0, votes=5, deepest_inner=False)), experiments)
-    assert one.get("sudden-braking", 0) == 0
+    assert one.get("sudden-braking", 0.0) < 0.98
     assert set(voted) == set(SB) and min(voted.values()) >= 0.98
 
 
@@ -286,7 +287,7 @@ def test_a_manoeuvre_takes_its_columns_only_from_the_recordings_made_for_it(expe
     assert (named == "normal-braking").any() and (sources[named == "normal-braking"] == 0).all()
 
 
-@pytest.mark.parametrize("seed", [5, 9])
+@pytest.mark.parametrize("seed", [21, 64])
 def test_the_inner_class_keeps_only_its_most_confident_quarter_and_is_pure(seed):
     experiments = _experiments(seed)
     every = dictionary_purity(train(experiments, TrainingConfig(seed=0, inner_quantile=0.0)), experiments)
@@ -405,12 +406,12 @@ def test_each_lean_rule_and_the_outer_quantile_make_a_class_pure(seed, changed, 
 
 def test_closing_the_gaps_joins_a_stop_clustered_in_pieces_into_pure_columns(experiments):
     """Seed 0 (seed 4 before the simulator's first-sample fix): each sudden stop is named in pieces split by a few
-    background windows, so purification dropped every piece and the dictionary had no sudden-braking column (the
-    deepest lean's name, off here, now also keeps the deepest piece)."""
-    apart = train(experiments, TrainingConfig(seed=0, close_gaps=0, deepest_inner=False)).model
+    background windows, so purification drops nearly every piece and the dictionary's one sudden-braking column is
+    the lean-in of a stop (the deepest lean's name, off here, now also keeps the deepest piece)."""
+    apart = dictionary_purity(train(experiments, TrainingConfig(seed=0, close_gaps=0, deepest_inner=False)),
+                              experiments)
     joined = train(experiments, TrainingConfig(seed=0, deepest_inner=False))
-    sudden = list(apart.classes).index("sudden-braking")
-    assert not (apart.column_class == sudden).any()  # named, but no window kept
+    assert apart.get("sudden-braking", 0.0) < 0.98
     purity = dictionary_purity(joined, experiments)
     assert set(purity) == set(SB) and min(purity.values()) >= 0.98
 
