@@ -388,7 +388,8 @@ def test_a_class_no_window_was_named_is_looked_for_again_among_the_background_wi
                                                 (34, {"upright": 0.0}, "normal-braking")])
 def test_each_lean_rule_and_the_outer_quantile_make_a_class_pure(seed, changed, cls):
     """Seed 2: the sudden-braking runs start half a window before the hard plateau, and their first centred windows
-    are normal braking (seed 8 before the deepest lean was named); the run's depth or the ride's floor each drops them. Seed 14: normal braking also takes the
+    are normal braking (seed 8 before the deepest lean was named); the run's depth or the ride's floor each drops
+    them. Seed 14: normal braking also takes the
     normal-braking rider's gentle slow-downs; its most confident quarter does not. Seed 18: no group is named sudden
     braking, but the stop leans deeper than anything in the normal-braking ride. Seed 29: no group is named normal
     braking (both rides hold it), but one leans four times the usual depth in the normal-braking ride. Seed 53: the

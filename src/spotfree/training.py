@@ -124,20 +124,19 @@ class TrainingConfig:
     takes its most frequent name (:func:`_voted_names`). ``inner_quantile``, ``outer_quantile``: the inner / outer
     class of a ``nesting`` pair keeps its columns at or above this quantile of their margins (:func:`_cap`; 0: every
     confident column). ``inner_depth``: the inner class takes no column from a window centred where ``timing`` is
-    shallower than this share of its run's deepest, ``inner_floor`` of the recording's deepest window named the inner
-class (:func:`_shallow_inner`; 0: off). ``deepest_inner``: in a recording
-    declaring the inner class, the windows at its deepest ``timing`` take that class when they go beyond every window
-    of the recordings without it (:func:`_deepest_inner`). ``outer_depth``: a background group that leans this
+    shallower than this share of its run's deepest, ``inner_floor``: of the recording's deepest window named the
+    inner class (:func:`_shallow_inner`; 0: off). ``deepest_inner``: in a recording declaring the inner class, the
+    windows at its deepest ``timing`` take that class when they go beyond every window of the recordings without it
+    (:func:`_deepest_inner`). ``outer_depth``: a background group that leans this
     many times the usual depth towards the inner class's deepest, in the outer class's home recordings, takes the
     outer class when evidence gave it no group (:func:`~spotfree.naming.name_deep_outer`; 0: off). ``upright``: a
     group named a class of a nesting pair by evidence whose median lean, in that class's home recordings and in the
     same units, is below this goes to the background (:func:`~spotfree.naming.rename_upright`; 0: off). ``close_gaps``:
     a run of at most this many training windows named the background between two runs of one manoeuvre takes the
     manoeuvre's name (:func:`_close_gaps`; 0: none). ``recluster``: a declared class that no window was named after
-nesting is looked for again among the background's windows, clustered anew (:func:`_recluster_background`).
-``single_manoeuvre``: a group absent from the recordings that
-    declare only the background takes, in a recording declaring one manoeuvre, that manoeuvre's name
-    (:func:`~spotfree.naming.single_manoeuvre_names`)."""
+    nesting is looked for again among the background's windows, clustered anew (:func:`_recluster_background`).
+    ``single_manoeuvre``: a group absent from the recordings that declare only the background takes, in a recording
+    declaring one manoeuvre, that manoeuvre's name (:func:`~spotfree.naming.single_manoeuvre_names`)."""
 
     channels: tuple[str, ...] = DEFAULT_CHANNELS
     window: int = 20
@@ -316,7 +315,8 @@ def _validate(experiments: list[TrainingExperiment], config: TrainingConfig) -> 
         raise InputError(f"close_gaps (--close-gaps) must be 0 or more training windows, got {config.close_gaps}")
     for name in ("inner_depth", "inner_floor"):
         if not 0.0 <= getattr(config, name) <= 1.0:
-            raise InputError(f"{name} (--{name.replace('_', '-')}) must be between 0 and 1, got {getattr(config, name)}")
+            raise InputError(f"{name} (--{name.replace('_', '-')}) must be between 0 and 1, "
+                             f"got {getattr(config, name)}")
     if not (config.outer_depth == 0 or config.outer_depth >= 1):
         raise InputError(f"outer_depth (--outer-depth) must be 0 (off) or at least 1 (the usual depth), got "
                          f"{config.outer_depth}")
@@ -447,7 +447,7 @@ def _recluster_background(pooled, recording, per_window, level2, names, declared
     stops are the farthest windows from the rest and k-means can spend most of its groups on them, leaving normal
     braking inside a group of cruising too mixed for its enrichment to show (x2.2 on seed 82 of the training test's
     protocol, whose six sudden-braking groups held 84 windows). Measured (``benchmarks/training_purity.py``,
-    BENCHMARKS.md, "A floor under the sudden stop's lean"): every class pure on 427 of seeds 0-479 with it, 424
+    BENCHMARKS.md, "A floor under the sudden stop's lean"): every class pure on 438 of seeds 0-479 with it, 432
     without it, and on no block of 160 seeds fewer.
     """
     named = {n for n in per_window if n}
@@ -709,10 +709,10 @@ def _shallow_inner(names_per_window, offset, config) -> list[np.ndarray]:
     The floor is for the stops that only just reach the inner class, and for a normal stop close to it in the same
     ride (the paper's near-sudden stop): the lean's deepest window of such a run is still the outer class's lean-in,
     since the measured lean runs a few samples ahead of the lean the classes are defined by. Measured on the training
-    test's protocol (BENCHMARKS.md, "A floor under the sudden stop's lean"): every class pure on 427 of seeds 0-479
-    with 0.9, 415 without the floor; chosen among 0.8 and 0.9 on seeds 0-319 and confirmed on seeds 320-479 (138
-    against 134). Taken over the kept windows instead of every named one: sudden braking kept a column on 3 more
-    seeds, where purification had dropped the deepest windows of the ride.
+    test's protocol (BENCHMARKS.md, "A floor under the sudden stop's lean"): every class pure on 438 of seeds 0-479
+    with 0.9, 429 with 0.8, 406 without the floor; 0.9 chosen on seeds 0-319. Taken over the kept windows instead of
+    every named one: sudden braking kept a column on 3 more seeds, where purification had dropped the deepest windows
+    of the ride.
     """
     shallow = [np.zeros(len(per), dtype=bool) for per in names_per_window]
     if offset is None or config.inner_depth == config.inner_floor == 0:
@@ -737,8 +737,8 @@ def _purify(windows, names_per_window, config, say) -> tuple[list[np.ndarray], l
     """Keep windows away from a change of name and consistent with the rest of the dictionary; return the kept
     masks and every window's margin (:func:`_run_margins`; 1 where no other name exists to test against, and for a
     class's only run, which leave-run-out would otherwise drop whole, the class then having no atom to be nearest
-    to: the normal braking that a second clustering or the lean named in one run of its ride lost every window so,
-    on 7 of seeds 0-479 of the training test's protocol, BENCHMARKS.md)."""
+    to: keeping it made 9 more of seeds 0-479 of the training test's protocol pure, 6 by a normal-braking run that
+    nesting, the lean or a second clustering named, 3 by a sudden stop; BENCHMARKS.md)."""
     margin = _change_margin(config)
     kept = []
     for per in names_per_window:
