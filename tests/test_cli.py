@@ -176,8 +176,9 @@ def test_train_single_manoeuvre_names_turning_groups_by_their_rides(tmp_path):
 
 
 @pytest.mark.parametrize("option, value", [("--inner-quantile", "1.5"), ("--outer-quantile", "1.0"),
-                                           ("--inner-depth", "1.5"), ("--inner-floor", "-0.2"), ("--outer-depth", "0.5"), ("--close-gaps", "-1"),
-                                           ("--upright", "-0.5"),
+                                           ("--inner-depth", "1.5"), ("--inner-floor", "-0.2"),
+                                           ("--background-lean", "-1"), ("--outer-depth", "0.5"),
+                                           ("--close-gaps", "-1"), ("--upright", "-0.5"),
                                            ("--votes", "0")])
 def test_train_refuses_an_option_out_of_range_and_keeps_the_model_there(tmp_path, option, value):
     ride = tmp_path / "sb.csv"

@@ -378,9 +378,25 @@ def test_a_class_no_window_was_named_is_looked_for_again_among_the_background_wi
     assert (again == found).all() and len(names) == 1
 
 
+def test_the_background_takes_no_column_where_the_lean_goes_towards_the_stop():
+    """Lean in units of the usual depth, pooled over two recordings: only windows named the background above the
+    share are marked; the other names, the share 0 and a missing lean mark none."""
+    from spotfree.training import _leaning_background
+
+    names = [np.array(["cruising", "cruising", "normal-braking", "cruising"]), np.array(["cruising", "sudden-braking"])]
+    lean = np.array([0.2, 0.9, 3.0, -2.0, 0.61, 5.0])
+    marked = _leaning_background(names, lean, "cruising", TrainingConfig(background_lean=0.6))
+    assert [m.tolist() for m in marked] == [[False, True, False, False], [True, False]]
+    for config, depth in ((TrainingConfig(background_lean=0.0), lean), (TrainingConfig(), None)):
+        assert not any(m.any() for m in _leaning_background(names, depth, "cruising", config))
+    with pytest.raises(InputError, match="background_lean"):
+        train(_experiments(), TrainingConfig(background_lean=-1.0))
+
+
 @pytest.mark.parametrize("seed, changed, cls", [(2, {"inner_depth": 0.0, "inner_floor": 0.0}, "sudden-braking"),
                                                 (33, {"inner_floor": 0.0}, "sudden-braking"),
                                                 (82, {"recluster": False}, "normal-braking"),
+                                                (225, {"background_lean": 0.0}, "cruising"),
                                                 (14, {"outer_quantile": 0.0}, "normal-braking"),
                                                 (18, {"deepest_inner": False}, "sudden-braking"),
                                                 (29, {"outer_depth": 0.0}, "normal-braking"),
@@ -397,7 +413,8 @@ def test_each_lean_rule_and_the_outer_quantile_make_a_class_pure(seed, changed, 
     Seed 34: the normal-braking rider's cruising is named normal braking the same way. Seed 33: a stop that only
     just reaches sudden braking gives a column centred on its lean-in, above 0.8 of its own deepest lean but below
     0.9 of the ride's deepest. Seed 82: six groups of sudden stops leave normal braking inside a group of cruising,
-    enriched x2.2; clustering the background's windows anew gives it a group of its own."""
+    enriched x2.2; clustering the background's windows anew gives it a group of its own. Seed 225: a stretch of
+    gentle braking in a cruising group gives cruising columns leaning x1.1-x1.8 of the usual depth."""
     experiments = _experiments(seed)
     without = dictionary_purity(train(experiments, TrainingConfig(seed=0, **changed)), experiments)
     default = dictionary_purity(train(experiments, TrainingConfig(seed=0)), experiments)

@@ -135,6 +135,9 @@ def train(
     inner_floor: float = typer.Option(
         0.9, "--inner-floor", help="the inner class takes columns only where the lean is at least this share of the "
         "deepest lean named that class in the recording (0: off)"),
+    background_lean: float = typer.Option(
+        0.6, "--background-lean", help="the background takes no column from a window leaning towards the hardest "
+        "stop by more than this many times the recording's usual depth: the gentlest braking (0: off)"),
     deepest_inner: bool = typer.Option(
         True, "--deepest-inner/--no-deepest-inner", help="in a recording declaring the inner class, the windows at "
         "its deepest lean take that class when deeper than any lean of the recordings without it"),
@@ -173,7 +176,8 @@ def train(
         window=window, step=step, recipe=recipe, background=background, overrides=_parse_names(name),
         extra_clusters=extra_clusters, affine=affine, clustering=clustering, max_columns=max_columns, seed=seed,
         nesting=NESTING if nested is None else _parse_nesting(nested), inner_quantile=inner_quantile,
-        outer_quantile=outer_quantile, inner_depth=inner_depth, inner_floor=inner_floor, deepest_inner=deepest_inner,
+        outer_quantile=outer_quantile, inner_depth=inner_depth, inner_floor=inner_floor,
+        background_lean=background_lean, deepest_inner=deepest_inner,
         outer_depth=outer_depth, upright=upright, single_manoeuvre=single_manoeuvre,
         close_gaps=close_gaps, recluster=recluster, votes=votes,
     )
