@@ -38,6 +38,8 @@ CONFIGS = {
     "floor-0.8": {"inner_floor": 0.8},
     "no-recluster": {"recluster": False},
     "neither-floor-nor-recluster": {"inner_floor": 0.0, "recluster": False},
+    "no-background-lean": {"background_lean": 0.0},
+    "background-lean-1": {"background_lean": 1.0},
     "inner-depth-0.7": {"inner_depth": 0.7},
     "inner-depth-0.9": {"inner_depth": 0.9},
     "every-outer": {"outer_quantile": 0.0},

@@ -747,8 +747,8 @@ def _leaning_background(names_per_window, lean, background, config) -> list[np.n
     background class is represented as well without them. Measured (``benchmarks/training_purity.py``, BENCHMARKS.md,
     "A floor under the sudden stop's lean"): the impure background columns of seed 225 of the training test's
     protocol lean x1.06-x1.79 of the usual depth; every class pure on 445 of seeds 0-479 with 0.6, 444 with 1.0, 438
-    without, none made impure; on held-out seeds 480-639 the background's purity rose on each of the 5 seeds where it
-    was below 0.98 (0.84-0.95 -> 0.95-0.99), none of which another class left pure.
+    without, none made impure; on held-out seeds 480-639 the background's purity rose on each of the 4 seeds where it
+    was below 0.98 (0.840-0.953 -> 0.948-0.992), none of which another class left pure.
     """
     if lean is None or config.background_lean == 0:
         return [np.zeros(len(per), dtype=bool) for per in names_per_window]
