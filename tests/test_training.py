@@ -1,5 +1,7 @@
 """Spotting-free training on simulated rides: purity against the hidden labels, beside the paper's literal recipe."""
 
+import json
+
 import numpy as np
 import pytest
 
@@ -121,6 +123,19 @@ def test_a_vote_of_five_clusterings_keeps_the_sudden_stop_one_clustering_lost():
     voted = dictionary_purity(train(experiments, TrainingConfig(seed=0, votes=5, deepest_inner=False)), experiments)
     assert one.get("sudden-braking", 0.0) < 0.98
     assert set(voted) == set(SB) and min(voted.values()) >= 0.98
+
+
+def test_a_model_with_a_class_found_by_clustering_the_background_again_is_saved_and_loaded(tmp_path):
+    """Seed 82: normal braking is found only among the background's windows clustered anew (the rule in the model's
+    summary); the model file is written and read back with it."""
+    from spotfree.model import DictionaryModel
+
+    model = train(_experiments(82), TrainingConfig(seed=0)).model
+    found = [c for c in model.summary["clusters"] if c["rule"].startswith("re-clustered background")]
+    assert [c["name"] for c in found] == ["normal-braking"]
+    model.save(tmp_path / "m.npz")
+    assert DictionaryModel.load(tmp_path / "m.npz").summary["clusters"] == json.loads(json.dumps(
+        model.summary["clusters"]))
 
 
 def test_bad_declarations_are_clear_errors(experiments):
@@ -373,6 +388,7 @@ def test_a_class_no_window_was_named_is_looked_for_again_among_the_background_wi
     assert (per_window == "bg").all()  # the input is left as it was
     assert len(set(levels[170:])) == 1 and levels[170] > 0 and (levels[:100] == 0).all()
     assert [n.name for n in names] == ["X"] and names[0].rule.startswith("re-clustered background: present only")
+    assert type(names[0].cluster) is int  # the model file's JSON summary holds it
     again, _ = _recluster_background(pooled, recording, found, levels, names, declared, "bg", None, config,
                                      lambda message: None)
     assert (again == found).all() and len(names) == 1

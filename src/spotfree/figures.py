@@ -21,7 +21,8 @@ def training_figure(result: TrainingResult, experiments: list[TrainingExperiment
     fig, axes = plt.subplots(n, 3, figsize=(15, 2.6 * n), squeeze=False, sharex="row")
     cmap = plt.get_cmap("tab10")
     method = {"osc": "OSC", "kmeans": "k-means"}.get(result.model.parameters.get("clustering"), "level-1")
-    titles = [f"level 1: {method} clusters", "level 2: nested split", "dictionary: kept windows by name"]
+    titles = [f"level 1: {method} clusters", "level 2: nested split, background re-clustered",
+              "dictionary: kept windows by name"]
     for r, exp in enumerate(experiments):
         rec = exp.recording
         signal = rec.channels[channel]

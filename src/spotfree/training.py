@@ -473,13 +473,13 @@ def _recluster_background(pooled, recording, per_window, level2, names, declared
         found = rename_upright(labels, recording[index], found, declared, background, config.nesting, lean[index],
                                config.upright)
     per_window, level2 = per_window.copy(), level2.copy()
-    first = level2.max() + 1
+    first = int(level2.max()) + 1
     for n in found:
         if n.name in missing:
             per_window[index[labels == n.cluster]] = n.name
             level2[index[labels == n.cluster]] = first + n.cluster
-            names.append(ClusterName(first + n.cluster, n.name, f"re-clustered background: {n.rule}", n.confidence,
-                                     n.counts))
+            names.append(ClusterName(first + int(n.cluster), n.name, f"re-clustered background: {n.rule}",
+                                     n.confidence, n.counts))
     return per_window, level2
 
 
