@@ -384,12 +384,8 @@ def _evidence_recipe(windows, declared, background, lean, config, say):
     pooled = np.hstack([w.matrix for w in windows])
     recording = np.concatenate([np.full(w.matrix.shape[1], r) for r, w in enumerate(windows)])
     say(f"clustering {pooled.shape[1]} windows into {n_classes + config.extra_clusters} groups")
-    labels = _cluster(pooled, n_classes + config.extra_clusters, config.seed, config.clustering)
-    counts = presence_matrix(labels, recording, labels.max() + 1, len(windows))
-    names = name_clusters(counts, declared, background)
-    names = rename_habits(pooled, recording, labels, names, declared, background)
-    if lean is not None and config.upright:
-        names = rename_upright(labels, recording, names, declared, background, config.nesting, lean, config.upright)
+    labels, names = _named_groups(pooled, recording, lean, n_classes + config.extra_clusters, declared, background,
+                                  config)
     names = name_nested(pooled, recording, labels, names, declared, background, config.nesting)
     if lean is not None and config.outer_depth:
         names = name_deep_outer(labels, recording, names, declared, background, config.nesting, lean,
@@ -445,11 +441,24 @@ def _evidence_recipe(windows, declared, background, lean, config, say):
     return per_recording, levels, names, []
 
 
+def _named_groups(pooled, recording, lean, n_clusters, declared, background, config):
+    """``(labels, names)``: the windows ``pooled`` (columns; ``recording``: each one's recording) clustered into
+    ``n_clusters`` groups and the groups named by evidence (:func:`~spotfree.naming.name_clusters`), novelty
+    (:func:`~spotfree.naming.rename_habits`) and, with a ``lean`` and ``config.upright``, the lean
+    (:func:`~spotfree.naming.rename_upright`)."""
+    labels = _cluster(pooled, n_clusters, config.seed, config.clustering)
+    counts = presence_matrix(labels, recording, labels.max() + 1, len(declared))
+    names = name_clusters(counts, declared, background)
+    names = rename_habits(pooled, recording, labels, names, declared, background)
+    if lean is not None and config.upright:
+        names = rename_upright(labels, recording, names, declared, background, config.nesting, lean, config.upright)
+    return labels, names
+
+
 def _recluster_background(pooled, recording, per_window, level2, names, declared, background, lean, config, say):
     """``(per_window, level2)`` with the declared classes that no window was named looked for again among the
-    windows named ``background``: those are clustered anew into ``1 + missing + extra_clusters`` groups, named by the
-    same evidence (:func:`~spotfree.naming.name_clusters`, :func:`~spotfree.naming.rename_habits`,
-    :func:`~spotfree.naming.rename_upright`), and a group named a missing class takes it; its name is appended to
+    windows named ``background``: those are clustered anew into ``1 + missing + extra_clusters`` groups and named by
+    the same evidence (:func:`_named_groups`), and a group named a missing class takes it; its name is appended to
     ``names``. Unchanged when no class is missing.
 
     The paper's nesting re-clusters what the known classes do not explain; here what the background holds. The hard
@@ -465,13 +474,8 @@ def _recluster_background(pooled, recording, per_window, level2, names, declared
     if not missing or len(index) < 2:
         return per_window, level2
     say(f"re-clustering the {len(index)} background windows for {', '.join(missing)}")
-    labels = _cluster(pooled[:, index], 1 + len(missing) + config.extra_clusters, config.seed, config.clustering)
-    counts = presence_matrix(labels, recording[index], labels.max() + 1, len(declared))
-    found = name_clusters(counts, declared, background)
-    found = rename_habits(pooled[:, index], recording[index], labels, found, declared, background)
-    if lean is not None and config.upright:
-        found = rename_upright(labels, recording[index], found, declared, background, config.nesting, lean[index],
-                               config.upright)
+    labels, found = _named_groups(pooled[:, index], recording[index], None if lean is None else lean[index],
+                                  1 + len(missing) + config.extra_clusters, declared, background, config)
     per_window, level2 = per_window.copy(), level2.copy()
     first = int(level2.max()) + 1
     for n in found:
