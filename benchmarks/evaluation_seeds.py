@@ -39,8 +39,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
     parser.add_argument("--peers", action="store_true", help="also the supervised MiniRocket and 1-NN peers")
-    parser.add_argument("--set", nargs="+", default=[], metavar="FIELD=VALUE",
-                        help="change fields of the training configuration, e.g. upright=0")
+    parser.add_argument("--set", nargs="+", action="extend", default=[], metavar="FIELD=VALUE",
+                        help="change fields of the training configuration, e.g. upright=0 (repeatable)")
     args = parser.parse_args()
     changes = {}
     for item in args.set:
