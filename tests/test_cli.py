@@ -59,8 +59,9 @@ def test_simulate_then_features_end_to_end(tmp_path):
     result = runner.invoke(app, ["features", f"{ride}@2", "-o", str(feats)])
     assert result.exit_code == 0, result.output
     out = pd.read_csv(feats)
-    assert list(out.columns)[-6:] == ["roll", "pitch", "pitch_rate", "acc_x", "acc_y", "acc_z"]
+    assert list(out.columns)[-7:] == ["roll", "pitch", "pitch_rate", "acc_x", "acc_y", "acc_z", "speed"]
     assert len(out) == int((table["experiment"] == 2).sum())
+    np.testing.assert_allclose(out["speed"], table.loc[table["experiment"] == 2, "speed"], atol=1e-6)
     assert np.isfinite(out[["roll", "pitch", "acc_x"]].to_numpy()).all()
 
 
@@ -177,7 +178,7 @@ def test_train_single_manoeuvre_names_turning_groups_by_their_rides(tmp_path):
 
 @pytest.mark.parametrize("option, value", [("--inner-quantile", "1.5"), ("--outer-quantile", "1.0"),
                                            ("--inner-depth", "1.5"), ("--inner-floor", "-0.2"),
-                                           ("--background-lean", "-1"), ("--outer-depth", "0.5"),
+                                           ("--background-lean", "-1"), ("--outer-depth", "0.5"), ("--slowing", "-0.1"),
                                            ("--close-gaps", "-1"), ("--upright", "-0.5"),
                                            ("--votes", "0")])
 def test_train_refuses_an_option_out_of_range_and_keeps_the_model_there(tmp_path, option, value):

@@ -138,6 +138,9 @@ def train(
     background_lean: float = typer.Option(
         0.6, "--background-lean", help="the background takes no column from a window leaning towards the hardest "
         "stop by more than this many times the recording's usual depth: the gentlest braking (0: off)"),
+    slowing: float = typer.Option(
+        0.4, "--slowing", help="where a recording has GPS speed, a braking class (of a --nested pair) takes no column "
+        "from a window around which the speed falls more slowly than this, m/s^2 (0: off)"),
     deepest_inner: bool = typer.Option(
         True, "--deepest-inner/--no-deepest-inner", help="in a recording declaring the inner class, the windows at "
         "its deepest lean take that class when deeper than any lean of the recordings without it"),
@@ -177,7 +180,7 @@ def train(
         extra_clusters=extra_clusters, affine=affine, clustering=clustering, max_columns=max_columns, seed=seed,
         nesting=NESTING if nested is None else _parse_nesting(nested), inner_quantile=inner_quantile,
         outer_quantile=outer_quantile, inner_depth=inner_depth, inner_floor=inner_floor,
-        background_lean=background_lean, deepest_inner=deepest_inner,
+        background_lean=background_lean, slowing=slowing, deepest_inner=deepest_inner,
         outer_depth=outer_depth, upright=upright, single_manoeuvre=single_manoeuvre,
         close_gaps=close_gaps, recluster=recluster, votes=votes,
     )

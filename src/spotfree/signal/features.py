@@ -150,7 +150,8 @@ def leaky_lean(pitch_rate: np.ndarray, rate: float, tau: float = LEAN_TIME_CONST
 def ride_features(rec: Recording, orientation: str = "default", zero_phase: bool = False,
                   derived: bool = False) -> Recording:
     """The six :data:`FEATURE_CHANNELS` of ``rec`` on its own grid (same experiment column, truth and gaps),
-    followed by the :data:`DERIVED_CHANNELS` when ``derived``; ``meta`` says ``features="ride"`` and the
+    followed by the :data:`DERIVED_CHANNELS` when ``derived``, and the log's GPS ``speed`` (m/s, NaN between fixes)
+    as it is when it has one (training reads it: :func:`spotfree.training.train`); ``meta`` says ``features="ride"`` and the
     ``orientation``, so that a model trained on them knows how to make them from a raw log."""
     missing = [c for c in IMU_CHANNELS if c not in rec.channels]
     if missing:
@@ -178,7 +179,8 @@ def ride_features(rec: Recording, orientation: str = "default", zero_phase: bool
             columns += [leaky_lean(gyr[:, 1], rec.rate), lowpass(a_t[:, None], long_sos)[:, 0], gyr[:, 0],
                         gyr[:, 2], vib, roughness(vib, forward)]
         out[start:stop] = np.column_stack(columns)
-    feats = rec.with_channels(dict(zip(names, out.T)))
+    carried = {"speed": speed_all} if speed_all is not None else {}
+    feats = rec.with_channels({**dict(zip(names, out.T)), **carried})
     feats.meta.update(features="ride", orientation=orientation)
     return feats
 
