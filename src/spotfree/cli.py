@@ -140,7 +140,8 @@ def train(
         "stop by more than this many times the recording's usual depth: the gentlest braking (0: off)"),
     slowing: float = typer.Option(
         0.4, "--slowing", help="where a recording has GPS speed, a braking class (of a --nested pair) takes no column "
-        "from a window around which the speed falls more slowly than this, m/s^2 (0: off)"),
+        "from a window around which the speed falls more slowly than this, m/s^2, and a braking group that loses speed "
+        "faster is not given to the background by the nesting check (0: off)"),
     deepest_inner: bool = typer.Option(
         True, "--deepest-inner/--no-deepest-inner", help="in a recording declaring the inner class, the windows at "
         "its deepest lean take that class when deeper than any lean of the recordings without it"),
