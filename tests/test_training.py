@@ -546,6 +546,14 @@ def test_a_braking_column_loses_speed(seed):
         {k: v for k, v in e.recording.channels.items() if k != "speed"}), e.classes) for e in experiments]
     off = train(no_gps, TrainingConfig(seed=0, slowing=0.0)).model
     assert np.array_equal(train(no_gps, TrainingConfig(seed=0)).model.dictionary, off.dictionary)
+    from spotfree.training import _window_slopes
+    from spotfree.windows import recording_windows
+
+    mixed = [no_gps[0], experiments[1]]  # the rule reads the GPS where there is one
+    windows = [recording_windows(e.recording, ("acc_long",), 20, 2) for e in mixed]
+    slopes = _window_slopes(mixed, windows, TrainingConfig())
+    assert np.isnan(slopes[0]).all() and np.isfinite(slopes[1]).mean() > 0.9
+    assert _window_slopes(mixed, windows, TrainingConfig(slowing=0.0)) is None
     with pytest.raises(InputError, match="slowing"):
         train(experiments, TrainingConfig(slowing=-0.1))
 
