@@ -129,11 +129,15 @@ def column_trends(result, exps):
     """``((named, truth), trend)`` per column: its class, the hidden label at its centre and the GPS speed's trend
     there (m/s^2)."""
     model = result.model
+    by_recording = defaultdict(list)
     for (r, end), c in zip(result.column_source, model.column_class):
+        by_recording[r].append((end - model.window // 2, model.classes[c]))
+    for r, columns in by_recording.items():
         rec = exps[r].recording
-        centre = end - model.window // 2
-        trend = speed_slope(np.asarray(rec.channels["speed"], dtype=float), rec.rate, np.array([centre]))[0]
-        yield (model.classes[c], rec.truth["label"][centre]), trend
+        centres = np.array([centre for centre, _ in columns])
+        trends = speed_slope(np.asarray(rec.channels["speed"], dtype=float), rec.rate, centres)
+        for (centre, named), trend in zip(columns, trends):
+            yield (named, rec.truth["label"][centre]), trend
 
 
 if __name__ == "__main__":

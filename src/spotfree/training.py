@@ -822,10 +822,11 @@ def _speed_loss(slope, part, cls, config) -> float | None:
     and 456 of the training test's protocol). Measured (``benchmarks/training_purity.py``, BENCHMARKS.md, "A braking
     must lose speed"): every class pure on 464 of seeds 0-479 of the training test's protocol with it, 461 without;
     301 of seeds 480-799, held out while it was designed, against 298; none made impure."""
-    if slope is None or cls not in {c for pair in config.nesting for c in pair}:
+    if slope is None or cls not in _braking(config):
         return None
-    trend = slope[part][np.isfinite(slope[part])]
-    return float(np.median(trend)) if len(trend) and np.median(trend) <= -config.slowing else None
+    trend = slope[part]
+    median = float(np.median(trend[np.isfinite(trend)])) if np.isfinite(trend).any() else np.nan
+    return median if median <= -config.slowing else None
 
 
 def _not_slowing(names_per_window, slopes, config) -> list[np.ndarray]:
@@ -841,8 +842,13 @@ def _not_slowing(names_per_window, slopes, config) -> list[np.ndarray]:
     and none of the 184 wrong ones was below -0.47 (median -0.07)."""
     if slopes is None:
         return [np.zeros(len(per), dtype=bool) for per in names_per_window]
-    nested = [c for pair in config.nesting for c in pair]
-    return [np.isin(per, nested) & (slope > -config.slowing) for per, slope in zip(names_per_window, slopes)]
+    return [np.isin(per, list(_braking(config))) & (slope > -config.slowing)
+            for per, slope in zip(names_per_window, slopes)]
+
+
+def _braking(config) -> set[str]:
+    """The classes of ``config.nesting`` pairs, inner and outer: the braking classes, which must lose speed."""
+    return {c for pair in config.nesting for c in pair}
 
 
 def _change_margin(config) -> int:
