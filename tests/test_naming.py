@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from spotfree.errors import InputError
-from spotfree.naming import (ClusterName, background_class, name_clusters, name_deep_outer, name_nested,
+from spotfree.naming import (ClusterName, background_class, median_trend, name_clusters, name_deep_outer, name_nested,
                              presence_matrix, rename_habits, rename_upright, single_manoeuvre_names)
 
 NB = ["cruising", "normal-braking"]
@@ -94,6 +94,26 @@ def test_a_class_the_specific_one_passes_through_takes_the_shared_group_nearest_
                          [("sudden-braking", "normal-braking")])
     assert [n.name for n in nested] == ["cruising", "normal-braking", "sudden-braking", "cruising"]
     assert "passes through normal-braking" in nested[1].rule and 0 < nested[1].confidence < 1
+
+
+def test_nesting_passes_over_a_group_that_does_not_lose_speed():
+    """The braking group 1 is nearest to the hard stop; by the GPS trend (m/s^2 per window) it must also lose speed.
+    The accelerating group 3 does not lie nearer to the stop than the background's largest group does, so no group is
+    named when group 1 keeps its speed."""
+    pooled, recording, labels, names = _nested_case()
+    pair = [("sudden-braking", "normal-braking")]
+
+    def nested(group_1_trend, slowing=0.4):
+        trend = np.where(labels == 1, group_1_trend, np.where(labels == 3, 0.8, 0.0))
+        return name_nested(pooled, recording, labels, names, [NB, SB], "cruising", pair, trend, slowing)
+
+    assert [n.name for n in nested(-1.0)][1] == "normal-braking" and "median GPS trend -1.00" in nested(-1.0)[1].rule
+    assert [n.name for n in nested(-0.1)] == [n.name for n in names]  # keeps its speed: no group
+    assert [n.name for n in nested(-0.1, slowing=0.0)][1] == "normal-braking"  # the rule off
+    unknown = nested(np.nan)
+    assert unknown[1].name == "normal-braking" and "GPS" not in unknown[1].rule  # no fix: it passes
+    assert np.isnan(median_trend(None, labels == 1)) and np.isnan(median_trend(np.full(3, np.nan), [0, 1]))
+    assert median_trend(np.array([-1.0, np.nan, -0.5, 3.0]), np.array([0, 1, 2])) == -0.75
 
 
 @pytest.mark.parametrize("nesting, declared", [

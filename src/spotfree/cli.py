@@ -140,8 +140,9 @@ def train(
         "stop by more than this many times the recording's usual depth: the gentlest braking (0: off)"),
     slowing: float = typer.Option(
         0.4, "--slowing", help="where a recording has GPS speed, a braking class (of a --nested pair) takes no column "
-        "from a window around which the speed falls more slowly than this, m/s^2, and a braking group that loses speed "
-        "faster is not given to the background by the nesting check (0: off)"),
+        "from a window around which the speed falls more slowly than this, m/s^2, nor the background from one where it "
+        "falls at least this fast; nesting names the outer class only after a group that loses speed this fast, and "
+        "does not give such a braking group to the background (0: off)"),
     deepest_inner: bool = typer.Option(
         True, "--deepest-inner/--no-deepest-inner", help="in a recording declaring the inner class, the windows at "
         "its deepest lean take that class when deeper than any lean of the recordings without it"),
