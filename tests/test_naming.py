@@ -5,7 +5,7 @@ import pytest
 
 from spotfree.errors import InputError
 from spotfree.naming import (ClusterName, background_class, median_trend, name_clusters, name_deep_outer, name_nested,
-                             presence_matrix, rename_habits, rename_upright, single_manoeuvre_names)
+                             name_slowing_outer, presence_matrix, rename_habits, rename_upright, single_manoeuvre_names)
 
 NB = ["cruising", "normal-braking"]
 SB = ["cruising", "normal-braking", "sudden-braking"]
@@ -114,6 +114,23 @@ def test_nesting_passes_over_a_group_that_does_not_lose_speed():
     assert unknown[1].name == "normal-braking" and "GPS" not in unknown[1].rule  # no fix: it passes
     assert np.isnan(median_trend(None, labels == 1)) and np.isnan(median_trend(np.full(3, np.nan), [0, 1]))
     assert median_trend(np.array([-1.0, np.nan, -0.5, 3.0]), np.array([0, 1, 2])) == -0.75
+
+
+def test_as_a_last_resort_the_background_group_losing_speed_fastest_takes_the_outer_class():
+    """No group is named normal braking; in its home ride (the first) groups 1 and 3 lose speed, group 1 faster,
+    and group 2 has too few windows there to count."""
+    labels = np.array([0] * 10 + [1] * 5 + [3] * 5 + [2] * 2 + [0] * 10 + [2] * 6)
+    recording = np.array([0] * 22 + [1] * 16)
+    trend = np.select([labels == 1, labels == 3, labels == 2], [-1.5, -0.6, -3.0], 0.1)
+    names = [ClusterName(j, "cruising", "shared", 1.0, []) for j in range(4)]
+    names[2] = ClusterName(2, "sudden-braking", "present only where sudden-braking is declared", 1.0, [])
+    pair = [("sudden-braking", "normal-braking")]
+    named = name_slowing_outer(labels, recording, names, [NB, SB], "cruising", pair, trend, 0.4)
+    assert [n.name for n in named] == ["cruising", "normal-braking", "sudden-braking", "cruising"]
+    assert "median GPS trend -1.50" in named[1].rule and named[1].confidence == 1.0
+    assert name_slowing_outer(labels, recording, names, [NB, SB], "cruising", pair, trend, 2.0) == names  # too slow
+    assert name_slowing_outer(labels, recording, names, [NB, SB], "cruising", pair, None, 0.4) == names
+    assert name_slowing_outer(labels, recording, named, [NB, SB], "cruising", pair, trend, 0.4) == named  # has one
 
 
 @pytest.mark.parametrize("nesting, declared", [

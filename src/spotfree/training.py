@@ -28,7 +28,8 @@ Output: a :class:`~spotfree.model.DictionaryModel` whose columns are windows kep
    shared group nearest to that class: normal braking around sudden braking, among the groups that lose speed
    where the recordings carry GPS; failing that, a background group
    whose windows lean three times the usual depth towards the hardest stop in the outer class's home recordings,
-   ``outer_depth``, :func:`~spotfree.naming.name_deep_outer`); the user may override any name.
+   ``outer_depth``, :func:`~spotfree.naming.name_deep_outer`; failing that, with GPS speed, the background group that
+   loses speed fastest there, :func:`~spotfree.naming.name_slowing_outer`); the user may override any name.
 4. Nesting: every group named a manoeuvre is checked against the known, less specific classes (background first):
    its windows are classified by CRC against those classes' windows and its own windows outside the run being
    tested; a group that a known class explains takes that name, unless that class is the background and the group
@@ -98,8 +99,9 @@ from spotfree.io.checks import true_runs
 from spotfree.io.recording import Recording
 from spotfree.model import DictionaryModel
 from spotfree.naming import (DEPTH_RATIO, ENRICHMENT, UPRIGHT, ClusterName, background_class, class_enrichment,
-                             class_homes, median_trend, name_clusters, name_deep_outer, name_nested, presence_matrix,
-                             rename_habits, rename_upright, single_manoeuvre_names)
+                             class_homes, median_trend, name_clusters, name_deep_outer, name_nested,
+                             name_slowing_outer, presence_matrix, rename_habits, rename_upright,
+                             single_manoeuvre_names)
 from spotfree.windows import ChannelScaling, WindowedRecording, recording_windows, with_affine_row
 
 RECIPES = ("evidence", "paper")
@@ -136,7 +138,8 @@ class TrainingConfig:
     (braking) takes no column from a window around whose centre the recording's GPS ``speed`` falls more slowly than
     this, nor the background from one where it falls at least this fast (:func:`_speed_disagrees`; 0: off); a group
     must lose speed at least this fast to be named the outer class by nesting
-    (:func:`~spotfree.naming.name_nested`), and it keeps a braking group that the nesting check would give to the
+    (:func:`~spotfree.naming.name_nested`) or, as a last resort, as the fastest to lose speed
+    (:func:`~spotfree.naming.name_slowing_outer`), and it keeps a braking group that the nesting check would give to the
     background when the group loses speed at least this fast (:func:`_speed_loss`). ``deepest_inner``: in a
     recording declaring the inner class, the windows at its deepest ``timing`` take that class when they go beyond
     every window of the recordings without it (:func:`_deepest_inner`). ``outer_depth``: a background group that
@@ -409,6 +412,7 @@ def _evidence_recipe(windows, declared, background, lean, slopes, config, say):
     if lean is not None and config.outer_depth:
         names = name_deep_outer(labels, recording, names, declared, background, config.nesting, lean,
                                 config.outer_depth)
+    names = name_slowing_outer(labels, recording, names, declared, background, config.nesting, slope, config.slowing)
     for cluster, name in config.overrides.items():
         if not 0 <= cluster < len(names):
             raise InputError(f"--name {cluster}={name}: there are only clusters 0..{len(names) - 1}")
