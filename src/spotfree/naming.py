@@ -334,11 +334,7 @@ def name_deep_outer(labels: np.ndarray, recording: np.ndarray, names: list[Clust
     / 80-159: 65 / 62 with it, 62 / 59 without it.
     """
     out = list(names)
-    _, home, _ = class_homes(declared)
-    for _, outer in nesting:
-        if outer == background or not home.get(outer) or any(n.name == outer for n in out):
-            continue
-        at_home = np.isin(recording, home[outer])
+    for outer, at_home in _outers_without_group(recording, out, declared, background, nesting):
         for n in names:
             median = _median_depth(depth, (labels == n.cluster) & at_home, least=3)
             if n.name == background and median > ratio:
@@ -347,6 +343,16 @@ def name_deep_outer(labels: np.ndarray, recording: np.ndarray, names: list[Clust
                     "towards the deepest stop (the background group that holds it)", float(1 - ratio / median),
                     n.counts)
     return out
+
+
+def _outers_without_group(recording, out, declared, background, nesting):
+    """``(outer, at_home)`` for each outer class of ``nesting`` that is not the background, has home recordings
+    (:func:`class_homes`) and, when its turn comes, no group in ``out`` (which the caller may be filling);
+    ``at_home``: which windows (by their ``recording``) lie in those home recordings."""
+    _, home, _ = class_homes(declared)
+    for _, outer in nesting:
+        if outer != background and home.get(outer) and not any(n.name == outer for n in out):
+            yield outer, np.isin(recording, home[outer])
 
 
 def name_slowing_outer(labels: np.ndarray, recording: np.ndarray, names: list[ClusterName],
@@ -367,11 +373,7 @@ def name_slowing_outer(labels: np.ndarray, recording: np.ndarray, names: list[Cl
     out = list(names)
     if trend is None or not slowing:
         return out
-    _, home, _ = class_homes(declared)
-    for _, outer in nesting:
-        if outer == background or not home.get(outer) or any(n.name == outer for n in out):
-            continue
-        at_home = np.isin(recording, home[outer])
+    for outer, at_home in _outers_without_group(recording, out, declared, background, nesting):
         speed = {n.cluster: median_trend(trend, (labels == n.cluster) & at_home) for n in out
                  if n.name == background and n.rule not in ("empty", "named by the user")
                  and ((labels == n.cluster) & at_home).sum() >= 3}
