@@ -111,7 +111,13 @@ def train(
     window: int = typer.Option(20, "--window", help="window length, samples"),
     step: int = typer.Option(1, "--step", help="classification stride, samples"),
     orientation: str = typer.Option("default", "--orientation", help="default | paper | vqf"),
-    recipe: str = typer.Option("evidence", "--recipe", help="evidence | paper (the paper's recipe, literally)"),
+    features: str = typer.Option("ride", "--features", help="what a raw IMU log becomes: ride (a phone on the "
+                                 "handlebar: vehicle-frame ride features) | body (a phone in a pocket, a watch: device "
+                                 "axes and magnitudes)"),
+    recipe: Optional[str] = typer.Option(None, "--recipe", help="sets (the general learner from class sets) | evidence "
+                                         "(the ride learner) | paper (the paper's recipe, literally); default: sets for "
+                                         "--features body, evidence for rides"),
+    prior: Optional[str] = typer.Option(None, "--prior", help="ride: braking loses GPS speed (sets learner only)"),
     background: Optional[str] = typer.Option(None, "--background", help="the background class (default: the "
                                              "first class declared in every recording)"),
     name: list[str] = typer.Option([], "--name", help="CLUSTER=CLASS: override the name of a level-1 cluster"),
@@ -171,6 +177,19 @@ def train(
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
     from rich.table import Table
 
+    from spotfree.pipeline import FEATURES
+
+    if features not in FEATURES:
+        raise InputError(f"--features {features!r}: use one of {', '.join(FEATURES)}")
+    recipe = recipe or ("sets" if features == "body" else "evidence")
+    if recipe == "sets":
+        _train_sets(output, experiment, channels, window, step, orientation, features, prior, max_columns, seed)
+        return
+    if prior is not None:
+        raise InputError(f"--prior is for the sets learner; add --recipe sets (the {recipe} recipe has its own rules)")
+    if features != "ride":
+        raise InputError(f"--features {features} needs the sets learner: add --recipe sets or leave --recipe out")
+
     from spotfree.figures import training_figure
     from spotfree.pipeline import feature_recording
     from spotfree.training import DEFAULT_CHANNELS, NESTING, TrainingConfig, TrainingExperiment
@@ -213,6 +232,43 @@ def train(
     for warning in result.warnings:
         err.print(f"[bold yellow]warning:[/] {warning}", markup=True)
     out.print(f"figure: {figure}")
+
+
+def _train_sets(output: Path, experiment: list[str], channels: Optional[str], window: int, step: int,
+                orientation: str, features: str, prior: Optional[str], max_columns: int, seed: int) -> None:
+    """``spotfree train --recipe sets``: :class:`~spotfree.learner.SetSupervisedLearner` on the declared sets."""
+    from rich.table import Table
+
+    from spotfree.learner import SetSupervisedLearner
+    from spotfree.pipeline import feature_recording
+    from spotfree.ride_prior import RidePrior
+
+    priors = {"ride": lambda: RidePrior(window=window)}
+    if prior is not None and prior not in priors:
+        raise InputError(f"--prior {prior!r} is unknown; use one of {', '.join(priors)}")
+    recordings, sets = [], []
+    for spec in experiment:
+        path, classes = _parse_experiment(spec)
+        recordings.append(feature_recording(path, orientation=orientation, features=features))
+        sets.append(classes)
+    learner = SetSupervisedLearner(
+        channels=tuple(c.strip() for c in channels.split(",")) if channels else None, window=window, step=step,
+        max_columns=max_columns, prior=priors[prior]() if prior else None, seed=seed).fit(recordings, sets)
+    model = learner.model_
+    model.save(output)
+    out.print(f"learner: sets ({model.representation} of {model.features} channels {','.join(model.channels)}; "
+              f"prior: {prior or 'none'})")
+    table = Table(title=f"{output}: {model.dictionary.shape[1]} columns, window {window} samples")
+    for column in ("recording", "declared", "windows named"):
+        table.add_column(column)
+    for rec in model.summary["recordings"]:
+        table.add_row(rec["source"], ",".join(rec["classes"]),
+                      " ".join(f"{c} {k}" for c, k in rec["windows"].items()))
+    out.print(table)
+    out.print("columns per class: " + ", ".join(f"{c} {k}" for c, k in model.summary["columns_per_class"].items()))
+    out.print("windows renamed per round: " + (", ".join(f"{100 * h:.1f} %" for h in learner.history_) or "none"))
+    for warning in learner.warnings_:
+        err.print(f"[bold yellow]warning:[/] {warning}", markup=True)
 
 
 def _parse_experiment(spec: str) -> tuple[str, list[str]]:

@@ -7,8 +7,12 @@ A model file is a NumPy ``.npz`` archive holding
 * ``causal_dictionary`` ``(d, M)`` and ``causal_column_class`` ``(M,)`` (optional): the columns for causal
   classification, each named by the class at its window's last sample instead of its centre,
 * ``scale``       ``(c,)`` float: the per-channel scale the windows were divided by,
-* ``metadata``    a JSON string (schema version, classes, channels, rate, window, step, normalisation, feature
-  pipeline, training parameters and the training summary).
+* ``feature_offset``, ``feature_scale`` ``(d,)`` (models of the ``summary`` representation): a represented window
+  ``f`` is compared as ``(f - feature_offset) / feature_scale``,
+* ``metadata``    a JSON string (schema version, classes, channels, rate, window, step, normalisation,
+  representation, feature pipeline, training parameters and the training summary).
+
+Schema 2 added the representation (:mod:`spotfree.representation`); a schema-1 file is a ``hankel`` model.
 
 Loading uses ``allow_pickle=False``: a model file can never execute code.
 """
@@ -24,9 +28,11 @@ from pathlib import Path
 import numpy as np
 
 from spotfree.errors import InputError
+from spotfree.representation import REPRESENTATIONS, represent, representation_size
 from spotfree.signal.features import CHANNEL_CHANGED, FEATURE_CHANGES, FEATURE_VERSION
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+READABLE_SCHEMAS = (1, 2)
 
 
 @dataclass
@@ -34,7 +40,9 @@ class DictionaryModel:
     """A trained dictionary: ``dictionary[:, j]`` is a window of class ``classes[column_class[j]]``.
 
     ``channels`` are the feature channels in window order, sampled at ``rate`` Hz; a window is ``window`` samples,
-    each channel divided by ``scale`` and the column normalised by ``normalisation`` (see :mod:`spotfree.windows`).
+    each channel divided by ``scale`` and the column normalised by ``normalisation`` (see :mod:`spotfree.windows`),
+    then represented by ``representation`` (:mod:`spotfree.representation`) and, for ``summary``, standardised by
+    ``feature_offset`` and ``feature_scale``; :meth:`inputs` does all of it.
     ``features`` names how channels are made from a raw log (``"ride"`` for :func:`ride_features` with
     ``orientation``, ``"channels"`` when the input columns are used as they are).
     """
@@ -48,6 +56,9 @@ class DictionaryModel:
     scale: np.ndarray
     dictionary: np.ndarray
     column_class: np.ndarray
+    representation: str = "hankel"
+    feature_offset: np.ndarray | None = None
+    feature_scale: np.ndarray | None = None
     features: str = "ride"
     orientation: str = "default"
     parameters: dict = field(default_factory=dict)
@@ -59,9 +70,18 @@ class DictionaryModel:
         self.scale = np.asarray(self.scale, dtype=float)
         self.dictionary = np.asarray(self.dictionary, dtype=float)
         self.column_class = np.asarray(self.column_class, dtype=int)
-        d = len(self.channels) * self.window
+        if self.representation not in REPRESENTATIONS:
+            raise InputError(f"model representation {self.representation!r} is not one of {', '.join(REPRESENTATIONS)}")
+        d = representation_size(len(self.channels), self.window, self.representation)
+        if self.representation == "summary":
+            self.feature_offset = np.zeros(d) if self.feature_offset is None else np.asarray(self.feature_offset, float)
+            self.feature_scale = np.ones(d) if self.feature_scale is None else np.asarray(self.feature_scale, float)
+            if self.feature_offset.shape != (d,) or self.feature_scale.shape != (d,) or \
+                    not np.all(np.isfinite(self.feature_scale) & (self.feature_scale > 0)):
+                raise InputError(f"model feature_offset and feature_scale must hold {d} finite values (scale > 0)")
         if self.dictionary.ndim != 2 or self.dictionary.shape[0] != d:
-            raise InputError(f"model dictionary must have {d} rows (channels x window), has {self.dictionary.shape}")
+            raise InputError(f"model dictionary must have {d} rows ({self.representation} of channels x window), has "
+                             f"{self.dictionary.shape}")
         if self.column_class.shape != (self.dictionary.shape[1],):
             raise InputError("model column_class must give one class per dictionary column")
         if self.scale.shape != (len(self.channels),):
@@ -85,6 +105,18 @@ class DictionaryModel:
             return self.causal_dictionary, self.causal_column_class
         return self.dictionary, self.column_class
 
+    def inputs(self, windows: np.ndarray) -> np.ndarray:
+        """The classifier's input rows ``(m, d)`` for windows ``(channels * window, m)`` already scaled and
+        normalised (:func:`~spotfree.windows.recording_windows`): represented, standardised for ``summary``, with
+        the constant row ``parameters["affine"]`` appended for ``hankel``."""
+        if self.representation == "summary":
+            return (represent(windows, len(self.channels), "summary") - self.feature_offset) / self.feature_scale
+        windows = np.asarray(windows, dtype=float)
+        affine = float(self.parameters.get("affine", 0.0))
+        if affine:
+            windows = np.vstack([windows, np.full((1, windows.shape[1]), affine)])
+        return np.ascontiguousarray(windows.T)
+
     def metadata(self) -> dict:
         return {
             "schema_version": SCHEMA_VERSION,
@@ -94,6 +126,7 @@ class DictionaryModel:
             "window": int(self.window),
             "step": int(self.step),
             "normalisation": self.normalisation,
+            "representation": self.representation,
             "features": self.features,
             "feature_version": FEATURE_VERSION,
             "orientation": self.orientation,
@@ -111,6 +144,8 @@ class DictionaryModel:
         try:
             causal = ({} if self.causal_dictionary is None else
                       {"causal_dictionary": self.causal_dictionary, "causal_column_class": self.causal_column_class})
+            if self.representation == "summary":
+                causal.update(feature_offset=self.feature_offset, feature_scale=self.feature_scale)
             np.savez_compressed(
                 tmp,
                 dictionary=self.dictionary,
@@ -134,12 +169,14 @@ class DictionaryModel:
             with np.load(path, allow_pickle=False) as archive:
                 meta = json.loads(str(archive["metadata"]))
                 arrays = {k: archive[k] for k in ("dictionary", "column_class", "scale")}
-                arrays.update({k: archive[k] for k in ("causal_dictionary", "causal_column_class") if k in archive.files})
+                arrays.update({k: archive[k] for k in ("causal_dictionary", "causal_column_class", "feature_offset",
+                                                       "feature_scale") if k in archive.files})
         except (OSError, ValueError, KeyError, json.JSONDecodeError) as exc:
             raise InputError(f"{path}: not a spotfree model file ({exc})") from None
-        if meta.get("schema_version") != SCHEMA_VERSION:
+        if meta.get("schema_version") not in READABLE_SCHEMAS:
             raise InputError(
-                f"{path}: model schema version {meta.get('schema_version')} is not {SCHEMA_VERSION}; retrain it"
+                f"{path}: model schema version {meta.get('schema_version')} is not one of "
+                f"{', '.join(map(str, READABLE_SCHEMAS))}; retrain it"
             )
         version = meta.get("feature_version", 1)
         stale = [c for c in meta["channels"] if meta["features"] == "ride" and CHANNEL_CHANGED.get(c, 0) > version]
@@ -154,6 +191,7 @@ class DictionaryModel:
             window=meta["window"],
             step=meta["step"],
             normalisation=meta["normalisation"],
+            representation=meta.get("representation", "hankel"),
             features=meta["features"],
             orientation=meta["orientation"],
             parameters=meta["parameters"],

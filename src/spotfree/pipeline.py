@@ -2,18 +2,29 @@
 
 from __future__ import annotations
 
+from spotfree.errors import InputError
 from spotfree.io import read_recording
 from spotfree.io.recording import Recording
+from spotfree.signal.body import body_features
 from spotfree.signal.features import DERIVED_CHANNELS, FEATURE_CHANNELS, ride_features
 
 
-def feature_recording(spec: str, orientation: str = "default", rate: float = 20.0) -> Recording:
-    """Read ``spec`` (``PATH`` or ``PATH@K``); a raw IMU log becomes the ride features with the derived channels
-    (:data:`~spotfree.signal.features.DERIVED_CHANNELS`), any other log is used as is.
+FEATURES = ("ride", "body")
 
-    ``meta['features']`` says which: ``"ride"`` (with ``meta['orientation']``) or ``"channels"``.
+
+def feature_recording(spec: str, orientation: str = "default", rate: float = 20.0, features: str = "ride") -> Recording:
+    """Read ``spec`` (``PATH`` or ``PATH@K``); a raw IMU log becomes, by ``features``, the ride features with the
+    derived channels (:data:`~spotfree.signal.features.DERIVED_CHANNELS`: a phone on a vehicle's handlebar) or the
+    body channels (:data:`~spotfree.signal.body.BODY_CHANNELS`: a phone in a pocket, a watch); any other log is used
+    as is.
+
+    ``meta['features']`` says which: ``"ride"`` (with ``meta['orientation']``), ``"body"`` or ``"channels"``.
     """
+    if features not in FEATURES:
+        raise InputError(f"--features {features!r}: use one of {', '.join(FEATURES)}")
     rec = read_recording(spec, rate=rate)
+    if rec.has_imu and features == "body":
+        return body_features(rec)
     if rec.has_imu:
         feats = ride_features(rec, orientation=orientation, derived=True)
         feats.meta.update(raw_meta=dict(rec.meta))
@@ -22,4 +33,4 @@ def feature_recording(spec: str, orientation: str = "default", rate: float = 20.
     return rec
 
 
-__all__ = ["DERIVED_CHANNELS", "FEATURE_CHANNELS", "feature_recording"]
+__all__ = ["DERIVED_CHANNELS", "FEATURE_CHANNELS", "FEATURES", "feature_recording"]

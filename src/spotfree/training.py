@@ -98,6 +98,7 @@ from spotfree.errors import InputError
 from spotfree.io.checks import true_runs
 from spotfree.io.recording import Recording
 from spotfree.model import DictionaryModel
+from spotfree.ride_prior import speed_trend as speed_slope
 from spotfree.naming import (DEPTH_RATIO, ENRICHMENT, UPRIGHT, ClusterName, background_class, class_enrichment,
                              class_homes, median_trend, name_clusters, name_deep_outer, name_nested,
                              name_slowing_outer, presence_matrix, rename_habits, rename_upright,
@@ -803,26 +804,6 @@ def _leaning_background(names_per_window, lean, background, config) -> list[np.n
     return [(per == background) & (lean[split[r]:split[r + 1]] > config.background_lean)
             for r, per in enumerate(names_per_window)]
 
-
-SLOPE_SPAN = 1.5
-"""s: :func:`speed_slope` fits the GPS speed's trend to the fixes within this time of a window's centre (three
-fixes of a 1 Hz receiver)."""
-
-
-def speed_slope(speed: np.ndarray, rate: float, at: np.ndarray, span: float = SLOPE_SPAN) -> np.ndarray:
-    """The least-squares slope (m/s^2) of the GPS ``speed`` (m/s, NaN between fixes, sampled at ``rate`` Hz) over the
-    fixes within ``span`` s of each sample index ``at``; NaN where fewer than two fixes lie there. With the ``n``
-    fixes ``(t_i, v_i)`` there: ``(n S_tv - S_t S_v) / (n S_tt - S_t^2)``, each sum a difference of cumulative sums
-    over the fixes."""
-    fix = np.flatnonzero(np.isfinite(speed))
-    t, v = fix / rate, speed[fix]
-    sums = [np.r_[0.0, np.cumsum(x)] for x in (np.ones_like(t), t, v, t * t, t * v)]
-    centre = np.asarray(at) / rate
-    lo, hi = np.searchsorted(t, centre - span), np.searchsorted(t, centre + span, side="right")
-    n, s_t, s_v, s_tt, s_tv = (c[hi] - c[lo] for c in sums)
-    denominator = n * s_tt - s_t ** 2
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where((n >= 2) & (denominator > 1e-9), (n * s_tv - s_t * s_v) / denominator, np.nan)
 
 
 def _window_slopes(experiments, windows, config) -> list[np.ndarray] | None:

@@ -32,6 +32,7 @@ from spotfree.errors import InputError
 from spotfree.io.checks import write_text
 from spotfree.io.recording import Recording
 from spotfree.model import DictionaryModel
+from spotfree.signal.body import body_features
 from spotfree.signal.features import ride_features
 from spotfree.windows import ChannelScaling, recording_windows, with_affine_row
 
@@ -108,15 +109,18 @@ class Labels:
 
 
 def model_features(model: DictionaryModel, rec: Recording) -> Recording:
-    """``rec`` with the model's channels: the ride features (with the model's orientation filter) of a raw IMU
-    log when the model was trained on them, else ``rec`` itself; the channels and rate must match the model's."""
+    """``rec`` with the model's channels: the ride features (with the model's orientation filter) or the body
+    channels (:mod:`spotfree.signal.body`) of a raw IMU log when the model was trained on them, else ``rec`` itself;
+    the channels and rate must match the model's."""
     if model.features == "ride" and rec.has_imu:
         rec = ride_features(rec, orientation=model.orientation, derived=True)
+    elif model.features == "body" and rec.has_imu:
+        rec = body_features(rec)
     missing = [c for c in model.channels if c not in rec.channels]
     if missing or abs(rec.rate - model.rate) > RATE_TOLERANCE * model.rate:
         fix = (f"resample the log to {model.rate:g} Hz" if not missing else
-               "give the raw IMU log (ax ay az gx gy gz) so the ride features can be computed"
-               if model.features == "ride" else "give a log with those channels")
+               f"give the raw IMU log (ax ay az gx gy gz) so the {model.features} features can be computed"
+               if model.features in ("ride", "body") else "give a log with those channels")
         raise InputError(
             f"model expects channels {','.join(model.channels)} at {model.rate:g} Hz; {rec.source} has "
             f"{','.join(rec.names) or 'no channels'} at {rec.rate:g} Hz; {fix}"
@@ -167,7 +171,7 @@ def classify_recording(model: DictionaryModel, rec: Recording, method: str = DEF
     scaling = ChannelScaling(tuple(model.channels), model.scale)
     windows = recording_windows(feats, tuple(model.channels), model.window, model.step, scaling,
                                 model.normalisation)
-    predicted = np.asarray(clf.predict(with_affine_row(windows.matrix, model_affine(model)).T)).astype(str)
+    predicted = np.asarray(clf.predict(model.inputs(windows.matrix))).astype(str)
     offset = alignment_offset(model, centred)
     label = np.full(len(feats), "", dtype=object)
     first = np.searchsorted(windows.ends, [start for start, _ in segments])

@@ -200,6 +200,9 @@ class ModelRing:
             raise InputError(f"ModelRing needs one channel pick and one classifier per model, got {len(models)} "
                              f"models, {len(picks)} picks, {len(classifiers)} classifiers")
         for model, pick in zip(models, picks):
+            if model.representation != "hankel":
+                raise InputError(f"a model of the {model.representation} representation cannot run sample by sample "
+                                 "yet; classify its logs with 'spotfree classify'")
             if len(pick) != len(model.channels) or len(model.scale) != len(model.channels) or (
                     len(pick) and not 0 <= min(pick) <= max(pick) < width):
                 raise InputError(f"ModelRing: a model of channels {','.join(model.channels)} needs one scale and "

@@ -1,0 +1,478 @@
+"""Spotting-free learning from class sets: a dictionary of pure class representatives from whole recordings that
+only declare which classes occur somewhere in them.
+
+Method (``docs/training.md`` has the derivation and the references):
+
+1. **Windows.** Every recording is cut into sliding windows of ``window`` samples every ``step`` samples (none
+   spans a gap), each channel divided by its training scale, and represented (:mod:`spotfree.representation`,
+   default ``summary``: level, spread and band powers per channel); the representation is standardised over all
+   training windows.
+2. **Groups.** The windows of all recordings are grouped by k-means into ``groups`` groups per declared class.
+3. **Naming by evidence.** A recording ``r`` is a bag of windows whose classes lie in its declared set ``S_r``.
+   With ``n_rg`` windows of recording ``r`` in group ``g``, the groups are named by the set-constrained mixture
+   (labelled latent Dirichlet allocation, Ramage et al., EMNLP 2009)
+
+       n_rg ~ sum_{c in S_r} theta_rc phi_cg          (theta_r: class shares of r, phi_c: groups of class c)
+
+   fitted by expectation-maximisation. A window of group ``g`` in recording ``r`` starts with the posterior
+   ``q(c) ∝ theta_rc phi_cg`` over ``c in S_r`` (0 outside it).
+4. **Relabelling.** The windows of each recording are decoded into runs (:func:`decode_runs`): the class sequence
+   inside ``S_r`` that maximises ``sum_i log q_i(z_i)`` minus ``smoothing * rate / step`` per change of class, in
+   which every declared class occurs (a class lasts longer than one window; every declared class finds its
+   windows). Then, for ``rounds`` rounds, a classifier (extremely randomised trees) is fitted on the same number of
+   windows of each class, cross-fitted so that no window is scored by a model that saw it (two folds of alternating
+   time blocks); its balanced posterior ``p(c | x)``, restricted to ``S_r``, is the new ``q`` and the windows are
+   decoded again. The balanced posterior, not the recording's class shares, decides: a class declared in one
+   recording only would otherwise keep whatever it first took there, where the likelihood alone cannot tell (a
+   class that is a copy of another plus its own windows explains the data as well). The rounds stop early when fewer
+   than 0.2 % of the windows change.
+5. **Dictionary.** Per class, the windows whose neighbours half a window before and after carry the same name (a
+   window holds one state) and whose posterior margin is at or above the class's median, at most ``max_columns``
+   of them spread evenly over time, become the dictionary's columns. The causal columns name the same kind of
+   windows by the class at their last sample. Classification is kernel CRC_RLS on the dictionary
+   (:class:`~spotfree.classify.kcrc.KernelCRCClassifier`).
+
+Domain knowledge enters only through ``prior``: an object whose ``log_prior(recording, ends, classes)`` returns an
+``(m, C)`` array added to ``log q`` of the windows ending at ``ends`` in every step; the generic learner knows
+nothing of any domain.
+
+The learner's cost is linear in the number of windows: k-means is fitted on at most ``FIT_WINDOWS`` windows, the
+classifier on at most ``FIT_WINDOWS`` per class, and every other step is a pass over the windows.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numba
+from scipy.ndimage import uniform_filter1d
+from sklearn.base import BaseEstimator
+from sklearn.cluster import MiniBatchKMeans
+from sklearn.ensemble import ExtraTreesClassifier
+
+from spotfree.classify.kcrc import KernelCRCClassifier
+from spotfree.errors import InputError
+from spotfree.io.recording import GPS_CHANNELS, Recording
+from spotfree.model import DictionaryModel
+from spotfree.representation import REPRESENTATIONS, represent
+from spotfree.windows import ChannelScaling, recording_windows
+
+FIT_WINDOWS = 2000
+"""Most windows per class the classifier of a round is fitted on (and, times the classes, k-means)."""
+CHANGED = 0.002
+"""Share of windows whose name changes below which the rounds stop."""
+BLOCK_SECONDS = 5.0
+"""Length of the time blocks that alternate between the two cross-fitting folds."""
+EM_ITERATIONS = 200
+
+
+@dataclass
+class _Windows:
+    """The training windows of all recordings: represented rows ``X`` ``(n, p)``, the recording of each row, its
+    window's last sample in that recording, and the start of every run of contiguous windows."""
+
+    X: np.ndarray
+    recording: np.ndarray
+    ends: list[np.ndarray]
+    runs: list[tuple[int, int]]
+
+
+class SetSupervisedLearner(BaseEstimator):
+    """Learn a dictionary model from recordings that each declare only the set of classes occurring in them.
+
+    Parameters
+    ----------
+    channels : tuple of str or None
+        Channels windowed, in order; None: every channel of the first recording but the sparse GPS ones.
+    window : int
+        Window length ``L``, samples.
+    step : int
+        Stride of the windows, samples (training and classification).
+    representation : {"summary", "hankel"}
+        What the dictionary holds of a window (:mod:`spotfree.representation`).
+    groups : int
+        k-means groups per declared class (step 2).
+    rounds : int
+        Most relabelling rounds (step 4); 0 keeps the names of the evidence.
+    smoothing : float
+        Seconds of windows whose log-posterior a change of class must gain to be made (the switching cost of
+        :func:`decode_runs`); the dictionary's margins are averaged over as many windows.
+    max_columns : int
+        Most dictionary columns per class.
+    prior : object or None
+        Domain prior with ``log_prior(recording, ends, classes) -> (m, C)`` (module docstring); None: none.
+    seed : int
+        Seed of k-means and of the classifier; the same data and seed give the same model.
+
+    Attributes
+    ----------
+    classes_ : list of str
+        Declared classes, sorted.
+    rate_ : float
+        Sampling rate of the recordings, Hz.
+    model_ : DictionaryModel
+        The dictionary (``model_.summary`` holds the training summary).
+    window_labels_ : list of ndarray of str
+        Final name of every training window, per recording.
+    window_ends_ : list of ndarray of int
+        Last sample of every training window, per recording.
+    history_ : list of float
+        Share of windows whose name changed, per round.
+    warnings_ : list of str
+    """
+
+    def __init__(self, channels: tuple[str, ...] | None = None, window: int = 20, step: int = 1,
+                 representation: str = "summary", groups: int = 4, rounds: int = 5, smoothing: float = 0.5,
+                 max_columns: int = 300, prior=None, seed: int = 0):
+        self.channels = channels
+        self.window = window
+        self.step = step
+        self.representation = representation
+        self.groups = groups
+        self.rounds = rounds
+        self.smoothing = smoothing
+        self.max_columns = max_columns
+        self.prior = prior
+        self.seed = seed
+
+    # ------------------------------------------------------------------ fit
+    def fit(self, recordings: list[Recording], class_sets: list[list[str]] | list[set[str]]):
+        """Learn from ``recordings`` (feature Recordings of one rate) and the set of classes each declares."""
+        recordings, sets = self._check_input(recordings, class_sets)
+        channels = (tuple(self.channels) if self.channels else
+                    tuple(c for c in recordings[0].names if c not in GPS_CHANNELS))
+        self.classes_ = sorted(set().union(*sets))
+        self.rate_ = float(recordings[0].rate)
+        n_classes = len(self.classes_)
+        allowed = np.zeros((len(recordings), n_classes), dtype=bool)
+        for r, s in enumerate(sets):
+            allowed[r, [self.classes_.index(c) for c in s]] = True
+        self.warnings_: list[str] = []
+
+        scaling = ChannelScaling(channels).fit(recordings)
+        data = self._windows(recordings, channels, scaling)
+        offset, scale = data.X.mean(axis=0), data.X.std(axis=0)
+        scale = np.where(scale > 1e-12 * max(scale.max(), 1.0), scale, 1.0)
+        X = (data.X - offset) / scale
+        rng = np.random.default_rng(self.seed)
+        mask = allowed[data.recording]
+        prior = self._log_prior(recordings, data)
+
+        groups = self._group(X, n_classes, rng)
+        log_q = _name_groups(groups, data.recording, allowed, self.groups * n_classes)
+        log_q = np.where(mask, log_q + prior, -np.inf)
+        labels = self._decide(log_q, data, allowed)
+        self.history_ = []
+        for _ in range(self.rounds):
+            log_p = self._cross_fitted(X, labels, data, rng)
+            log_q = np.where(mask, log_p + prior, -np.inf)
+            new = self._decide(log_q, data, allowed)
+            changed = float(np.mean(new != labels))
+            labels = new
+            self.history_.append(changed)
+            if changed < CHANGED:
+                break
+
+        margin = _margins(self._smoothed(log_q, data), labels)
+        self.model_ = self._dictionary(X, labels, margin, data, channels, scaling, offset, scale, sets, recordings)
+        names = np.asarray(self.classes_, dtype=object)
+        self.window_labels_ = [names[labels[data.recording == r]].astype(str) for r in range(len(recordings))]
+        self.window_ends_ = data.ends
+        self.classifier_ = KernelCRCClassifier(landmarks=self.model_.parameters["landmarks"]).fit(
+            self.model_.dictionary.T, names[self.model_.column_class].astype(str))
+        return self
+
+    def predict(self, recording: Recording, centred: bool = True, smoothing: int | None = None) -> np.ndarray:
+        """One class name per sample of ``recording`` (``""`` where no window labels it); ``centred``: each window
+        labels its centre (offline), else its last sample (live); ``smoothing``: majority vote over that many
+        samples."""
+        from spotfree.classify.batch import classify_recording
+
+        if not hasattr(self, "model_"):
+            raise InputError("the learner is not fitted; call fit(recordings, class_sets) first")
+        return classify_recording(self.model_, recording, centred=centred, smoothing=smoothing,
+                                  classifier=self.classifier_ if centred else None).label.astype(str)
+
+    # ------------------------------------------------------------------ steps
+    def _check_input(self, recordings, class_sets) -> tuple[list[Recording], list[set[str]]]:
+        if self.representation not in REPRESENTATIONS:
+            raise InputError(f"representation {self.representation!r} is unknown; use one of "
+                             f"{', '.join(REPRESENTATIONS)}")
+        for name in ("window", "step", "groups", "max_columns"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < 1:
+                raise InputError(f"{name}={value!r}: give a whole number >= 1")
+        if not isinstance(self.rounds, (int, np.integer)) or self.rounds < 0:
+            raise InputError(f"rounds={self.rounds!r}: give a whole number >= 0")
+        if not (np.isfinite(self.smoothing) and self.smoothing >= 0):
+            raise InputError(f"smoothing={self.smoothing!r}: give seconds >= 0")
+        recordings = list(recordings)
+        sets = [set(s) for s in class_sets]
+        if not recordings:
+            raise InputError("no training recording: give at least one --experiment PATH=CLASS[,CLASS...]")
+        if len(sets) != len(recordings):
+            raise InputError(f"{len(recordings)} recordings but {len(sets)} class sets: give one set per recording")
+        for rec, s in zip(recordings, sets):
+            if not s or not all(isinstance(c, str) and c.strip() for c in s):
+                raise InputError(f"{rec.source}: declare at least one class name for it")
+        rates = {float(r.rate) for r in recordings}
+        if len(rates) > 1:
+            raise InputError(f"the recordings have different rates ({', '.join(f'{r:g}' for r in sorted(rates))} Hz); "
+                             "read them at one --rate")
+        return recordings, sets
+
+    def _windows(self, recordings: list[Recording], channels: tuple[str, ...], scaling: ChannelScaling) -> _Windows:
+        rows, owner, ends, runs, start = [], [], [], [], 0
+        for r, rec in enumerate(recordings):
+            try:
+                w = recording_windows(rec, channels, self.window, self.step, scaling)
+            except InputError:
+                raise InputError(f"{rec.source}: no gap-free stretch is as long as one window ({self.window} samples "
+                                 f"= {self.window / rec.rate:.2f} s); give a longer recording or a shorter --window") \
+                    from None
+            rows.append(represent(w.matrix, len(channels), self.representation))
+            owner.append(np.full(len(w.ends), r))
+            ends.append(w.ends)
+            breaks = np.flatnonzero(np.diff(w.ends) != self.step) + 1
+            for a, b in zip(np.r_[0, breaks], np.r_[breaks, len(w.ends)]):
+                runs.append((start + int(a), start + int(b)))
+            start += len(w.ends)
+        X = np.vstack(rows)
+        if not np.all(np.isfinite(X)):
+            raise InputError("a training window is not finite; check the recordings for NaN or infinite values")
+        return _Windows(X=X, recording=np.concatenate(owner), ends=ends, runs=runs)
+
+    def _log_prior(self, recordings: list[Recording], data: _Windows) -> np.ndarray:
+        n = len(data.X)
+        if self.prior is None:
+            return np.zeros((n, len(self.classes_)))
+        parts = [np.asarray(self.prior.log_prior(rec, ends, self.classes_), dtype=float)
+                 for rec, ends in zip(recordings, data.ends)]
+        prior = np.vstack(parts)
+        if prior.shape != (n, len(self.classes_)) or np.isnan(prior).any():
+            raise InputError(f"the prior {type(self.prior).__name__} must give one finite row per window and class")
+        return prior
+
+    def _group(self, X: np.ndarray, n_classes: int, rng: np.random.Generator) -> np.ndarray:
+        k = min(self.groups * n_classes, len(X))
+        sample = X[rng.choice(len(X), min(len(X), FIT_WINDOWS * n_classes), replace=False)]
+        kmeans = MiniBatchKMeans(n_clusters=k, n_init=3, batch_size=4096, random_state=self.seed).fit(sample)
+        return kmeans.predict(X)
+
+    def _smoothed(self, log_q: np.ndarray, data: _Windows) -> np.ndarray:
+        span = int(round(self.smoothing * self.rate_ / self.step))
+        if span < 2:
+            return log_q
+        finite = np.where(np.isfinite(log_q), log_q, 0.0)
+        out = np.full_like(log_q, -np.inf)
+        for a, b in data.runs:
+            out[a:b] = uniform_filter1d(finite[a:b], span, axis=0, mode="nearest")
+        return np.where(np.isfinite(log_q), out, -np.inf)
+
+    def _decide(self, log_q: np.ndarray, data: _Windows, allowed: np.ndarray) -> np.ndarray:
+        """Each recording's windows decoded into runs: the labels that maximise ``sum log q`` minus a switching
+        cost per change of class, every declared class in at least one run (:func:`decode_runs`)."""
+        labels = np.empty(len(log_q), dtype=int)
+        cost = self._switch_cost
+        for r in range(len(allowed)):
+            classes = np.flatnonzero(allowed[r])
+            rows = np.flatnonzero(data.recording == r)
+            labels[rows] = classes[decode_runs(log_q[np.ix_(rows, classes)], cost)]
+        return labels
+
+    @property
+    def _switch_cost(self) -> float:
+        return float(self.smoothing * self.rate_ / self.step)
+
+    def _cross_fitted(self, X: np.ndarray, labels: np.ndarray, data: _Windows,
+                      rng: np.random.Generator) -> np.ndarray:
+        """``log p(c | x)`` of every window from a classifier that did not see it (or, for a class that only one
+        fold holds, saw only that class's windows of its own fold)."""
+        n_classes = len(self.classes_)
+        block = max(1, int(round(BLOCK_SECONDS * self.rate_ / self.step)))
+        position = np.concatenate([np.arange(len(e)) for e in data.ends])
+        fold = (data.recording + position // block) % 2
+        log_p = np.empty((len(X), n_classes))
+        for f in (0, 1):
+            train = fold != f
+            missing = np.setdiff1d(np.unique(labels), np.unique(labels[train]))
+            train |= np.isin(labels, missing)
+            rows = _balanced_sample(labels, train, n_classes, rng)
+            model = ExtraTreesClassifier(n_estimators=100, min_samples_leaf=2, max_features="sqrt", n_jobs=-1,
+                                         random_state=self.seed).fit(X[rows], labels[rows])
+            model.n_jobs = 1  # the threads of predict_proba add the trees up in any order: not reproducible
+            proba = np.full((int(np.sum(fold == f)), n_classes), 1e-3 / n_classes)
+            proba[:, model.classes_] += model.predict_proba(X[fold == f])
+            log_p[fold == f] = np.log(proba / proba.sum(axis=1, keepdims=True))
+        return log_p
+
+    def _dictionary(self, X, labels, margin, data, channels, scaling, offset, scale, sets, recordings):
+        half = max(1, self.window // 2 // self.step)
+        names = np.asarray(self.classes_)
+        centred = _single_state(labels, data.runs, half)
+        causal = np.full(len(labels), -1)
+        causal_margin = np.full(len(labels), -np.inf)
+        for a, b in data.runs:
+            if b - a > half:
+                causal[a:b - half] = labels[a + half:b]
+                causal_margin[a:b - half] = margin[a + half:b]
+        columns, column_class = _pick(labels, centred, margin, len(names), self.max_columns)
+        causal_columns, causal_class = _pick(causal, _single_state(causal, data.runs, half) & (causal >= 0),
+                                             causal_margin, len(names), self.max_columns)
+        found = np.bincount(column_class, minlength=len(names))
+        for c in np.flatnonzero(found == 0):
+            self.warnings_.append(f"class {names[c]} has no window that holds it alone; declare it in recordings "
+                                  "where it lasts longer than one window")
+        counts = {str(names[c]): int(np.sum(labels == c)) for c in range(len(names))}
+        summary = {
+            "learner": "set-supervised",
+            "windows_per_class": counts,
+            "columns_per_class": {str(names[c]): int(found[c]) for c in range(len(names))},
+            "rounds_changed": [round(h, 5) for h in self.history_],
+            "recordings": [{"source": rec.source, "classes": sorted(s),
+                            "windows": {str(names[c]): int(np.sum((labels == c) & (data.recording == r)))
+                                        for c in range(len(names)) if np.any((labels == c) & (data.recording == r))}}
+                           for r, (rec, s) in enumerate(zip(recordings, sets))],
+            "warnings": self.warnings_,
+        }
+        return DictionaryModel(
+            classes=list(self.classes_), channels=list(channels), rate=self.rate_, window=self.window,
+            step=self.step, normalisation="scale", scale=scaling.scale, dictionary=X[columns].T,
+            column_class=column_class, causal_dictionary=X[causal_columns].T, causal_column_class=causal_class,
+            representation=self.representation, feature_offset=offset, feature_scale=scale,
+            features=recordings[0].meta.get("features", "channels"),
+            orientation=recordings[0].meta.get("orientation", "default"),
+            parameters={"groups": self.groups, "rounds": self.rounds, "smoothing": self.smoothing,
+                        "max_columns": self.max_columns, "seed": self.seed, "landmarks": 64,
+                        "prior": type(self.prior).__name__ if self.prior is not None else None},
+            summary=summary,
+        )
+
+
+def _name_groups(groups: np.ndarray, recording: np.ndarray, allowed: np.ndarray,
+                 n_groups: int) -> np.ndarray:
+    """Fit ``n_rg ~ sum_{c in S_r} theta_rc phi_cg`` by EM (module docstring, step 3); return every window's
+    ``log q`` ``(n, C)`` (``-inf`` outside its recording's set)."""
+    n_rec, n_classes = allowed.shape
+    counts = np.zeros((n_rec, n_groups))
+    np.add.at(counts, (recording, groups), 1.0)
+    a = allowed.astype(float)
+    theta = a / a.sum(axis=1, keepdims=True)
+    phi = (a / a.sum(axis=1, keepdims=True)).T @ counts + 1.0  # (C, G): groups seen where the class may be
+    phi /= phi.sum(axis=1, keepdims=True)
+    for _ in range(EM_ITERATIONS):
+        joint = theta[:, :, None] * phi[None, :, :]  # (R, C, G)
+        resp = joint / np.maximum(joint.sum(axis=1, keepdims=True), 1e-300)
+        weighted = resp * counts[:, None, :]
+        phi = weighted.sum(axis=0) + 1e-2
+        phi /= phi.sum(axis=1, keepdims=True)
+        theta = (weighted.sum(axis=2) + 1e-2) * a
+        theta /= theta.sum(axis=1, keepdims=True)
+    joint = theta[:, :, None] * phi[None, :, :]
+    resp = joint / np.maximum(joint.sum(axis=1, keepdims=True), 1e-300)
+    q = resp[recording, :, groups]
+    with np.errstate(divide="ignore"):
+        return np.where(allowed[recording], np.log(np.maximum(q, 1e-12)), -np.inf)
+
+
+def _margins(log_q: np.ndarray, labels: np.ndarray) -> np.ndarray:
+    """``log q(label) - max_{c != label} log q(c)`` per window (``inf`` when the label is its set's only class)."""
+    own = log_q[np.arange(len(labels)), labels]
+    other = log_q.copy()
+    other[np.arange(len(labels)), labels] = -np.inf
+    return own - other.max(axis=1)
+
+
+def _balanced_sample(labels: np.ndarray, eligible: np.ndarray, n_classes: int, rng: np.random.Generator) -> np.ndarray:
+    """At most :data:`FIT_WINDOWS` eligible windows of each class, drawn at random."""
+    rows = []
+    for c in range(n_classes):
+        idx = np.flatnonzero(eligible & (labels == c))
+        rows.append(idx if len(idx) <= FIT_WINDOWS else rng.choice(idx, FIT_WINDOWS, replace=False))
+    return np.sort(np.concatenate(rows))
+
+
+def _single_state(labels: np.ndarray, runs: list[tuple[int, int]], half: int) -> np.ndarray:
+    """Windows whose neighbours ``half`` windows before and after carry the same name (a run's first and last
+    window stand for the neighbours beyond its ends)."""
+    ok = np.zeros(len(labels), dtype=bool)
+    for a, b in runs:
+        seg = labels[a:b]
+        index = np.arange(b - a)
+        ok[a:b] = (seg[np.maximum(index - half, 0)] == seg) & (seg[np.minimum(index + half, b - a - 1)] == seg)
+    return ok
+
+
+def _pick(labels: np.ndarray, eligible: np.ndarray, margin: np.ndarray, n_classes: int,
+          max_columns: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per class, the eligible windows with a margin at or above the class's median, at most ``max_columns``
+    spread evenly over their order; a class with no eligible window takes its most confident windows."""
+    picked, owner = [], []
+    for c in range(n_classes):
+        idx = np.flatnonzero(eligible & (labels == c))
+        if not len(idx):
+            idx = np.flatnonzero(labels == c)
+            idx = idx[np.argsort(-margin[idx], kind="stable")[:max_columns]]
+        elif len(idx) > 1:
+            idx = idx[margin[idx] >= np.median(margin[idx])]
+        if len(idx) > max_columns:
+            idx = idx[np.linspace(0, len(idx) - 1, max_columns).round().astype(int)]
+        picked.append(np.sort(idx))
+        owner.append(np.full(len(idx), c))
+    return np.concatenate(picked).astype(int), np.concatenate(owner).astype(int)
+
+
+EXHAUSTIVE = 10
+"""Most declared classes of a recording for which :func:`decode_runs` makes every class appear (``2^k`` states)."""
+
+
+def decode_runs(log_q: np.ndarray, switch: float) -> np.ndarray:
+    """Best class index per row of ``log_q`` ``(m, k)``: the sequence maximising ``sum_i log_q[i, z_i] - switch *
+    #{i : z_i != z_{i-1}}`` among those in which every one of the ``k`` classes occurs (for ``k <=``
+    :data:`EXHAUSTIVE` and ``m >= k``; else without that condition). Dynamic programming over (class, classes seen so
+    far), ``O(m k^2 2^k)``."""
+    log_q = np.ascontiguousarray(np.where(np.isfinite(log_q), log_q, -1e9), dtype=float)
+    m, k = log_q.shape
+    every = k <= EXHAUSTIVE and m >= k
+    return _viterbi(log_q, float(switch), every)
+
+
+@numba.njit(cache=True)
+def _viterbi(log_q, switch, every):  # pragma: no cover - compiled
+    m, k = log_q.shape
+    n_masks = 1 << k if every else 1
+    score = np.full((k, n_masks), -np.inf)
+    back = np.zeros((m, k, n_masks), dtype=np.int32)  # previous (class * n_masks + mask)
+    for c in range(k):
+        score[c, (1 << c) if every else 0] = log_q[0, c]
+    for i in range(1, m):
+        new = np.full((k, n_masks), -np.inf)
+        for c in range(k):
+            for mask in range(n_masks):
+                if every and not (mask >> c) & 1:
+                    continue
+                best, arg = score[c, mask], c * n_masks + mask  # stay
+                for p in range(k):
+                    if p == c:
+                        continue
+                    for t in range(2 if every else 1):
+                        pm = mask if t == 0 else mask & ~(1 << c)  # c seen before, or first seen now
+                        if score[p, pm] - switch > best:
+                            best, arg = score[p, pm] - switch, p * n_masks + pm
+                new[c, mask] = best + log_q[i, c]
+                back[i, c, mask] = arg
+        score = new
+    full = n_masks - 1
+    c, mask = 0, full
+    best = -np.inf
+    for cc in range(k):
+        if score[cc, full] > best:
+            best, c = score[cc, full], cc
+    out = np.empty(m, dtype=np.int64)
+    for i in range(m - 1, -1, -1):
+        out[i] = c
+        if i > 0:
+            arg = back[i, c, mask]
+            c, mask = arg // n_masks, arg % n_masks
+    return out

@@ -1,0 +1,78 @@
+"""Window representations: what the learner and the classifier see of one window.
+
+A window is ``L`` samples of ``c`` channels, each channel already divided by its training scale
+(:class:`~spotfree.windows.ChannelScaling`). It is stored as a column of the block-Hankel matrix
+(:func:`~spotfree.windows.block_hankel`: channels stacked, each in time order). A representation maps that column to
+the vector the dictionary holds and the classifier compares:
+
+``hankel``
+    The window itself, ``c L`` values: the paper's representation. It keeps the shape and the phase of a signal, so
+    two cycles of one periodic motion taken at different phases are far apart.
+
+``summary``
+    Per channel ``x`` (``L`` samples), ``4 + B`` numbers: the level and spread ``mean(x)``, ``std(x)``, ``min(x)``,
+    ``max(x)``, and the log power of the Hann-tapered, mean-removed window in ``B`` frequency bands,
+
+        P_b = log(1 + sum_{k in band b} |X_k|^2 / L)     X = rfft(hann * (x - mean(x)))
+
+    the bins ``1 .. L // 2`` split into ``B`` bands of (about) equal width on a log scale. These do not change when a
+    periodic motion is shifted in phase, and keep a level (a hard stop against a soft one) and a short peak (a
+    kerb strike's ``max``).
+
+Both are computed for a whole matrix at once and for one window (streaming) by the same function.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from spotfree.errors import InputError
+
+REPRESENTATIONS = ("summary", "hankel")
+BANDS = 4
+"""Frequency bands of the ``summary`` representation (fewer when the window has fewer spectral bins)."""
+
+
+def band_edges(length: int, bands: int = BANDS) -> np.ndarray:
+    """Edges (rfft bin indices, ``bands' + 1`` increasing values from 1 to ``length // 2 + 1``) of the log-spaced
+    bands of a window of ``length`` samples; ``bands' <= bands`` when there are fewer bins than bands (none for a
+    window of one sample)."""
+    top = length // 2 + 1
+    if top <= 1:
+        return np.array([1])
+    edges = np.unique(np.round(np.geomspace(1, top, bands + 1)).astype(int))
+    edges[0], edges[-1] = 1, top
+    return np.unique(edges)
+
+
+def represent(windows: np.ndarray, channels: int, representation: str) -> np.ndarray:
+    """Representation of every column of ``windows`` ``(channels * L, m)``, as rows: ``(m, p)``.
+
+    ``p = channels * L`` for ``hankel`` and ``channels * (4 + B')`` for ``summary`` (module docstring).
+    """
+    windows = np.asarray(windows, dtype=float)
+    if windows.ndim == 1:
+        windows = windows[:, None]
+    if representation == "hankel":
+        return np.ascontiguousarray(windows.T)
+    if representation != "summary":
+        raise InputError(f"unknown representation {representation!r}; use one of {', '.join(REPRESENTATIONS)}")
+    d, m = windows.shape
+    if channels < 1 or d % channels:
+        raise InputError(f"windows of {d} values do not split into {channels} channels")
+    length = d // channels
+    x = windows.T.reshape(m, channels, length)
+    mean = x.mean(axis=2)
+    spectrum = np.abs(np.fft.rfft((x - mean[..., None]) * np.hanning(length + 2)[1:-1], axis=2)) ** 2 / length
+    edges = band_edges(length)
+    power = (np.add.reduceat(spectrum, edges[:-1], axis=2) if len(edges) > 1 else np.zeros((m, channels, 0)))
+    parts = [mean, x.std(axis=2), x.min(axis=2), x.max(axis=2)]
+    features = np.concatenate([np.stack(parts, axis=2), np.log1p(power)], axis=2)
+    return np.ascontiguousarray(features.reshape(m, -1))
+
+
+def representation_size(channels: int, length: int, representation: str) -> int:
+    """Length ``p`` of one represented window."""
+    if representation == "hankel":
+        return channels * length
+    return channels * (4 + len(band_edges(length)) - 1)

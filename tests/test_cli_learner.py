@@ -1,0 +1,72 @@
+"""`spotfree train --recipe sets` and `--features body`: a raw IMU log that is not a ride trains and classifies on
+body channels; the summary says which learner and channels a model uses; misuse exits 2 with one line."""
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from spotfree.cli import app
+from spotfree.model import DictionaryModel
+from spotfree.signal.body import BODY_CHANNELS
+
+runner = CliRunner()
+RATE = 20.0
+
+
+def _imu_log(path, parts, seed):
+    """A raw IMU CSV of a phone in a pocket: standing still, or walking (a 2 Hz sway with gravity on y)."""
+    rng = np.random.default_rng(seed)
+    rows, label = [], []
+    for kind, seconds in parts:
+        n = int(seconds * RATE)
+        t = np.arange(n) / RATE
+        sway = np.sin(2 * np.pi * 2.0 * t + rng.uniform(0, 6)) if kind == "walking" else np.zeros(n)
+        acc = np.column_stack([0.1 + 2.0 * sway, 9.81 + 3.0 * np.abs(sway), 0.2 * sway]) + rng.normal(0, 0.05, (n, 3))
+        gyr = np.column_stack([1.5 * sway, 0.3 * sway, 0.8 * sway]) + rng.normal(0, 0.01, (n, 3))
+        rows.append(np.hstack([acc, gyr]))
+        label += [kind] * n
+    x = np.vstack(rows)
+    frame = pd.DataFrame(x, columns=["ax", "ay", "az", "gx", "gy", "gz"])
+    frame.insert(0, "time", np.arange(len(x)) / RATE)
+    frame["label"] = label
+    frame.to_csv(path, index=False)
+
+
+def test_body_features_train_and_classify_from_class_sets(tmp_path):
+    _imu_log(tmp_path / "walk.csv", [("still", 8), ("walking", 10), ("still", 6), ("walking", 8), ("still", 6)], 1)
+    _imu_log(tmp_path / "still.csv", [("still", 20)], 2)
+    _imu_log(tmp_path / "test.csv", [("still", 6), ("walking", 8), ("still", 6)], 3)
+    model = tmp_path / "m.npz"
+    result = runner.invoke(app, ["train", "-o", str(model), "--features", "body",
+                                 "--experiment", f"{tmp_path / 'walk.csv'}=still,walking",
+                                 "--experiment", f"{tmp_path / 'still.csv'}=still"], catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    assert "learner: sets" in result.output and "body channels" in result.output
+    loaded = DictionaryModel.load(model)
+    assert loaded.features == "body" and loaded.channels == list(BODY_CHANNELS)
+    out = tmp_path / "labels.csv"
+    result = runner.invoke(app, ["classify", str(model), str(tmp_path / "test.csv"), "-o", str(out), "--centred"],
+                           catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    labels = pd.read_csv(out, keep_default_na=False)["label"].to_numpy()
+    truth = pd.read_csv(tmp_path / "test.csv")["label"].to_numpy()
+    away = np.ones(len(truth), bool)
+    for change in np.flatnonzero(truth[1:] != truth[:-1]) + 1:
+        away[max(0, change - 10):change + 10] = False
+    scored = away & (labels != "")
+    assert np.mean(labels[scored] == truth[scored]) >= 0.95
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--prior", "ride"], "--prior is for the sets learner"),
+    (["--recipe", "sets", "--prior", "lean"], "--prior 'lean' is unknown"),
+    (["--features", "wrist"], "--features 'wrist'"),
+    (["--features", "body", "--recipe", "evidence"], "needs the sets learner"),
+])
+def test_misuse_of_the_learner_options_exits_2(tmp_path, extra, message):
+    _imu_log(tmp_path / "walk.csv", [("still", 5), ("walking", 5)], 1)
+    result = runner.invoke(app, ["train", "-o", str(tmp_path / "m.npz"),
+                                 "--experiment", f"{tmp_path / 'walk.csv'}=still,walking", *extra])
+    assert result.exit_code == 2
+    assert message in " ".join(result.output.split())

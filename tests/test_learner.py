@@ -1,0 +1,201 @@
+"""The general spotting-free learner (spotfree.learner) on generated data of several kinds: periodic motions told
+apart by their frequency, levels told apart by their depth, short rare events, and classes shared by every
+recording or by none. Every recording declares only its set of classes; the per-sample truth scores the result."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from spotfree.errors import InputError
+from spotfree.evaluation.metrics import near_transitions
+from spotfree.io.recording import Recording
+from spotfree.learner import SetSupervisedLearner, decode_runs
+from spotfree.model import DictionaryModel
+from spotfree.ride_prior import RidePrior
+
+RATE = 20.0
+
+
+def _signal(kind: str, n: int, rng: np.random.Generator) -> np.ndarray:
+    """``n`` samples of two channels of one class: still, periodic at 1 or 3 Hz, a level, or a spike."""
+    t = np.arange(n) / RATE
+    noise = rng.normal(0.0, 0.1, (n, 2))
+    phase = rng.uniform(0, 2 * np.pi)
+    shapes = {
+        "still": np.zeros((n, 2)),
+        "slow": np.column_stack([np.sin(2 * np.pi * 1.0 * t + phase), np.cos(2 * np.pi * 1.0 * t + phase)]),
+        "fast": np.column_stack([np.sin(2 * np.pi * 3.0 * t + phase), np.cos(2 * np.pi * 3.0 * t + phase)]),
+        "soft": np.tile([-0.8, 0.3], (n, 1)),
+        "hard": np.tile([-2.4, 0.9], (n, 1)),
+        "strike": np.tile([0.0, 3.0], (n, 1)),
+    }
+    return shapes[kind] + noise
+
+
+def _recording(parts: list[tuple[str, float]], rng: np.random.Generator, source: str) -> Recording:
+    """A recording of consecutive ``(class, seconds)`` parts, the truth kept for scoring."""
+    x, label = [], []
+    for kind, seconds in parts:
+        n = int(round(seconds * RATE))
+        x.append(_signal(kind, n, rng))
+        label += [kind] * n
+    x = np.vstack(x)
+    return Recording(time=np.arange(len(x)) / RATE, channels={"u": x[:, 0], "v": x[:, 1]}, rate=RATE, source=source,
+                     truth={"label": np.array(label)})
+
+
+def _alternating(background: str, other: str, rng, source, runs=4, seconds=(4.0, 8.0), other_seconds=(3.0, 6.0)):
+    parts = []
+    for _ in range(runs):
+        parts += [(background, rng.uniform(*seconds)), (other, rng.uniform(*other_seconds))]
+    return _recording(parts + [(background, rng.uniform(*seconds))], rng, source)
+
+
+def _away_accuracy(learner, tests) -> dict[str, float]:
+    """Per true class, the share of its samples (away from true changes) labelled as it."""
+    hits: dict[str, list[int]] = {}
+    for rec in tests:
+        predicted = learner.predict(rec)
+        truth = rec.truth["label"]
+        scored = ~near_transitions(truth, rate=rec.rate) & (predicted != "")
+        for c in np.unique(truth):
+            sel = scored & (truth == c)
+            h = hits.setdefault(str(c), [0, 0])
+            h[0] += int(np.sum(predicted[sel] == c))
+            h[1] += int(sel.sum())
+    return {c: a / b for c, (a, b) in hits.items()}
+
+
+def test_periodic_motions_are_told_apart_whatever_their_phase():
+    rng = np.random.default_rng(1)
+    train = [_alternating("still", "slow", rng, "slow-1"), _alternating("still", "fast", rng, "fast-1"),
+             _recording([("still", 20.0)], rng, "still-1"), _alternating("still", "slow", rng, "slow-2"),
+             _alternating("still", "fast", rng, "fast-2")]
+    sets = [{"still", "slow"}, {"still", "fast"}, {"still"}, {"still", "slow"}, {"still", "fast"}]
+    learner = SetSupervisedLearner(seed=0).fit(train, sets)
+    tests = [_recording([("still", 5), ("slow", 5), ("fast", 5), ("still", 5), ("fast", 4), ("slow", 4)], rng, "t")]
+    accuracy = _away_accuracy(learner, tests)
+    assert min(accuracy.values()) >= 0.9, accuracy
+
+
+def test_levels_a_hard_stop_against_a_soft_one():
+    rng = np.random.default_rng(2)
+    train = [_alternating("still", "soft", rng, "soft", other_seconds=(2.0, 4.0)),
+             _recording([("still", 6), ("soft", 2), ("hard", 2), ("still", 6), ("soft", 2), ("hard", 2),
+                         ("still", 6)], rng, "hard"),
+             _recording([("still", 20)], rng, "still")]
+    sets = [{"still", "soft"}, {"still", "soft", "hard"}, {"still"}]
+    learner = SetSupervisedLearner(seed=0).fit(train, sets)
+    tests = [_recording([("still", 5), ("soft", 3), ("still", 5), ("soft", 2), ("hard", 2), ("still", 5)], rng, "t")]
+    accuracy = _away_accuracy(learner, tests)
+    assert min(accuracy.values()) >= 0.9, accuracy
+
+
+def test_a_short_rare_event_is_found():
+    rng = np.random.default_rng(3)
+    parts = []
+    for _ in range(6):
+        parts += [("still", rng.uniform(5, 9)), ("strike", 0.6)]
+    train = [_recording(parts + [("still", 5)], rng, "strikes"), _recording([("still", 30)], rng, "quiet")]
+    learner = SetSupervisedLearner(seed=0).fit(train, [{"still", "strike"}, {"still"}])
+    test = _recording([("still", 6), ("strike", 0.6), ("still", 6), ("strike", 0.6), ("still", 6)], rng, "t")
+    predicted = learner.predict(test)
+    truth = test.truth["label"]
+    onsets = np.flatnonzero((truth[1:] == "strike") & (truth[:-1] != "strike")) + 1
+    assert len(onsets) == 2
+    for start in onsets:
+        assert np.any(predicted[start:start + 12] == "strike"), "a strike went unlabelled"
+    scored = (predicted != "") & ~near_transitions(truth, rate=test.rate) & (truth == "still")
+    assert np.mean(predicted[scored] == "still") >= 0.95
+
+
+def test_no_class_in_every_recording_and_windows_keep_to_their_sets():
+    """Two recordings share no class; a window only ever takes a class its recording declares."""
+    rng = np.random.default_rng(4)
+    train = [_alternating("slow", "hard", rng, "a"), _alternating("fast", "soft", rng, "b"),
+             _alternating("slow", "soft", rng, "c")]
+    sets = [{"slow", "hard"}, {"fast", "soft"}, {"slow", "soft"}]
+    learner = SetSupervisedLearner(seed=0).fit(train, sets)
+    for names, declared in zip(learner.window_labels_, sets):
+        assert set(names) == declared  # every declared class found, nothing else
+    assert set(learner.classes_) == {"slow", "hard", "fast", "soft"}
+    tests = [_recording([("slow", 6), ("hard", 5), ("fast", 6), ("soft", 5)], rng, "t")]
+    accuracy = _away_accuracy(learner, tests)
+    assert min(accuracy.values()) >= 0.85, accuracy
+
+
+def test_same_inputs_and_seed_give_the_same_model(tmp_path):
+    rng = np.random.default_rng(5)
+    train = [_alternating("still", "slow", rng, "a"), _recording([("still", 20)], rng, "b")]
+    sets = [{"still", "slow"}, {"still"}]
+    paths = []
+    for k in range(2):
+        model = SetSupervisedLearner(seed=3).fit(train, sets).model_
+        paths.append(tmp_path / f"m{k}.npz")
+        model.save(paths[-1])
+    first, second = DictionaryModel.load(paths[0]), DictionaryModel.load(paths[1])
+    assert first.metadata() == second.metadata()
+    for name in ("dictionary", "column_class", "causal_dictionary", "feature_offset", "feature_scale"):
+        np.testing.assert_array_equal(getattr(first, name), getattr(second, name))
+    assert first.representation == "summary"
+
+
+def test_the_ride_prior_never_engages_for_other_data():
+    rng = np.random.default_rng(6)
+    train = [_alternating("still", "slow", rng, "a"), _recording([("still", 20)], rng, "b")]
+    sets = [{"still", "slow"}, {"still"}]
+    prior = RidePrior()
+    for rec in train:
+        assert not prior.log_prior(rec, np.arange(19, len(rec)), ["slow", "still"]).any()  # no GPS speed here
+    with_prior = SetSupervisedLearner(prior=prior, seed=0).fit(train, sets).model_
+    without = SetSupervisedLearner(seed=0).fit(train, sets).model_
+    np.testing.assert_array_equal(with_prior.dictionary, without.dictionary)
+
+
+def test_the_ride_prior_favours_braking_where_the_speed_falls():
+    n = 200
+    speed = np.full(n, np.nan)
+    speed[::20] = np.r_[np.full(5, 5.0), 5.0 - np.arange(1, 6)]  # 1 Hz fixes: steady, then losing 1 m/s^2
+    rec = Recording(time=np.arange(n) / RATE, channels={"u": np.zeros(n), "speed": speed}, rate=RATE)
+    log_prior = RidePrior(braking=("braking",)).log_prior(rec, np.arange(19, n), ["braking", "cruising"])
+    assert log_prior[30, 1] > 0 and log_prior[30, 0] == 0  # centre at 2.0 s: steady speed
+    assert log_prior[150, 0] > 0 and log_prior[150, 1] == 0  # centre at 8.0 s: slowing down
+
+
+def test_decode_runs_every_class_appears_and_runs_are_kept():
+    q = np.log(np.array([[0.9, 0.1, 0.0 + 1e-9]] * 6 + [[0.4, 0.6, 1e-9]] * 2 + [[0.9, 0.1, 1e-9]] * 6))
+    labels = decode_runs(q, 5.0)
+    assert set(labels) == {0, 1, 2}  # class 2 is never likely, yet declared: it takes its best stretch
+    assert np.count_nonzero(np.diff(labels)) <= 4
+    free = decode_runs(q[:, :2], 0.0)
+    np.testing.assert_array_equal(free, q[:, :2].argmax(axis=1))
+
+
+@pytest.mark.parametrize("case, message", [
+    ("short", "no gap-free stretch is as long as one window"),
+    ("nan", "no gap-free stretch"),
+    ("constant", "constant"),
+    ("sets", "class sets"),
+    ("empty", "declare at least one class"),
+    ("rates", "different rates"),
+])
+def test_bad_input_is_refused_with_a_clear_message(case, message):
+    rng = np.random.default_rng(7)
+    good = _alternating("still", "slow", rng, "good")
+    train, sets = [good, _recording([("still", 10)], rng, "other")], [{"still", "slow"}, {"still"}]
+    if case == "short":
+        train[1] = _recording([("still", 0.5)], rng, "short")
+    elif case == "nan":
+        train[1].channels["u"][:] = np.nan
+    elif case == "constant":
+        for rec in train:
+            rec.channels["v"][:] = 1.0
+    elif case == "sets":
+        sets = sets[:1]
+    elif case == "empty":
+        sets[1] = set()
+    elif case == "rates":
+        train[1] = Recording(time=train[1].time, channels=train[1].channels, rate=40.0, source="fast")
+    with pytest.raises(InputError, match=message):
+        SetSupervisedLearner().fit(train, sets)
