@@ -279,6 +279,10 @@ class SetSupervisedLearner(BaseEstimator):
             classes = np.flatnonzero(allowed[r])
             rows = np.flatnonzero(data.recording == r)
             labels[rows] = classes[decode_runs(log_q[np.ix_(rows, classes)], cost)]
+            warning = (f"recording {r + 1} declares {len(classes)} classes over {len(rows)} windows: too many to make "
+                       "each appear; split it into shorter recordings")
+            if len(rows) * len(classes) * 2 ** len(classes) > EXHAUSTIVE and warning not in self.warnings_:
+                self.warnings_.append(warning)
         return labels
 
     @property
@@ -423,18 +427,20 @@ def _pick(labels: np.ndarray, eligible: np.ndarray, margin: np.ndarray, n_classe
     return np.concatenate(picked).astype(int), np.concatenate(owner).astype(int)
 
 
-EXHAUSTIVE = 10
-"""Most declared classes of a recording for which :func:`decode_runs` makes every class appear (``2^k`` states)."""
+EXHAUSTIVE = 20_000_000
+"""Largest ``m k 2^k`` (windows times classes times subsets of a recording) for which :func:`decode_runs` makes every
+class appear; its back-pointers take 4 bytes each."""
 
 
 def decode_runs(log_q: np.ndarray, switch: float) -> np.ndarray:
     """Best class index per row of ``log_q`` ``(m, k)``: the sequence maximising ``sum_i log_q[i, z_i] - switch *
     #{i : z_i != z_{i-1}}`` among those in which every one of the ``k`` classes occurs (for ``k <=``
-    :data:`EXHAUSTIVE` and ``m >= k``; else without that condition). Dynamic programming over (class, classes seen so
-    far), ``O(m k^2 2^k)``."""
+    ``m k 2^k <=`` :data:`EXHAUSTIVE` and ``m >= k``; else without that condition). Dynamic programming over (class, classes seen so
+    far), ``O(m k^2 2^k)`` time and ``m k 2^k`` back-pointers (beyond :data:`EXHAUSTIVE` of them the condition is
+    dropped; :meth:`SetSupervisedLearner.fit` warns)."""
     log_q = np.ascontiguousarray(np.where(np.isfinite(log_q), log_q, -1e9), dtype=float)
     m, k = log_q.shape
-    every = k <= EXHAUSTIVE and m >= k
+    every = m * k * 2 ** k <= EXHAUSTIVE and m >= k
     return _viterbi(log_q, float(switch), every)
 
 

@@ -1,0 +1,83 @@
+"""The general learner on the simulator's braking protocol, with and without the ride prior, beside supervised
+MiniRocket trained with every label on the same rides.
+
+Protocol (issue 31): per seed, experiment 1 of the normal-braking, sudden-braking and cruising files (one ride per
+scenario, each declared with its scenario's classes: :data:`spotfree.sim.scenarios.CLASSES`) trains; experiments
+2-7 of each file are the test. Per-sample accuracy of centred labels per scenario, leaving out the samples within
+0.5 s of a true change ("away"), the strict figure beside.
+
+    python benchmarks/learner_braking.py [--seeds 0 1 2 3]
+
+Writes ``benchmarks/results/learner_braking.md`` (command, machine, date, table).
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import sys
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+from spotfree.evaluation.metrics import near_transitions
+from spotfree.learner import SetSupervisedLearner
+from spotfree.peers import MiniRocketPeer
+from spotfree.ride_prior import RidePrior
+from spotfree.signal.features import ride_features
+from spotfree.sim.scenarios import CLASSES, simulate_scenario
+
+RESULTS = Path(__file__).resolve().parent / "results" / "learner_braking.md"
+SCENARIOS = ("normal-braking", "sudden-braking", "cruising")
+CHANNELS = ("acc_long", "pitch_rate")
+
+
+def methods():
+    return {
+        "spotfree, ride prior": lambda: SetSupervisedLearner(channels=CHANNELS, prior=RidePrior()),
+        "spotfree, no prior": lambda: SetSupervisedLearner(channels=CHANNELS),
+        "MiniRocket (every label)": lambda: MiniRocketPeer(channels=CHANNELS, alignment="centred"),
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3])
+    args = parser.parse_args()
+    hits = {m: {s: np.zeros(4) for s in SCENARIOS} for m in methods()}
+    for seed in args.seeds:
+        feats = {s: ride_features(simulate_scenario(s, repeats=7, seed=seed), derived=True) for s in SCENARIOS}
+        train = [feats[s].select_experiment(1) for s in SCENARIOS]
+        for name, make in methods().items():
+            model = make()
+            if isinstance(model, MiniRocketPeer):
+                model.fit(train)
+            else:
+                model.set_params(seed=seed).fit(train, [CLASSES[s] for s in SCENARIOS])
+            for s in SCENARIOS:
+                for k in range(2, 8):
+                    rec = feats[s].select_experiment(k)
+                    predicted, truth = np.asarray(model.predict(rec)).astype(str), rec.truth["label"]
+                    labelled = predicted != ""
+                    away = labelled & ~near_transitions(truth, rate=rec.rate)
+                    hits[name][s] += [np.sum(predicted[away] == truth[away]), away.sum(),
+                                      np.sum(predicted[labelled] == truth[labelled]), labelled.sum()]
+            print(seed, name, {s: round(h[0] / h[1], 4) for s, h in hits[name].items()}, file=sys.stderr)
+    lines = ["# The general learner on the simulator's braking protocol", "",
+             f"- command: `python benchmarks/learner_braking.py {' '.join(sys.argv[1:])}`",
+             f"- machine: {platform.node()}, {platform.machine()}, Python {platform.python_version()}, "
+             f"numpy {np.__version__}", f"- date: {datetime.now(timezone.utc).strftime('%Y-%m-%d %H:%M UTC')}",
+             f"- seeds {', '.join(map(str, args.seeds))}; channels {', '.join(CHANNELS)}; centred labels; "
+             "accuracy per scenario away from true changes (0.5 s), strict in brackets", "",
+             "| method | " + " | ".join(SCENARIOS) + " |", "|---|" + "---|" * len(SCENARIOS)]
+    for name, per in hits.items():
+        lines.append(f"| {name} | " + " | ".join(f"{100 * h[0] / h[1]:.1f} % ({100 * h[2] / h[3]:.1f} %)"
+                                                  for h in per.values()) + " |")
+    RESULTS.parent.mkdir(exist_ok=True)
+    RESULTS.write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
