@@ -48,8 +48,22 @@ def user_errors(command: Callable) -> Callable:
     return wrapper
 
 
+def _read_log(source: str, rate: float):
+    """The log ``source`` read at ``rate`` Hz (marked so that :func:`_report_repairs_and_gaps` describes it)."""
+    from spotfree.io import read_recording
+
+    rec = read_recording(source, rate=rate)
+    rec.meta["describe"] = True
+    return rec
+
+
 def _report_repairs_and_gaps(rec) -> None:
-    """Tell the user every repair a reader made and every gap it found (never silently)."""
+    """Tell the user what was read (for a sensor log), every repair a reader made and every gap it found (never
+    silently); called once the command succeeded, so that a refusal stays one line."""
+    from spotfree.io import describe
+
+    if rec.meta.get("describe"):
+        err.print(f"read: {describe(rec)}")
     for repair in rec.meta.get("repairs", []):
         err.print(f"note: {repair}")
     for warning in rec.meta.get("warnings", []):
@@ -91,11 +105,10 @@ def features(
     zero_phase: bool = typer.Option(False, "--zero-phase", help="offline zero-phase Butterworth on accelerations"),
 ) -> None:
     """Roll, pitch, pitch rate and gravity-free vehicle-frame accelerations from a raw IMU log."""
-    from spotfree.io import read_recording
     from spotfree.io.csvlog import write_csv
     from spotfree.signal.features import ride_features
 
-    rec = read_recording(source, rate=rate)
+    rec = _read_log(source, rate)
     feats = ride_features(rec, orientation=orientation, zero_phase=zero_phase)
     write_csv(feats, output, truth=False)
     _report_repairs_and_gaps(rec)
@@ -282,7 +295,6 @@ def classify(
     from spotfree.classify.multi import model_names, model_penalties
     from spotfree.classify.segments import edge_levels
     from spotfree.classify.votes import stored_votes
-    from spotfree.io import read_recording
     from spotfree.model import DictionaryModel
 
     if len(paths) < 2:
@@ -302,7 +314,9 @@ def classify(
     dictionary = DictionaryModel.load(model_paths[0])
     if offline:
         vote = stored_votes(dictionary)
-    rec = read_recording(source, rate=dictionary.rate)
+    rec = _read_log(source, dictionary.rate)
+    if dictionary.features == "ride" and not rec.has_imu and not set(dictionary.channels) <= set(rec.channels):
+        rec.require_imu("the model's ride features")
     labels = classify_recording(dictionary, rec, method=method, centred=centred, smoothing=smooth, **vote)
     labels.write_csv(output)
     _report_repairs_and_gaps(rec)
@@ -346,12 +360,14 @@ def _classify_several(model_paths: dict[str, str], source: str, output: Path, me
     :mod:`spotfree.classify.multi`; ``vote`` None: each model's stored votes."""
     from spotfree.classify.multi import classify_models, write_labels
     from spotfree.classify.votes import stored_votes
-    from spotfree.io import read_recording
     from spotfree.model import DictionaryModel
 
     models = {name: DictionaryModel.load(path) for name, path in model_paths.items()}
     stored = None if vote else {name: stored_votes(model) for name, model in models.items()}
-    rec = read_recording(source, rate=next(iter(models.values())).rate)
+    rec = _read_log(source, next(iter(models.values())).rate)
+    if not rec.has_imu and any(m.features == "ride" and not set(m.channels) <= set(rec.channels)
+                               for m in models.values()):
+        rec.require_imu("the models' ride features")
     table = classify_models(models, rec, method=method, centred=centred, smoothing=smooth,
                             **({"votes": stored} if stored else vote))
     write_labels(table, output)

@@ -52,8 +52,7 @@ import functools
 import numpy as np
 from scipy.signal import lfilter
 
-from spotfree.errors import InputError
-from spotfree.io.recording import ACC_CHANNELS, GYRO_CHANNELS, IMU_CHANNELS, Recording
+from spotfree.io.recording import ACC_CHANNELS, GYRO_CHANNELS, Recording
 from spotfree.signal.butterworth import butter_lowpass, lowpass, sections_and_zi
 from spotfree.signal.frame import GRAVITY, MOUNT, device_to_vehicle_axes, gravity_free_level
 from spotfree.signal.orientation import GravityPI, PaperAttitude, attitude_filter
@@ -153,11 +152,7 @@ def ride_features(rec: Recording, orientation: str = "default", zero_phase: bool
     followed by the :data:`DERIVED_CHANNELS` when ``derived``, and the log's GPS ``speed`` (m/s, NaN between fixes)
     as it is when it has one (training reads it: :func:`spotfree.training.train`); ``meta`` says ``features="ride"`` and the
     ``orientation``, so that a model trained on them knows how to make them from a raw log."""
-    missing = [c for c in IMU_CHANNELS if c not in rec.channels]
-    if missing:
-        raise InputError(
-            f"{rec.source}: no column {', '.join(missing)}; features need ax ay az (m/s^2) and gx gy gz (rad/s)"
-        )
+    rec.require_imu()
     attitude = attitude_filter(orientation, rec.rate)
     sos = butter_lowpass(rec.rate)
     acc_all = device_to_vehicle_axes(rec.array(ACC_CHANNELS))
