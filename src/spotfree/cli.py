@@ -124,11 +124,21 @@ def features(
                               "estimate), flat (on the handlebar, screen up, top edge forward), upright (in a holder, "
                               "portrait, screen towards the rider)"),
 ) -> None:
-    """Vehicle roll, pitch, pitch rate and gravity-free vehicle-frame accelerations from a raw IMU log."""
+    """Vehicle roll, pitch, pitch rate and gravity-free vehicle-frame accelerations from a raw IMU log (from a
+    GPS-only track: speed, distance and the GPS longitudinal acceleration)."""
     from spotfree.io.csvlog import write_csv
     from spotfree.signal.features import ride_features
+    from spotfree.signal.gps import GPS_FEATURES, gps_features, has_gps
 
     rec = _read_log(source, rate)
+    if not any(c in rec.channels for c in ("ax", "gx")) and has_gps(rec):
+        feats = gps_features(rec)
+        write_csv(feats, output, truth=False)
+        _report_repairs_and_gaps(rec)
+        out.print(f"wrote {output}: {len(feats)} samples of GPS features ({', '.join(GPS_FEATURES)}) only: "
+                  f"{rec.source} has no motion sensors, and roll, pitch and the accelerations need the "
+                  f"accelerometer and gyroscope")
+        return
     feats = ride_features(rec, orientation=orientation, zero_phase=zero_phase, mount=mount)
     write_csv(feats, output, truth=False)
     _report_repairs_and_gaps(rec)
