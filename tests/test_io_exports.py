@@ -278,3 +278,13 @@ def test_the_command_line_says_what_it_read_and_refuses_in_one_line(tmp_path):
     assert bad.exit_code == 2
     errors = [line for line in bad.stderr.splitlines() if line.startswith("error:")]
     assert len(errors) == 1 and "enable Gyroscope in Sensor Logger" in errors[0]
+
+
+def test_a_sensor_logger_export_without_the_time_column_uses_seconds_elapsed(tmp_path):
+    folder = sensor_logger(tmp_path / "trimmed", "android")
+    for name in ("TotalAcceleration", "Gyroscope", "Location", "Accelerometer", "Gravity"):
+        table = pd.read_csv(folder / f"{name}.csv")
+        table.drop(columns="time").to_csv(folder / f"{name}.csv", index=False)
+    rec = read_recording(folder)
+    assert_known_motion(rec)
+    assert rec.meta["start_epoch"] == pytest.approx(0.0)
