@@ -99,7 +99,7 @@ def test_the_command_reports_the_mount_and_takes_the_override(tmp_path, ride):
     assert "mount: up is" in result.stderr and "using the estimate" in result.stderr
     assert "warning:" in result.stderr and "features use the estimated mount" in result.stderr
     forced = runner.invoke(app, ["features", str(path), "-o", str(tmp_path / "g.csv"), "--mount", "upright"])
-    assert forced.exit_code == 0 and "using the --mount choice" in forced.stderr
+    assert forced.exit_code == 0 and "using the --mount upright choice" in forced.stderr
     bad = runner.invoke(app, ["features", str(path), "-o", str(tmp_path / "h.csv"), "--mount", "sideways"])
     assert bad.exit_code == 2 and bad.stderr.count("error:") == 1
     assert FEATURE_CHANNELS[0] in (tmp_path / "f.csv").read_text().splitlines()[0]

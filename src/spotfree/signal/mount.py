@@ -68,7 +68,7 @@ class MountEstimate:
     ``matrix`` (3, 3): ``v_vehicle = matrix @ v_device``; ``estimated`` the rotation the data give, ``used`` the
     one features use (the nominal mount when the estimate is usual, or the ``--mount`` choice); ``source`` says
     where forward came from; ``quiet`` the fraction of quiet samples; ``correlation`` of the forward cue with the
-    GPS speed change (NaN without one); ``warnings`` one line each."""
+    GPS speed change (NaN without one); ``warnings`` one line each; ``choice`` the ``--mount`` choice."""
 
     estimated: np.ndarray
     used: np.ndarray
@@ -76,6 +76,7 @@ class MountEstimate:
     quiet: float
     correlation: float
     warnings: list[str] = field(default_factory=list)
+    choice: str = "auto"
 
     @property
     def angle_from_nominal(self) -> float:
@@ -90,8 +91,8 @@ class MountEstimate:
         return (f"mount: up is {_axes(up)}, forward is {_axes(forward)} (device frame; {tilt:.0f} deg from "
                 f"screen-up), {np.degrees(self.angle_from_nominal):.0f} deg from flat with the top edge forward; "
                 f"forward from {self.source}; "
-                + ("using the nominal mount" if np.allclose(self.used, MOUNT) else
-                   "using the estimate" if np.allclose(self.used, self.estimated) else "using the --mount choice"))
+                + (f"using the --mount {self.choice} choice" if self.choice != "auto" else
+                   "using the nominal mount" if np.allclose(self.used, MOUNT) else "using the estimate"))
 
 
 def _axes(v: np.ndarray) -> str:
@@ -132,7 +133,7 @@ def estimate_mount(rec: Recording, choice: str = "auto") -> MountEstimate:
     left = np.cross(up, forward)
     estimated = np.vstack([forward, left, up])
     used = {"auto": None, "estimate": estimated, **PRESETS}[choice]
-    result = MountEstimate(estimated, estimated, source, fraction, correlation, warnings)
+    result = MountEstimate(estimated, estimated, source, fraction, correlation, warnings, choice)
     if used is None:
         unusual = result.angle_from_nominal > USUAL_ANGLE
         used = estimated if unusual else MOUNT
