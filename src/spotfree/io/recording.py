@@ -99,7 +99,7 @@ class Recording:
         advice = self.meta.get("missing", {})
         for sensor, channels in (("accelerometer", ACC_CHANNELS), ("gyroscope", GYRO_CHANNELS)):
             if any(c not in self.channels for c in channels) and sensor in advice:
-                raise InputError(f"{self.source}: {advice[sensor]} ({purpose} need it)")
+                raise InputError(f"{self.source}: {advice[sensor]} (needed for {purpose})")
         missing = [c for c in IMU_CHANNELS if c not in self.channels]
         raise InputError(f"{self.source}: no column {', '.join(missing)}; {purpose} need ax ay az (m/s^2, gravity "
                          f"included) and gx gy gz (rad/s)")

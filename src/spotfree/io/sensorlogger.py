@@ -161,7 +161,9 @@ def _recording(sensors: dict[str, _Sensor], source: str, rate: float, max_gap: f
     warnings += _rate_warnings(rec.meta["native_rates"], metadata, source)
     platform = metadata.get("platform", "")
     version = metadata.get("appVersion", "")
+    ios_native = platform == "ios" and metadata.get("standardisation", "").lower() != "true"
     rec.meta.update(repairs=repairs, warnings=warnings, start_epoch=origin, platform=platform, missing=missing,
+                    ios_native=ios_native,
                     format="Sensor Logger export" + (f" {version}" if version else "")
                     + (f" ({'iOS' if platform == 'ios' else 'Android'})" if platform in ("ios", "android") else ""),
                     sensors=[_FILE_WORDS.get(k, k) for k in streams])
