@@ -12,8 +12,9 @@ What the export holds (phyphox-android ``DataExport.java``, phyphox-ios ``Experi
   ``Gyroscope.csv``, ``Linear Acceleration.csv``, ``Location.csv``); iOS's (phyphox-ios
   ``SimpleExperimentData.swift``) name the sensor only in the file name: ``Accelerometer.csv``,
   ``Gyroscope.csv``, ``Linear Accelerometer.csv`` with ``"Time (s)","X (m/s^2)"`` / ``"X (rad/s)"`` headers,
-  and ``Gravity.csv`` with ``"Gravity X (m/s^2)"``. Headers follow the experiment's translation, so only the
-  axis letter and the unit in parentheses are relied on where the English name is not found.
+  and ``Gravity.csv`` with ``"Gravity X (m/s^2)"``. An experiment's ``<translation>`` block replaces any string
+  it lists with the user's language (phyphox file-format documentation, "Tag: string"), export names included, so
+  only the axis letter and the unit in parentheses are relied on where the English name is not found.
 * numbers are written ``0.000000000E0``; a shorter column is padded with ``NaN``.
 * five dialects: comma/decimal point, tab/decimal point, semicolon/decimal point, tab/decimal comma,
   semicolon/decimal comma. The dialect is read from the file (:func:`~spotfree.io.checks.detect_dialect`).
