@@ -1,6 +1,6 @@
 """Inclination error of every spotfree orientation option and its peers on four BROAD trials, in one run.
 
-    python benchmarks/broad_orientation.py [--rates native,20]
+    python benchmarks/broad_orientation.py [--rates native,20] [--out results/broad_orientation.md]
 
 For each trial (``../shared/data/broad``, see ``broad.py``) at the native 285.7 Hz and block-averaged by 14 to
 20.4 Hz, runs
@@ -19,7 +19,12 @@ ratios). A summary says on which trials the default beats each fixed-gain peer a
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
+import sys
 import time
+from datetime import datetime, timezone
+from pathlib import Path
 from typing import Callable
 
 import ahrs
@@ -131,7 +136,26 @@ def evaluate(trials: list[broad.Trial], runner: Runner) -> tuple[np.ndarray, flo
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rates", default="native,20", help="comma list of: native, 20")
+    parser.add_argument("--out", type=Path, default=None, help="also write the command, machine, date and output "
+                        "here (markdown), e.g. results/broad_orientation.md")
     args = parser.parse_args()
+    if args.out is not None:
+        with contextlib.redirect_stdout(io.StringIO()) as captured:
+            _table(args)
+        from orientation_leave_trials_out import machine
+
+        text = (f"# BROAD orientation: every option and its peers\n\nCommand (from `benchmarks/`): `python "
+                f"{' '.join([Path(sys.argv[0]).name, *sys.argv[1:]])}`\n\nMachine: {machine()}. Date: "
+                f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC.\n\n{captured.getvalue()}")
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(text)
+        print(text)
+        return
+    _table(args)
+
+
+def _table(args: argparse.Namespace) -> None:
+    """Print the table and the summary for ``args.rates``."""
     native = [broad.load_trial(name) for name in broad.TRIALS]
     sets = {"native": native, "20": [broad.block_average(t) for t in native]}
     names = [name[:2] for name in broad.TRIALS]

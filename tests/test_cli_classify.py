@@ -6,6 +6,7 @@ import pytest
 from typer.testing import CliRunner
 
 from spotfree.cli import app
+from spotfree.io import read_recording
 from spotfree.io.csvlog import write_csv
 from spotfree.pipeline import feature_recording
 from spotfree.sim.scenarios import simulate_scenario
@@ -150,3 +151,39 @@ def test_bad_input_is_one_line_and_exit_2_and_writes_nothing(folder, case):
                 "edges-alone": "--edges pitch_rate: the model runs no event vote"}[case]
     assert pd.Series(lines).str.contains(expected).any(), result.output
     assert not (folder / f"bad_{case}.csv").exists()
+
+
+def test_a_phone_upright_in_a_holder_gets_the_flat_phones_labels_and_the_mount_is_said(folder, tmp_path):
+    ride = read_recording(folder / "ride.csv")
+    q = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])  # flat -> upright, screen to the rider
+    channels = dict(ride.channels)
+    for names in (["ax", "ay", "az"], ["gx", "gy", "gz"]):
+        channels.update(zip(names, (ride.array(names) @ q.T).T))
+    write_csv(ride.with_channels(channels), tmp_path / "upright.csv")
+    result = runner.invoke(app, ["classify", str(folder / "model.npz"), str(tmp_path / "upright.csv"), "-o",
+                                 str(tmp_path / "upright_labels.csv")])
+    assert result.exit_code == 0, result.output
+    assert "mount: up is" in result.stderr and "using the estimate" in result.stderr
+    invoke("classify", folder / "model.npz", folder / "ride.csv", "-o", tmp_path / "flat_labels.csv")
+    upright = pd.read_csv(tmp_path / "upright_labels.csv", keep_default_na=False)["label"]
+    flat = pd.read_csv(tmp_path / "flat_labels.csv", keep_default_na=False)["label"]
+    assert (upright == flat).mean() > 0.95
+    forced = runner.invoke(app, ["classify", str(folder / "model.npz"), str(tmp_path / "upright.csv"), "-o",
+                                 str(tmp_path / "forced.csv"), "--mount", "flat"])
+    assert forced.exit_code == 0 and "using the --mount flat choice" in forced.stderr
+
+
+def test_a_sensor_logger_export_without_gyroscope_is_refused_in_the_apps_terms(folder, tmp_path):
+    ride = read_recording(folder / "ride.csv").select_experiment(1)
+    export = tmp_path / "export"
+    export.mkdir()
+    t = ride.time - ride.time[0]
+    acc = ride.array(["ax", "ay", "az"])
+    pd.DataFrame({"time": 1_700_000_000_000_000_000 + np.round(t * 1e9).astype(np.int64), "seconds_elapsed": t,
+                  "z": acc[:, 2], "y": acc[:, 1], "x": acc[:, 0]}).to_csv(export / "TotalAcceleration.csv", index=False)
+    pd.DataFrame([{"platform": "android", "appVersion": "1.40"}]).to_csv(export / "Metadata.csv", index=False)
+    result = runner.invoke(app, ["classify", str(folder / "model.npz"), str(export), "-o", str(tmp_path / "l.csv")])
+    assert result.exit_code == 2
+    errors = [line for line in result.output.splitlines() if line.strip()]
+    assert len(errors) == 1 and "no Gyroscope.csv: enable Gyroscope in Sensor Logger" in errors[0]
+    assert "give the raw IMU log" not in result.output

@@ -10,6 +10,7 @@ import pytest
 from spotfree.errors import InputError
 from spotfree.io import detect_format, read_recording
 from spotfree.io.sensorlogger import read_sensorlogger
+from spotfree.signal.features import ride_features
 from spotfree.signal.frame import GRAVITY
 
 T0_NS = 1_700_000_000_123_456_789
@@ -170,9 +171,32 @@ def test_split_acceleration_without_metadata_is_refused(tmp_path):
         read_sensorlogger(folder)
 
 
-def test_acceleration_without_gravity_is_refused(tmp_path):
-    with pytest.raises(InputError, match="Accelerometer.csv holds acceleration without gravity"):
-        read_sensorlogger(export(tmp_path / "lin", acceleration="linear-only"))
+def test_acceleration_without_gravity_is_read_but_refused_for_features_in_the_apps_terms(tmp_path):
+    rec = read_sensorlogger(export(tmp_path / "lin", acceleration="linear-only"))
+    assert "ax" not in rec.channels and "gx" in rec.channels
+    with pytest.raises(InputError, match="Accelerometer.csv holds acceleration without gravity .*enable Gravity in "
+                                         "Sensor Logger"):
+        ride_features(rec)
+
+
+def test_a_missing_gyroscope_is_named_with_the_app_setting(tmp_path):
+    folder = export(tmp_path / "nogyro")
+    (folder / "Gyroscope.csv").unlink()
+    rec = read_recording(folder)
+    with pytest.raises(InputError, match=r"nogyro: this export has no Gyroscope\.csv: enable Gyroscope in Sensor "
+                                         r"Logger"):
+        ride_features(rec)
+
+
+def test_empty_and_unused_files_are_notes_not_errors(tmp_path):
+    folder = export(tmp_path / "notes")
+    (folder / "AccelerometerUncalibrated.csv").write_text("")  # the app writes it routinely, 0 bytes
+    (folder / "Location.csv").write_text("time,seconds_elapsed,bearingAccuracy,speedAccuracy,verticalAccuracy,"
+                                         "horizontalAccuracy,speed,bearing,altitude,longitude,latitude\n")
+    rec = read_recording(folder)
+    assert rec.has_imu and "speed" not in rec.channels
+    assert any("AccelerometerUncalibrated.csv: empty file" in r for r in rec.meta["repairs"])
+    assert any("Location.csv: no fix" in r for r in rec.meta["repairs"])
 
 
 def test_a_missing_column_names_the_file_and_the_column(tmp_path):
@@ -191,11 +215,13 @@ def test_a_non_numeric_cell_names_the_file_column_and_line(tmp_path):
         read_sensorlogger(folder)
 
 
-def test_an_empty_sensor_file_is_refused(tmp_path):
+def test_an_empty_gyroscope_file_is_a_note_and_then_the_missing_sensor(tmp_path):
     folder = export(tmp_path / "empty")
     (folder / "Gyroscope.csv").write_text("")
-    with pytest.raises(InputError, match=r"Gyroscope\.csv: the file is empty"):
-        read_sensorlogger(folder)
+    rec = read_sensorlogger(folder)
+    assert any("Gyroscope.csv: empty file" in r for r in rec.meta["repairs"])
+    with pytest.raises(InputError, match=r"no Gyroscope\.csv: enable Gyroscope"):
+        rec.require_imu()
 
 
 def test_accelerations_in_g_are_refused(tmp_path):

@@ -48,8 +48,38 @@ def user_errors(command: Callable) -> Callable:
     return wrapper
 
 
+def _read_log(source: str, rate: float):
+    """The log ``source`` read at ``rate`` Hz (marked so that :func:`_report_repairs_and_gaps` describes it)."""
+    from spotfree.io import read_recording
+
+    rec = read_recording(source, rate=rate)
+    rec.meta["describe"] = True
+    return rec
+
+
+def _mount_choice(rec, mount: str):
+    """Record the ``--mount`` choice in ``rec`` for the ride features and return the mount estimate of a raw IMU
+    log (None for a log of feature channels)."""
+    from spotfree.signal.mount import estimate_mount
+
+    rec.meta["mount_choice"] = mount
+    return estimate_mount(rec, mount) if rec.has_imu else None
+
+
+def _report_mount(line: str, warnings: list[str]) -> None:
+    """The mount that features used, and any doubt about it, on stderr."""
+    err.print(line)
+    for warning in warnings:
+        err.print(f"warning: {warning}")
+
+
 def _report_repairs_and_gaps(rec) -> None:
-    """Tell the user every repair a reader made and every gap it found (never silently)."""
+    """Tell the user what was read (for a sensor log), every repair a reader made and every gap it found (never
+    silently); called once the command succeeded, so that a refusal stays one line."""
+    from spotfree.io import describe
+
+    if rec.meta.get("describe"):
+        err.print(f"read: {describe(rec)}")
     for repair in rec.meta.get("repairs", []):
         err.print(f"note: {repair}")
     for warning in rec.meta.get("warnings", []):
@@ -89,16 +119,30 @@ def features(
     orientation: str = typer.Option("default", "--orientation", help="default | paper | vqf"),
     rate: float = typer.Option(20.0, "--rate", help="grid rate for logs that are not uniform, Hz"),
     zero_phase: bool = typer.Option(False, "--zero-phase", help="offline zero-phase Butterworth on accelerations"),
+    mount: str = typer.Option("auto", "--mount", help="device-to-vehicle mount: auto (estimated from the log; the "
+                              "nominal flat mount when the estimate is within 15 deg of it), estimate (always the "
+                              "estimate), flat (on the handlebar, screen up, top edge forward), upright (in a holder, "
+                              "portrait, screen towards the rider)"),
 ) -> None:
-    """Roll, pitch, pitch rate and gravity-free vehicle-frame accelerations from a raw IMU log."""
-    from spotfree.io import read_recording
+    """Vehicle roll, pitch, pitch rate and gravity-free vehicle-frame accelerations from a raw IMU log (from a
+    GPS-only track: speed, distance and the GPS longitudinal acceleration)."""
     from spotfree.io.csvlog import write_csv
     from spotfree.signal.features import ride_features
+    from spotfree.signal.gps import GPS_FEATURES, gps_features, has_gps
 
-    rec = read_recording(source, rate=rate)
-    feats = ride_features(rec, orientation=orientation, zero_phase=zero_phase)
+    rec = _read_log(source, rate)
+    if not any(c in rec.channels for c in ("ax", "gx")) and has_gps(rec):
+        feats = gps_features(rec)
+        write_csv(feats, output, truth=False)
+        _report_repairs_and_gaps(rec)
+        out.print(f"wrote {output}: {len(feats)} samples of GPS features ({', '.join(GPS_FEATURES)}) only: "
+                  f"{rec.source} has no motion sensors, and roll, pitch and the accelerations need the "
+                  f"accelerometer and gyroscope")
+        return
+    feats = ride_features(rec, orientation=orientation, zero_phase=zero_phase, mount=mount)
     write_csv(feats, output, truth=False)
     _report_repairs_and_gaps(rec)
+    _report_mount(feats.meta["mount"], feats.meta["mount_warnings"])
     out.print(f"wrote {output}: {len(feats)} samples, orientation '{orientation}'")
 
 
@@ -332,13 +376,16 @@ def classify(
                                     "(its units; yaw_rate=0.09 for the lateral model)"),
     offline: bool = typer.Option(False, "--offline", help="each model's offline votes stored in its file ('spotfree "
                                  "votes'), instead of the vote options"),
+    mount: str = typer.Option("auto", "--mount", help="device-to-vehicle mount: auto (estimated from the log; the "
+                              "nominal flat mount when the estimate is within 15 deg of it), estimate (always the "
+                              "estimate), flat (on the handlebar, screen up, top edge forward), upright (in a holder, "
+                              "portrait, screen towards the rider)"),
 ) -> None:
     """Label every sample of a log with a trained model, or with several models at once (one feature pass)."""
     from spotfree.classify.batch import classify_recording
     from spotfree.classify.multi import model_names, model_penalties
     from spotfree.classify.segments import edge_levels
     from spotfree.classify.votes import stored_votes
-    from spotfree.io import read_recording
     from spotfree.model import DictionaryModel
 
     if len(paths) < 2:
@@ -353,15 +400,20 @@ def classify(
             "events": tuple(events), "edges": edge_levels(edges)}
     if len(model_paths) > 1:
         _classify_several(dict(zip(names, model_paths)), source, output, method, centred, smooth,
-                          None if offline else vote)
+                          None if offline else vote, mount)
         return
     dictionary = DictionaryModel.load(model_paths[0])
     if offline:
         vote = stored_votes(dictionary)
-    rec = read_recording(source, rate=dictionary.rate)
+    rec = _read_log(source, dictionary.rate)
+    if dictionary.features == "ride" and not rec.has_imu and not set(dictionary.channels) <= set(rec.channels):
+        rec.require_imu("the model's ride features")
+    estimate = _mount_choice(rec, mount)
     labels = classify_recording(dictionary, rec, method=method, centred=centred, smoothing=smooth, **vote)
     labels.write_csv(output)
     _report_repairs_and_gaps(rec)
+    if estimate is not None:
+        _report_mount(estimate.describe(), estimate.warnings)
     window = f"{dictionary.window} samples = {dictionary.window / dictionary.rate:.2f} s"
     where = f"centred on it (offset {labels.meta['offset']} samples)" if centred else "ending at it"
     out.print(f"wrote {output}: {int(labels.labelled().sum())} of {len(labels)} samples labelled by {method}; "
@@ -397,21 +449,26 @@ def _vote_note(vote: dict) -> str:
 
 
 def _classify_several(model_paths: dict[str, str], source: str, output: Path, method: str, centred: bool,
-                      smooth: int, vote: dict | None) -> None:
+                      smooth: int, vote: dict | None, mount: str = "auto") -> None:
     """``classify`` with several models (``model_paths``: file by name): one label column per model, see
-    :mod:`spotfree.classify.multi`; ``vote`` None: each model's stored votes."""
+    :mod:`spotfree.classify.multi`; ``vote`` None: each model's stored votes; ``mount`` the ``--mount`` choice."""
     from spotfree.classify.multi import classify_models, write_labels
     from spotfree.classify.votes import stored_votes
-    from spotfree.io import read_recording
     from spotfree.model import DictionaryModel
 
     models = {name: DictionaryModel.load(path) for name, path in model_paths.items()}
     stored = None if vote else {name: stored_votes(model) for name, model in models.items()}
-    rec = read_recording(source, rate=next(iter(models.values())).rate)
+    rec = _read_log(source, next(iter(models.values())).rate)
+    if not rec.has_imu and any(m.features == "ride" and not set(m.channels) <= set(rec.channels)
+                               for m in models.values()):
+        rec.require_imu("the models' ride features")
+    estimate = _mount_choice(rec, mount)
     table = classify_models(models, rec, method=method, centred=centred, smoothing=smooth,
                             **({"votes": stored} if stored else vote))
     write_labels(table, output)
     _report_repairs_and_gaps(rec)
+    if estimate is not None:
+        _report_mount(estimate.describe(), estimate.warnings)
     windows = ", ".join(f"{name} {m.window} samples" for name, m in models.items())
     out.print(f"wrote {output}: {len(table)} samples, one label column per model ({', '.join(models)}) by {method}; "
               f"windows {'centred on' if centred else 'ending at'} each sample: {windows}"

@@ -12,6 +12,8 @@ and picks the reader from the path and, where the extension does not settle it, 
 
 from pathlib import Path
 
+import numpy as np
+
 from spotfree.errors import InputError
 from spotfree.io.checks import Archive
 from spotfree.io.csvlog import read_csv, write_csv
@@ -22,7 +24,7 @@ from spotfree.io.resample import Stream, merge_streams
 from spotfree.io.sensorlogger import is_sensorlogger_table, read_sensorlogger
 
 __all__ = [
-    "Gap", "Recording", "Stream", "detect_format", "merge_streams", "read_csv", "read_gpx", "read_phyphox",
+    "Gap", "Recording", "Stream", "describe", "detect_format", "merge_streams", "read_csv", "read_gpx", "read_phyphox",
     "read_recording", "read_sensorlogger", "write_csv", "write_gpx",
 ]
 
@@ -40,6 +42,20 @@ def read_recording(spec: str | Path, rate: float = 20.0, max_gap: float = 0.5) -
         reader = {"csv": read_csv, "sensorlogger": read_sensorlogger, "phyphox": read_phyphox}[kind]
         rec = reader(path, rate=rate, max_gap=max_gap)
     return rec if experiment is None else rec.select_experiment(experiment)
+
+
+_SENSOR_CHANNELS = (("accelerometer", "ax"), ("gyroscope", "gx"), ("GPS", "lat"), ("GPS speed", "speed"))
+
+
+def describe(rec: Recording) -> str:
+    """One line on what was read: the format, the sensors, each sensor's native rate (Hz), the duration (s) and
+    the gaps (count and total seconds)."""
+    sensors = rec.meta.get("sensors") or [name for name, channel in _SENSOR_CHANNELS if channel in rec.channels]
+    rates = {k: r for k, r in rec.meta.get("native_rates", {}).items() if np.isfinite(r)}
+    native = (", ".join(f"{k} {r:.3g} Hz" for k, r in rates.items()) if rates else f"{rec.rate:g} Hz")
+    gaps = f"{len(rec.gaps)} gap(s), {sum(g.duration for g in rec.gaps):.1f} s in all" if rec.gaps else "no gaps"
+    return (f"{rec.source}: {rec.meta.get('format', 'CSV log')}; sensors: {', '.join(sensors) or 'none'}; "
+            f"native rate: {native}; {rec.duration:.1f} s on a {rec.rate:g} Hz grid; {gaps}")
 
 
 def detect_format(path: str | Path) -> str:

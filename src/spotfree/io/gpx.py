@@ -71,7 +71,10 @@ def read_gpx(path: str | Path, rate: float = 20.0) -> Recording:
         raise InputError(f"{source}: fewer than two timed points; a track needs at least two")
     origin = float(t[0])
     rec = merge_streams({"gpx": Stream(t - origin, values, CHANNELS)}, rate=rate, source=source)
-    rec.meta.update(repairs=repairs, warnings=[], start_epoch=origin)
+    advice = ("a GPX track holds GPS fixes only, no motion sensors; record the ride with a phone app that logs the "
+              "accelerometer and gyroscope (Sensor Logger, phyphox)")
+    rec.meta.update(repairs=repairs, warnings=[], start_epoch=origin, format="GPX track", sensors=["GPS"],
+                    missing={"accelerometer": advice, "gyroscope": advice})
     return rec
 
 

@@ -2,29 +2,39 @@
 
 What the export holds (phyphox-android ``DataExport.java``, phyphox-ios ``ExperimentSensorInput.swift``):
 
-* the zip has one CSV per export set (``Accelerometer.csv``, ``Gyroscope.csv``, ``Location.csv``, ...) plus
-  ``meta/device.csv`` and ``meta/time.csv`` (events with ``experiment time`` and ``system time`` in UNIX s);
-  the "minimal" export is a single CSV.
-* header names are quoted and carry their unit: ``"Time (s)","Acceleration x (m/s^2)", ...``,
-  ``"Gyroscope x (rad/s)"``, ``"Latitude (°)","Longitude (°)","Height (m)","Velocity (m/s)","Direction (°)",
-  "Horizontal Accuracy (m)"``; ``"Linear Acceleration x (m/s^2)"`` is acceleration without g.
+* the zip has one CSV per export set plus ``meta/device.csv`` and ``meta/time.csv`` (events with
+  ``experiment time`` and ``system time`` in UNIX s); the "minimal" export is a single CSV.
+* built-in experiments name the sensor in the header (their one set is ``Raw Data.csv``, e.g. phyphox-android
+  ``assets/experiments/gyroscope.phyphox``): ``"Time (s)","Gyroscope x (rad/s)"``, ``"Acceleration x (m/s^2)"``,
+  ``"Linear Acceleration x (m/s^2)"`` (without g), ``"Latitude (°)","Longitude (°)","Height (m)",
+  "Velocity (m/s)","Direction (°)","Horizontal Accuracy (m)"``. Android's simple experiments (phyphox-android
+  ``SimpleExperimentCreator.java``) write one file per sensor with these headers (``Accelerometer.csv``,
+  ``Gyroscope.csv``, ``Linear Acceleration.csv``, ``Location.csv``); iOS's (phyphox-ios
+  ``SimpleExperimentData.swift``) name the sensor only in the file name: ``Accelerometer.csv``,
+  ``Gyroscope.csv``, ``Linear Accelerometer.csv`` with ``"Time (s)","X (m/s^2)"`` / ``"X (rad/s)"`` headers,
+  and ``Gravity.csv`` with ``"Gravity X (m/s^2)"``. An experiment's ``<translation>`` block replaces any string
+  it lists with the user's language (phyphox file-format documentation, "Tag: string"), export names included, so
+  only the axis letter and the unit in parentheses are relied on where the English name is not found.
 * numbers are written ``0.000000000E0``; a shorter column is padded with ``NaN``.
 * five dialects: comma/decimal point, tab/decimal point, semicolon/decimal point, tab/decimal comma,
   semicolon/decimal comma. The dialect is read from the file (:func:`~spotfree.io.checks.detect_dialect`).
 * phyphox converts iOS readings itself (CoreMotion g times -9.81), so both platforms export m/s^2 in Android's
   sign convention: a phone lying face up reads +9.81 m/s^2 on z.
 
-Columns are recognised by name and unit; a ``Time`` column starts a new stream (a set may hold several sensors,
-each with its own time column). Units are converted to SI (``g`` -> m/s^2, deg/s -> rad/s, km/h -> m/s, direction
-in degrees -> heading in rad). Acceleration with g is required for ``ax ay az``; a set holding only linear
-acceleration is refused. ``meta['start_epoch']`` is the UNIX time of experiment time zero when ``meta/time.csv``
-gives it.
+A column whose unit is seconds starts a new stream (a set may hold several sensors, each with its own time
+column). An axis column (its header has a lone ``x``, ``y`` or ``z`` and a unit) in m/s^2 or g is an
+acceleration, in rad/s or deg/s a rotation rate (device frame, converted to rad/s). Which acceleration it is comes
+from the header or the file name (``linear`` = without g, ``gravity`` = the gravity estimate); when neither says,
+from the data: a median magnitude above half of g means gravity is included. Without an acceleration with g,
+Linear Acceleration + Gravity give it. What is missing for the ride features is kept, in phyphox's terms, in
+``meta['missing']``; an export with no motion or location columns at all is refused. ``meta['start_epoch']`` is
+the UNIX time of experiment time zero when ``meta/time.csv`` gives it.
 """
 
 from __future__ import annotations
 
 import re
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
 import numpy as np
 
@@ -35,19 +45,19 @@ from spotfree.io.resample import Stream, merge_streams
 from spotfree.signal.frame import GRAVITY
 
 _TIME = re.compile(r"^\W*time\b", re.IGNORECASE)
-_COLUMNS = [
-    (re.compile(r"^linear acceleration ([xyz])\b", re.I), "Linear Acceleration", "a{}", "m/s^2"),
-    (re.compile(r"^acceleration ([xyz])\b", re.I), "Accelerometer", "a{}", "m/s^2"),
-    (re.compile(r"^gyroscope ([xyz])\b", re.I), "Gyroscope", "g{}", "rad/s"),
-    (re.compile(r"^latitude\b", re.I), "Location", "lat", "°"),
-    (re.compile(r"^longitude\b", re.I), "Location", "lon", "°"),
-    (re.compile(r"^(height|altitude)\b", re.I), "Location", "alt", "m"),
-    (re.compile(r"^(velocity|speed)\b", re.I), "Location", "speed", "m/s"),
-    (re.compile(r"^direction\b", re.I), "Location", "heading", "°"),
-    (re.compile(r"^horizontal accuracy\b", re.I), "Location", "gps_accuracy", "m"),
+_AXIS = re.compile(r"(?:^|[\s_])([xyz])(?=$|[\s_(])", re.IGNORECASE)
+_LOCATION = [
+    (re.compile(r"^latitude\b", re.I), "lat", "°"),
+    (re.compile(r"^longitude\b", re.I), "lon", "°"),
+    (re.compile(r"^(height|altitude)\b", re.I), "alt", "m"),
+    (re.compile(r"^(velocity|speed)\b", re.I), "speed", "m/s"),
+    (re.compile(r"^direction\b", re.I), "heading", "°"),
+    (re.compile(r"^horizontal accuracy\b", re.I), "gps_accuracy", "m"),
 ]
-"""Header pattern -> (stream, channel, unit when the header gives none); ``{}`` takes the axis letter."""
+"""Location header pattern -> (channel, unit when the header gives none)."""
 
+_ACCELERATION_UNITS = ("m/s^2", "m/s²", "m/s2", "g")
+_ROTATION_UNITS = ("rad/s", "°/s", "deg/s")
 _UNITS = {
     "s": 1.0, "ms": 1e-3,
     "m/s^2": 1.0, "m/s²": 1.0, "m/s2": 1.0, "g": GRAVITY,
@@ -56,11 +66,20 @@ _UNITS = {
 }
 """Unit in a header -> factor to SI (headings in degrees are converted to rad separately)."""
 
+WITH_G_MIN = 0.5 * GRAVITY
+"""An unnamed acceleration whose median magnitude (m/s^2) is above this includes gravity."""
+
+ACCELEROMETER, LINEAR, GRAVITY_SET, GYROSCOPE, LOCATION = (
+    "Accelerometer", "Linear Acceleration", "Gravity", "Gyroscope", "Location")
+_SENSOR_WORDS = {ACCELEROMETER: "acceleration with g", LINEAR: "linear acceleration (without g)",
+                 GRAVITY_SET: "gravity", GYROSCOPE: "gyroscope", LOCATION: "location"}
+
 
 def is_phyphox_table(text: str) -> bool:
-    """True when the first header cell of CSV text is a phyphox time column such as ``"Time (s)"``."""
+    """True when the first header cell of CSV text is a phyphox time column: ``"Time (s)"``, or any quoted name
+    in seconds such as a translated ``"Zeit (s)"`` (phyphox quotes every header)."""
     first = text.lstrip("\ufeff").split("\n", 1)[0]
-    return bool(re.match(r'^\s*"?time \((m?s)\)"?\s*(?:[,;\t]|$)', first, re.IGNORECASE))
+    return bool(re.match(r'^\s*(?:"?time \((m?s)\)"?|"[^",;\t]*\((m?s)\)")\s*(?:[,;\t]|$)', first, re.IGNORECASE))
 
 
 def read_phyphox(path: str | Path, rate: float = 20.0, max_gap: float = 0.5) -> Recording:
@@ -73,7 +92,7 @@ def read_phyphox(path: str | Path, rate: float = 20.0, max_gap: float = 0.5) -> 
     if path.is_dir() or path.suffix.lower() == ".zip":
         with checks.Archive(path) as archive:
             tables = [
-                (archive.label(m), archive.read_text(m))
+                (archive.label(m), PurePosixPath(m).stem, archive.read_text(m))
                 for m in archive.members
                 if m.lower().endswith(".csv") and not m.lower().startswith("meta/") and "/meta/" not in m.lower()
             ]
@@ -81,48 +100,79 @@ def read_phyphox(path: str | Path, rate: float = 20.0, max_gap: float = 0.5) -> 
             if time_member is not None and "meta" in time_member.lower():
                 start_epoch = _start_epoch(archive.read_text(time_member), archive.label(time_member), warnings)
     else:
-        tables = [(source, checks.read_text(path))]
+        tables = [(source, path.stem, checks.read_text(path))]
     streams: dict[str, Stream] = {}
-    for label, text in tables:
-        for key, stream in _streams(text, label, repairs):
+    for label, set_name, text in tables:
+        if not text.strip():
+            repairs.append(f"{label}: empty file, not used")
+            continue
+        for key, stream in _streams(text, label, set_name, repairs):
             if key in streams:
-                warnings.append(f"{label}: a second '{key}' stream; kept the first one")
+                warnings.append(f"{label}: a second {_SENSOR_WORDS[key]} stream; kept the first one")
             else:
                 streams[key] = stream
-    if "Accelerometer" in streams:
-        streams.pop("Linear Acceleration", None)
-    elif "Linear Acceleration" in streams:
-        raise InputError(
-            f"{source}: holds only 'Linear Acceleration' (without g); record with phyphox's "
-            f"'Acceleration (with g)' sensor"
-        )
-    if not any(k in streams for k in ("Accelerometer", "Gyroscope")):
-        raise InputError(
-            f"{source}: no acceleration or gyroscope columns (expected headers like \"Time (s)\", "
-            f"\"Acceleration x (m/s^2)\", \"Gyroscope x (rad/s)\"); export the raw sensor data from phyphox"
-        )
+    _total_from_parts(streams, source, repairs)
+    streams.pop(GRAVITY_SET, None)
+    missing = _missing(streams)
+    if not any(k in streams for k in (ACCELEROMETER, GYROSCOPE, LOCATION)):
+        raise InputError(f"{source}: " + (missing["accelerometer"] if LINEAR in streams else
+                         "no acceleration, gyroscope or location columns (headers like \"Time (s)\", "
+                         "\"Acceleration x (m/s^2)\", \"X (rad/s)\"); in phyphox, record Acceleration (with g) "
+                         "and Gyroscope, e.g. ticked in a simple experiment"))
+    streams.pop(LINEAR, None)
     rec = merge_streams(streams, rate=rate, max_gap=max_gap, source=source)
-    if "Accelerometer" in streams:
+    if ACCELEROMETER in streams:
         checks.check_acceleration_units(rec.array(["ax", "ay", "az"]), source, "'Acceleration x/y/z'")
-    rec.meta.update(repairs=repairs, warnings=warnings)
+    rec.meta.update(repairs=repairs, warnings=warnings, format="phyphox export", missing=missing,
+                    sensors=[_SENSOR_WORDS[k] for k in streams])
     if start_epoch is not None:
         rec.meta["start_epoch"] = start_epoch
     return rec
 
 
-def _streams(text: str, label: str, repairs: list[str]) -> list[tuple[str, Stream]]:
+def _missing(streams: dict[str, Stream]) -> dict[str, str]:
+    """What the ride features need and the export lacks, said in phyphox's terms (see :func:`checks.require_imu`)."""
+    missing = {}
+    if ACCELEROMETER not in streams:
+        missing["accelerometer"] = (
+            "this phyphox export holds linear acceleration (without g) but no acceleration with g; record with "
+            "the 'Acceleration (with g)' experiment, or tick Accelerometer in a simple experiment"
+            if LINEAR in streams else
+            "this phyphox export has no acceleration with g; record with the 'Acceleration (with g)' experiment, "
+            "or tick Accelerometer in a simple experiment")
+    if GYROSCOPE not in streams:
+        missing["gyroscope"] = ("this phyphox export has no gyroscope; record with the 'Gyroscope (rotation rate)' "
+                                "experiment together with acceleration, or tick Gyroscope in a simple experiment")
+    return missing
+
+
+def _total_from_parts(streams: dict[str, Stream], source: str, repairs: list[str]) -> None:
+    """Acceleration with g as Linear Acceleration + Gravity (interpolated onto its times) when only those exist."""
+    if ACCELEROMETER in streams or LINEAR not in streams or GRAVITY_SET not in streams:
+        return
+    linear, gravity = streams[LINEAR], streams[GRAVITY_SET]
+    inside = (linear.time >= gravity.time[0]) & (linear.time <= gravity.time[-1])
+    if inside.sum() < 2:
+        return
+    t = linear.time[inside]
+    total = linear.values[inside] + np.column_stack([np.interp(t, gravity.time, g) for g in gravity.values.T])
+    streams[ACCELEROMETER] = Stream(t, total, ("ax", "ay", "az"))
+    repairs.append(f"{source}: acceleration with g taken as Linear Acceleration + Gravity")
+
+
+def _streams(text: str, label: str, set_name: str, repairs: list[str]) -> list[tuple[str, Stream]]:
     """The streams of one CSV: each time column with the recognised columns after it, in SI units."""
     sep, decimal = checks.detect_dialect(text)
     table = checks.read_table(text, label, sep, unique=False)
     groups: list[tuple[str, list[str]]] = []
     for column in table.columns:
-        if _TIME.match(column):
+        if _TIME.match(column) or _unit(column, "") in ("s", "ms"):
             groups.append((column, []))
         elif groups:
             groups[-1][1].append(column)
     out = []
     for time_column, columns in groups:
-        recognised = [(c, *_meaning(c, label)) for c in columns]
+        recognised = [(c, *_meaning(c, set_name, label)) for c in columns]
         recognised = [r for r in recognised if r[1] is not None]
         if not recognised:
             continue
@@ -132,28 +182,65 @@ def _streams(text: str, label: str, repairs: list[str]) -> list[tuple[str, Strea
         t = checks.numbers(table, time_column, label, decimal) * _factor(time_column, "s", label)
         padded = np.flatnonzero(np.isfinite(t))
         t = t[: padded[-1] + 1] if len(padded) else t
-        motion = any(r[1] != "Location" for r in recognised)
+        if not len(t):
+            repairs.append(f"{label}: no samples under {time_column!r}, not used")
+            continue
+        motion = any(r[1] != LOCATION for r in recognised)
         checks.check_time(t, label, time_column, min_rate=checks.MIN_MOTION_RATE if motion else checks.MIN_RATE)
         for key in dict.fromkeys(r[1] for r in recognised):
             part = [r for r in recognised if r[1] == key]
-            values = np.column_stack([checks.numbers(table, c, label, decimal)[: len(t)] * f for c, _, _, f in part])
             names = tuple(name for _, _, name, _ in part)
+            if key != LOCATION and sorted(names) != sorted({n[0] + a for n in names for a in "xyz"}):
+                continue  # not a whole x, y, z triple
+            values = np.column_stack([checks.numbers(table, c, label, decimal)[: len(t)] * f for c, _, _, f in part])
+            order = np.argsort(names) if key != LOCATION else np.arange(len(names))
+            values, names = values[:, order], tuple(names[i] for i in order)
             keep = checks.order_and_deduplicate(t, values, label, time_column, repairs)
+            if key == "acceleration":
+                key = _with_or_without_g(values[keep], label, repairs)
             out.append((key, Stream(t[keep], values[keep], names)))
     return out
 
 
-def _meaning(column: str, label: str) -> tuple[str | None, str | None, float]:
-    """``(stream, channel, factor to SI)`` of a header, or ``(None, None, 1)`` for columns not used."""
-    for pattern, stream, channel, default in _COLUMNS:
-        match = pattern.match(column.strip())
-        if match:
-            name = channel.format(match.group(1).lower()) if "{}" in channel else channel
+def _meaning(column: str, set_name: str, label: str) -> tuple[str | None, str | None, float]:
+    """``(stream, channel, factor to SI)`` of a header, or ``(None, None, 1)`` for columns not used.
+
+    The stream of an acceleration is ``'acceleration'`` when neither the header nor ``set_name`` (the file name)
+    says whether gravity is in it; the data decide (:func:`_with_or_without_g`)."""
+    name = column.strip()
+    for pattern, channel, default in _LOCATION:
+        if pattern.match(name):
             factor = _factor(column, default, label)
-            if name == "heading" and _unit(column, default) in ("°", "deg"):
+            if channel == "heading" and _unit(column, default) in ("°", "deg"):
                 factor *= np.pi / 180
-            return stream, name, factor
-    return None, None, 1.0
+            return LOCATION, channel, factor
+    axis = _AXIS.search(re.sub(r"\([^()]*\)", " ", name))
+    unit = _unit(column, "")
+    if axis is None or not unit:
+        return None, None, 1.0
+    words = f"{name} {set_name}".lower()
+    if unit in _ROTATION_UNITS:
+        stream, prefix = GYROSCOPE, "g"
+    elif unit in _ACCELERATION_UNITS and "magnet" not in words:
+        stream, prefix = ("acceleration" if not re.search(r"linear|gravity|acceleration|accelerometer", words)
+                          else LINEAR if "linear" in words else GRAVITY_SET if "gravity" in words
+                          else ACCELEROMETER), "a"
+    else:
+        if re.search(r"accelera|gyro", name, re.I):
+            _factor(column, "", label)  # an acceleration or rotation rate in a unit not understood: refused
+        return None, None, 1.0
+    return stream, prefix + axis.group(1).lower(), _factor(column, "", label)
+
+
+def _with_or_without_g(values: np.ndarray, label: str, repairs: list[str]) -> str:
+    """Accelerometer or Linear Acceleration for an acceleration its header does not name, from its magnitude."""
+    norm = np.linalg.norm(values, axis=1)
+    norm = norm[np.isfinite(norm)]
+    with_g = bool(len(norm)) and float(np.median(norm)) > WITH_G_MIN
+    repairs.append(f"{label}: the header does not say whether gravity is included; its median magnitude "
+                   f"{float(np.median(norm)) if len(norm) else float('nan'):.2f} m/s^2 says "
+                   f"{'it is' if with_g else 'it is not'}")
+    return ACCELEROMETER if with_g else LINEAR
 
 
 def _unit(column: str, default: str) -> str:

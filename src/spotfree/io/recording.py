@@ -91,6 +91,19 @@ class Recording:
         """True when the six raw IMU channels are present."""
         return all(c in self.channels for c in IMU_CHANNELS)
 
+    def require_imu(self, purpose: str = "the ride features") -> None:
+        """Raise an InputError unless the six raw IMU channels are present; its one line names what is missing
+        in the recording app's terms when the reader said so (``meta['missing']``: sensor -> advice)."""
+        if self.has_imu:
+            return
+        advice = self.meta.get("missing", {})
+        for sensor, channels in (("accelerometer", ACC_CHANNELS), ("gyroscope", GYRO_CHANNELS)):
+            if any(c not in self.channels for c in channels) and sensor in advice:
+                raise InputError(f"{self.source}: {advice[sensor]} (needed for {purpose})")
+        missing = [c for c in IMU_CHANNELS if c not in self.channels]
+        raise InputError(f"{self.source}: no column {', '.join(missing)}; {purpose} need ax ay az (m/s^2, gravity "
+                         f"included) and gx gy gz (rad/s)")
+
     def array(self, names: list[str] | tuple[str, ...] | None = None) -> np.ndarray:
         """Channels stacked as an ``(n, len(names))`` float array (all channels when ``names`` is None)."""
         names = self.names if names is None else list(names)

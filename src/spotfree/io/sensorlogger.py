@@ -62,10 +62,13 @@ class _Sensor:
         self.table, self.label = table, label
 
     def times(self, min_rate: float = checks.MIN_MOTION_RATE) -> np.ndarray:
-        """Sample times in UNIX seconds (``time`` is in ns), checked for their unit."""
-        self._require("time")
-        seconds = checks.numbers(self.table, "time", self.label) * 1e-9
-        checks.check_time(seconds, self.label, "time", min_rate=min_rate)
+        """Sample times in UNIX seconds (``time`` is in ns), checked for their unit; a file without ``time``
+        gives ``seconds_elapsed`` (s since the recording started, the same origin in every file)."""
+        column, scale = ("time", 1e-9) if "time" in self.table.columns or "seconds_elapsed" not in self.table.columns \
+            else ("seconds_elapsed", 1.0)
+        self._require(column)
+        seconds = checks.numbers(self.table, column, self.label) * scale
+        checks.check_time(seconds, self.label, column, min_rate=min_rate)
         return seconds
 
     def columns(self, names: list[str]) -> np.ndarray:
@@ -85,8 +88,8 @@ class _Sensor:
 def read_sensorlogger(path: str | Path, rate: float = 20.0, max_gap: float = 0.5) -> Recording:
     """A Sensor Logger export (folder, zip or ``.json``) as a Recording at ``rate`` Hz (see the module docstring)."""
     path = Path(path)
-    sensors = _json_sensors(path) if path.suffix.lower() == ".json" else _archive_sensors(path)
-    return _recording(sensors, str(path), rate, max_gap)
+    sensors, notes = (_json_sensors(path), []) if path.suffix.lower() == ".json" else _archive_sensors(path)
+    return _recording(sensors, str(path), rate, max_gap, notes)
 
 
 def is_sensorlogger_table(header: str) -> bool:
@@ -94,15 +97,25 @@ def is_sensorlogger_table(header: str) -> bool:
     return "seconds_elapsed" in header.split("\n", 1)[0]
 
 
-def _archive_sensors(path: Path) -> dict[str, _Sensor]:
-    sensors = {}
+def _archive_sensors(path: Path) -> tuple[dict[str, _Sensor], list[str]]:
+    """The used sensor files of a folder or zip, and a note for each one left out because it holds no rows."""
+    sensors, notes = {}, []
     with checks.Archive(path) as archive:
         for name in SENSORS:
             member = archive.find(f"{name}.csv")
-            if member is not None:
-                label = archive.label(member)
-                sensors[name] = _Sensor(checks.read_table(archive.read_text(member), label), label)
-    return sensors
+            if member is None:
+                continue
+            label, text = archive.label(member), archive.read_text(member)
+            if not text.strip():
+                notes.append(f"{label}: empty file (0 bytes), not used")
+                continue
+            table = checks.read_table(text, label)
+            if not len(table):
+                notes.append(f"{label}: " + ("no fix was recorded, so there is no GPS speed" if name == "Location"
+                                             else "a header and no samples, not used"))
+                continue
+            sensors[name] = _Sensor(table, label)
+    return sensors, notes
 
 
 def _json_sensors(path: Path) -> dict[str, _Sensor]:
@@ -122,29 +135,45 @@ def _json_sensors(path: Path) -> dict[str, _Sensor]:
     return sensors
 
 
-def _recording(sensors: dict[str, _Sensor], source: str, rate: float, max_gap: float) -> Recording:
-    repairs: list[str] = []
+def _recording(sensors: dict[str, _Sensor], source: str, rate: float, max_gap: float,
+               notes: list[str]) -> Recording:
+    repairs: list[str] = list(notes)
     warnings: list[str] = []
     metadata = _metadata(sensors.get("Metadata"))
-    motion = dict(_specific_force(sensors, metadata, source, repairs))
+    missing: dict[str, str] = {}
+    motion = dict(_specific_force(sensors, metadata, source, repairs, missing))
     if "Gyroscope" in sensors:
         motion["Gyroscope"] = _xyz(sensors["Gyroscope"], ("gx", "gy", "gz"), repairs)
-    if not motion:
-        raise InputError(
-            f"{source}: no accelerometer or gyroscope file (TotalAcceleration.csv, Accelerometer.csv + Gravity.csv, "
-            f"Gyroscope.csv); enable them in Sensor Logger and record again"
-        )
+    else:
+        missing["gyroscope"] = "this export has no Gyroscope.csv: enable Gyroscope in Sensor Logger and record again"
     streams = dict(motion)
     if "Location" in sensors:
         streams["Location"] = _location(sensors["Location"], repairs)
-    origin = min(float(s.time[0]) for s in motion.values())
+    if not streams:
+        raise InputError(f"{source}: this Sensor Logger export has no TotalAcceleration.csv, Accelerometer.csv + "
+                         f"Gravity.csv, Gyroscope.csv or Location.csv with samples: enable Accelerometer, Gravity and "
+                         f"Gyroscope in Sensor Logger and record again")
+    origin = min(float(s.time[0]) for s in (motion or streams).values())
     streams = {k: Stream(s.time - origin, s.values, s.names) for k, s in streams.items()}
     rec = merge_streams(streams, rate=rate, max_gap=max_gap, source=source)
     if "ax" in rec.channels:
         checks.check_acceleration_units(rec.array(["ax", "ay", "az"]), source, "'x', 'y', 'z' of the accelerometer")
     warnings += _rate_warnings(rec.meta["native_rates"], metadata, source)
-    rec.meta.update(repairs=repairs, warnings=warnings, start_epoch=origin, platform=metadata.get("platform", ""))
+    platform = metadata.get("platform", "")
+    version = metadata.get("appVersion", "")
+    ios_native = platform == "ios" and metadata.get("standardisation", "").lower() != "true"
+    rec.meta.update(repairs=repairs, warnings=warnings, start_epoch=origin, platform=platform, missing=missing,
+                    ios_native=ios_native,
+                    format="Sensor Logger export" + (f" {version}" if version else "")
+                    + (f" ({'iOS' if platform == 'ios' else 'Android'})" if platform in ("ios", "android") else ""),
+                    sensors=[_FILE_WORDS.get(k, k) for k in streams])
     return rec
+
+
+_FILE_WORDS = {"TotalAcceleration": "accelerometer (TotalAcceleration.csv)",
+               "Accelerometer": "accelerometer + gravity (Accelerometer.csv + Gravity.csv)",
+               "AccelerometerUncalibrated": "accelerometer (AccelerometerUncalibrated.csv)",
+               "Gyroscope": "gyroscope", "Location": "location"}
 
 
 def _metadata(sensor: _Sensor | None) -> dict[str, str]:
@@ -165,9 +194,10 @@ def _xyz(sensor: _Sensor, names: tuple[str, str, str], repairs: list[str]) -> St
 
 
 def _specific_force(
-    sensors: dict[str, _Sensor], metadata: dict[str, str], source: str, repairs: list[str]
+    sensors: dict[str, _Sensor], metadata: dict[str, str], source: str, repairs: list[str], missing: dict[str, str]
 ) -> list[tuple[str, Stream]]:
-    """``[(file name, stream)]`` of accelerations with gravity (Android's convention, m/s^2, device frame), or []."""
+    """``[(file name, stream)]`` of accelerations with gravity (Android's convention, m/s^2, device frame), or []
+    with ``missing['accelerometer']`` saying what to enable in Sensor Logger."""
     names = ("ax", "ay", "az")
     if "TotalAcceleration" in sensors:
         return [("TotalAcceleration", _xyz(sensors["TotalAcceleration"], names, repairs))]
@@ -195,10 +225,12 @@ def _specific_force(
             raw = Stream(raw.time, -GRAVITY * raw.values, names)
         return [("AccelerometerUncalibrated", raw)]
     if "Accelerometer" in sensors:
-        raise InputError(
-            f"{source}: Accelerometer.csv holds acceleration without gravity and there is no Gravity.csv or "
-            f"TotalAcceleration.csv; enable Gravity in Sensor Logger and record again"
-        )
+        missing["accelerometer"] = ("this export's Accelerometer.csv holds acceleration without gravity and there is "
+                                    "no Gravity.csv or TotalAcceleration.csv: enable Gravity in Sensor Logger and "
+                                    "record again")
+    else:
+        missing["accelerometer"] = ("this export has no Accelerometer.csv (nor TotalAcceleration.csv): enable "
+                                    "Accelerometer and Gravity in Sensor Logger and record again")
     return []
 
 

@@ -1,7 +1,8 @@
 """Ride features: attitude, pitch rate and gravity-free level accelerations from a raw IMU log.
 
-Per sample, with the raw device-frame IMU re-expressed on the nominal vehicle axes (``MOUNT``, x forward,
-y left, z up):
+Per sample, with the raw device-frame IMU re-expressed on the vehicle axes (x forward, y left, z up) by the
+mount that :mod:`spotfree.signal.mount` estimates from the log (the nominal ``MOUNT``, flat on the handlebar with
+the top edge forward, unless the phone is mounted otherwise or ``mount`` says):
 
 * ``roll``, ``pitch`` (rad): the attitude filter chosen by ``orientation``
   (:mod:`spotfree.signal.orientation`), eq. (1) convention, positive pitch nose down;
@@ -52,11 +53,11 @@ import functools
 import numpy as np
 from scipy.signal import lfilter
 
-from spotfree.errors import InputError
-from spotfree.io.recording import ACC_CHANNELS, GYRO_CHANNELS, IMU_CHANNELS, Recording
+from spotfree.io.recording import ACC_CHANNELS, GYRO_CHANNELS, Recording
 from spotfree.signal.butterworth import butter_lowpass, lowpass, sections_and_zi
-from spotfree.signal.frame import GRAVITY, MOUNT, device_to_vehicle_axes, gravity_free_level
-from spotfree.signal.orientation import GravityPI, PaperAttitude, attitude_filter
+from spotfree.signal.frame import GRAVITY, MOUNT, gravity_free_level
+from spotfree.signal.mount import estimate_mount
+from spotfree.signal.orientation import RIDE_FEATURE_GAINS, GravityPI, PaperAttitude, ride_attitude_filter
 from spotfree.signal.recursions import (FEATURE_PARAMETERS, FEATURE_STATE, ride_features_block,
                                        ride_features_update)
 from spotfree.signal.speed_aided import speed_aided_acceleration, speed_aided_parameters
@@ -148,20 +149,27 @@ def leaky_lean(pitch_rate: np.ndarray, rate: float, tau: float = LEAN_TIME_CONST
 
 
 def ride_features(rec: Recording, orientation: str = "default", zero_phase: bool = False,
-                  derived: bool = False) -> Recording:
+                  derived: bool = False, mount: str | np.ndarray | None = None) -> Recording:
     """The six :data:`FEATURE_CHANNELS` of ``rec`` on its own grid (same experiment column, truth and gaps),
     followed by the :data:`DERIVED_CHANNELS` when ``derived``, and the log's GPS ``speed`` (m/s, NaN between fixes)
     as it is when it has one (training reads it: :func:`spotfree.training.train`); ``meta`` says ``features="ride"`` and the
-    ``orientation``, so that a model trained on them knows how to make them from a raw log."""
-    missing = [c for c in IMU_CHANNELS if c not in rec.channels]
-    if missing:
-        raise InputError(
-            f"{rec.source}: no column {', '.join(missing)}; features need ax ay az (m/s^2) and gx gy gz (rad/s)"
-        )
-    attitude = attitude_filter(orientation, rec.rate)
+    ``orientation``, so that a model trained on them knows how to make them from a raw log.
+
+    ``mount``: the device-to-vehicle rotation, a ``(3, 3)`` matrix (``v_vehicle = mount @ v_device``) or a choice
+    of :func:`~spotfree.signal.mount.estimate_mount` (``auto``, ``estimate``, ``flat``, ``upright``); None takes
+    ``rec.meta['mount_choice']``, else ``auto``. ``meta['mount']`` says what was used, ``meta['mount_warnings']``
+    lists the doubts (an unusual or uncertain mount)."""
+    rec.require_imu()
+    mount = rec.meta.get("mount_choice", "auto") if mount is None else mount
+    mount_note, mount_warnings = "given matrix", []
+    if isinstance(mount, str):
+        estimate = estimate_mount(rec, mount)
+        mount, mount_note, mount_warnings = estimate.used, estimate.describe(), estimate.warnings
+    mount = np.asarray(mount, dtype=float)
+    attitude = ride_attitude_filter(orientation, rec.rate)
     sos = butter_lowpass(rec.rate)
-    acc_all = device_to_vehicle_axes(rec.array(ACC_CHANNELS))
-    gyr_all = device_to_vehicle_axes(rec.array(GYRO_CHANNELS))
+    acc_all = rec.array(ACC_CHANNELS) @ mount.T
+    gyr_all = rec.array(GYRO_CHANNELS) @ mount.T
     speed_all = rec.channels.get("speed")
     long_sos = butter_lowpass(rec.rate, LONG_CUTOFF)
     names = FEATURE_CHANNELS + (DERIVED_CHANNELS if derived else ())
@@ -181,7 +189,8 @@ def ride_features(rec: Recording, orientation: str = "default", zero_phase: bool
         out[start:stop] = np.column_stack(columns)
     carried = {"speed": speed_all} if speed_all is not None else {}
     feats = rec.with_channels({**dict(zip(names, out.T)), **carried})
-    feats.meta.update(features="ride", orientation=orientation)
+    feats.meta.update(features="ride", orientation=orientation, mount=mount_note, mount_warnings=mount_warnings,
+                      mount_matrix=mount.tolist())
     return feats
 
 
@@ -203,7 +212,7 @@ def _feature_parameters(rate: float, orientation: str) -> np.ndarray:
     p["attitude"] = _ATTITUDE_KINDS.get(orientation, 2)
     p["mount"] = MOUNT
     p["g"] = GRAVITY
-    p["gravity"] = GravityPI(rate).parameters_
+    p["gravity"] = GravityPI(rate, **RIDE_FEATURE_GAINS).parameters_
     p["paper"] = PaperAttitude(rate).parameters_
     p["sections"], p["zi"] = sections_and_zi(butter_lowpass(rate))
     p["long_sections"], p["long_zi"] = sections_and_zi(butter_lowpass(rate, LONG_CUTOFF))
@@ -222,12 +231,15 @@ class FeatureStream:
     (:func:`~spotfree.signal.recursions.ride_features_step`) updates every filter; :attr:`parameters_` and
     :attr:`state_` hold its records (one-element arrays)."""
 
-    def __init__(self, rate: float, orientation: str = "default", derived: bool = False):
+    def __init__(self, rate: float, orientation: str = "default", derived: bool = False,
+                 mount: np.ndarray = MOUNT):
         self.rate = rate
         self.orientation = orientation
         self.derived = derived
-        self._attitude = attitude_filter(orientation, rate) if orientation not in _ATTITUDE_KINDS else None
+        self.mount = np.asarray(mount, dtype=float)
+        self._attitude = ride_attitude_filter(orientation, rate) if orientation not in _ATTITUDE_KINDS else None
         self.parameters_ = feature_parameters(rate, orientation)
+        self.parameters_[0]["mount"] = self.mount
         self.state_ = np.zeros(1, FEATURE_STATE)
         self._out = np.zeros(len(FEATURE_CHANNELS + DERIVED_CHANNELS))
         self._width = len(self._out) if derived else len(FEATURE_CHANNELS)

@@ -36,11 +36,13 @@ PAPER_STATE = np.dtype([("z", "f8", (2, 2)), ("roll_prev", "f8"), ("turns", "f8"
 added by the unwrapping (rad)."""
 GRAVITY_PI_PARAMETERS = np.dtype([(name, "f8") for name in (
     "rate", "kp", "ki", "acc_scale", "rate_scale", "max_error", "rest_gyr", "rest_acc", "rest_time", "rest_gain",
-    "rest_tau", "g")])
+    "rest_tau", "g", "acc_tau", "motion_tau")])
 """Record of :class:`~spotfree.signal.orientation.GravityPI`'s parameters as :func:`gravity_pi_step` reads them (SI
 units, rate in Hz)."""
-GRAVITY_PI_STATE = np.dtype([("u", "f8", 3), ("bias", "f8", 3), ("still", "f8")])
-"""Record of :func:`gravity_pi_step`'s state: unit vertical (body frame), gyro bias (rad/s), time still (s)."""
+GRAVITY_PI_STATE = np.dtype([("u", "f8", 3), ("bias", "f8", 3), ("still", "f8"), ("acc", "f8", 3), ("motion", "f8")])
+"""Record of :func:`gravity_pi_step`'s state: unit vertical (body frame), gyro bias (rad/s), time still (s), the
+specific force low-passed in the gyro-propagated frame (m/s^2, body frame) and the low-passed departure of the
+specific-force magnitude from g (m/s^2)."""
 SPEED_AIDED_PARAMETERS = np.dtype([(name, "f8") for name in (
     "rate", "pitch_noise", "bias_noise", "accel_noise", "reference_noise", "speed_noise", "initial_pitch",
     "initial_bias", "initial_speed")])
@@ -167,12 +169,19 @@ def _rotate(ux, uy, uz, wx, wy, wz, dt):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True)
+def _smoothing(dt, tau):  # pragma: no cover - compiled
+    """Weight of a new sample in a first-order low-pass of time constant ``tau`` (s) after ``dt`` (s); 1 for
+    ``tau <= 0`` (no smoothing)."""
+    return 1.0 - math.exp(-dt / tau) if tau > 0 else 1.0
+
+
+@numba.njit(cache=True, nogil=True)
 def gravity_pi_step(p, s, start, ax, ay, az, gx, gy, gz):  # pragma: no cover - compiled
     """Roll and pitch (rad) of :class:`~spotfree.signal.orientation.GravityPI` after one sample (the steps of its
     docstring): body-frame ``a`` (m/s^2) and ``g`` (rad/s); ``p`` a :data:`GRAVITY_PI_PARAMETERS` and ``s`` a
     :data:`GRAVITY_PI_STATE` record, the state started afresh (vertical along ``a``, zero bias, not still) when
     ``start``."""
-    u, b = s.u, s.bias
+    u, b, f = s.u, s.bias, s.acc
     norm_a = math.sqrt(ax * ax + ay * ay + az * az)
     if start:
         if norm_a > 0:
@@ -180,18 +189,26 @@ def gravity_pi_step(p, s, start, ax, ay, az, gx, gy, gz):  # pragma: no cover - 
         else:
             u[0], u[1], u[2] = 0.0, 0.0, 1.0
         b[0] = b[1] = b[2] = 0.0
-        s.still = 0.0
+        f[0], f[1], f[2] = ax, ay, az
+        s.still = s.motion = 0.0
     wx, wy, wz = gx - b[0], gy - b[1], gz - b[2]
     half = 0.5 / p.rate
     ux, uy, uz = _rotate(u[0], u[1], u[2], wx, wy, wz, half)
     w2 = wx * wx + wy * wy + wz * wz
     departure = norm_a - p.g
+    s.motion += _smoothing(2.0 * half, p.motion_tau) * (abs(departure) - s.motion)
+    shaken = (s.motion / p.acc_scale) ** 2
+    fx, fy, fz = _rotate(f[0], f[1], f[2], wx, wy, wz, 2.0 * half)
+    alpha = _smoothing(2.0 * half, p.acc_tau * shaken / (1.0 + shaken))
+    fx, fy, fz = fx + alpha * (ax - fx), fy + alpha * (ay - fy), fz + alpha * (az - fz)
+    f[0], f[1], f[2] = fx, fy, fz
+    norm_f = math.sqrt(fx * fx + fy * fy + fz * fz)
     if w2 < p.rest_gyr * p.rest_gyr and abs(departure) < p.rest_acc:
         s.still += 2.0 * half
     else:
         s.still = 0.0
-    if norm_a > 0:
-        nx, ny, nz = ax / norm_a, ay / norm_a, az / norm_a
+    if norm_f > 0:
+        nx, ny, nz = fx / norm_f, fy / norm_f, fz / norm_f
         ex, ey, ez = ny * uz - nz * uy, nz * ux - nx * uz, nx * uy - ny * ux
         if s.still >= p.rest_time:
             k = p.rest_gain
@@ -200,7 +217,7 @@ def gravity_pi_step(p, s, start, ax, ay, az, gx, gy, gz):  # pragma: no cover - 
             b[1] += step * wy
             b[2] += step * wz
         else:
-            trust = math.sqrt((1.0 + w2 / p.rate_scale**2) / (1.0 + (departure / p.acc_scale) ** 2))
+            trust = math.sqrt((1.0 + w2 / p.rate_scale**2) / (1.0 + shaken))
             k = p.kp * trust
             sine = math.sqrt(ex * ex + ey * ey + ez * ez)
             limit = math.sin(p.max_error)

@@ -25,24 +25,38 @@
     ];
   }
 
+  function smoothing(dt, tau) {
+    // weight of a new sample in a first-order low-pass of time constant tau (s); 1 without smoothing
+    return tau > 0 ? 1.0 - Math.exp(-dt / tau) : 1.0;
+  }
+
   class GravityPI {
     constructor(p, rate) { this.p = p; this.rate = rate; this.reset(); }
-    reset() { this.u = null; this.bias = [0, 0, 0]; this.still = 0; }
+    reset() { this.u = null; this.bias = [0, 0, 0]; this.still = 0; this.f = null; this.motion = 0; }
     update(acc, gyr) {
       const p = this.p;
       const ax = acc[0], ay = acc[1], az = acc[2];
       const normA = Math.sqrt(ax * ax + ay * ay + az * az);
       if (this.u === null) this.u = normA > 0 ? [ax / normA, ay / normA, az / normA] : [0, 0, 1];
+      if (this.f === null) this.f = [ax, ay, az];
       const b = this.bias;
       const wx = gyr[0] - b[0], wy = gyr[1] - b[1], wz = gyr[2] - b[2];
       const half = 0.5 / this.rate;
       let [ux, uy, uz] = rotate(this.u[0], this.u[1], this.u[2], wx, wy, wz, half);
       const w2 = wx * wx + wy * wy + wz * wz;
       const departure = normA - p.g;
+      // accelerometer low-passed where gravity is fixed, longer while the phone is shaken
+      this.motion += smoothing(2.0 * half, p.motion_tau) * (Math.abs(departure) - this.motion);
+      const shaken = (this.motion / p.acc_scale) ** 2;
+      let [fx, fy, fz] = rotate(this.f[0], this.f[1], this.f[2], wx, wy, wz, 2.0 * half);
+      const alpha = smoothing(2.0 * half, p.acc_tau * shaken / (1.0 + shaken));
+      fx += alpha * (ax - fx); fy += alpha * (ay - fy); fz += alpha * (az - fz);
+      this.f = [fx, fy, fz];
+      const normF = Math.sqrt(fx * fx + fy * fy + fz * fz);
       if (w2 < p.rest_gyr * p.rest_gyr && Math.abs(departure) < p.rest_acc) this.still += 2.0 * half;
       else this.still = 0.0;
-      if (normA > 0) {
-        const nx = ax / normA, ny = ay / normA, nz = az / normA;
+      if (normF > 0) {
+        const nx = fx / normF, ny = fy / normF, nz = fz / normF;
         const ex = ny * uz - nz * uy, ey = nz * ux - nx * uz, ez = nx * uy - ny * ux;
         let k;
         if (this.still >= p.rest_time) {
@@ -50,7 +64,7 @@
           const step = 2.0 * half / p.rest_tau;
           b[0] += step * wx; b[1] += step * wy; b[2] += step * wz;
         } else {
-          const trust = Math.sqrt((1.0 + w2 / p.rate_scale ** 2) / (1.0 + (departure / p.acc_scale) ** 2));
+          const trust = Math.sqrt((1.0 + w2 / p.rate_scale ** 2) / (1.0 + shaken));
           k = p.kp * trust;
           const sine = Math.sqrt(ex * ex + ey * ey + ez * ez);
           const limit = Math.sin(p.max_error);
