@@ -65,6 +65,9 @@ CHANGED = 0.002
 BLOCK_SECONDS = 5.0
 """Length of the time blocks that alternate between the two cross-fitting folds."""
 EM_ITERATIONS = 200
+LEAF = 8
+"""Fewest windows in a leaf of the relabelling trees: a posterior averages several windows, so that a few wrong
+names among the training windows do not decide a leaf."""
 
 
 @dataclass
@@ -303,7 +306,8 @@ class SetSupervisedLearner(BaseEstimator):
             missing = np.setdiff1d(np.unique(labels), np.unique(labels[train]))
             train |= np.isin(labels, missing)
             rows = _balanced_sample(labels, train, n_classes, rng)
-            model = ExtraTreesClassifier(n_estimators=100, min_samples_leaf=2, max_features="sqrt", n_jobs=-1,
+            model = ExtraTreesClassifier(n_estimators=100, min_samples_leaf=LEAF, max_features="sqrt", n_jobs=-1,
+                                         class_weight="balanced",
                                          random_state=self.seed).fit(X[rows], labels[rows])
             model.n_jobs = 1  # the threads of predict_proba add the trees up in any order: not reproducible
             proba = np.full((int(np.sum(fold == f)), n_classes), 1e-3 / n_classes)
