@@ -142,10 +142,12 @@ def main() -> None:
     if args.out is not None:
         with contextlib.redirect_stdout(io.StringIO()) as captured:
             _table(args)
-        from orientation_leave_trials_out import machine
+        from machine import describe
+
+        PACKAGES = ("numpy", "scipy", "numba", "ahrs", "imufusion", "vqf")
 
         text = (f"# BROAD orientation: every option and its peers\n\nCommand (from `benchmarks/`): `python "
-                f"{' '.join([Path(sys.argv[0]).name, *sys.argv[1:]])}`\n\nMachine: {machine()}. Date: "
+                f"{' '.join([Path(sys.argv[0]).name, *sys.argv[1:]])}`\n\nMachine: {describe(PACKAGES)}. Date: "
                 f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC.\n\n{captured.getvalue()}")
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text(text)

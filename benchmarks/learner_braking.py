@@ -14,13 +14,13 @@ Writes ``benchmarks/results/learner_braking.md`` (command, machine, date, table)
 from __future__ import annotations
 
 import argparse
-import platform
 import sys
 from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
 
+from machine import describe
 from spotfree.evaluation.metrics import near_transitions
 from spotfree.learner import SetSupervisedLearner
 from spotfree.peers import MiniRocketPeer
@@ -66,8 +66,7 @@ def main() -> None:
             print(seed, name, {s: round(h[0] / h[1], 4) for s, h in hits[name].items()}, file=sys.stderr)
     lines = ["# The general learner on the simulator's braking protocol", "",
              f"- command: `python benchmarks/learner_braking.py {' '.join(sys.argv[1:])}`",
-             f"- machine: {platform.node()}, {platform.machine()}, Python {platform.python_version()}, "
-             f"numpy {np.__version__}", f"- date: {datetime.now(timezone.utc).strftime('%Y-%m-%d %H:%M UTC')}",
+             f"- machine: {describe()}", f"- date: {datetime.now(timezone.utc).strftime('%Y-%m-%d %H:%M UTC')}",
              f"- seeds {', '.join(map(str, args.seeds))}; channels {', '.join(CHANNELS)}; centred labels; "
              "accuracy per scenario away from true changes (0.5 s), strict in brackets", "",
              "| method | " + " | ".join(SCENARIOS) + " |", "|---|" + "---|" * len(SCENARIOS)]

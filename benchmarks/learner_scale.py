@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import platform
 import resource
 import subprocess
 import sys
@@ -23,6 +22,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
+
+from machine import describe
 
 RESULTS = Path(__file__).resolve().parent / "results" / "learner_scale.md"
 RATE = 20.0
@@ -38,7 +39,7 @@ def recordings(minutes: float, seed: int = 0):
     out, sets = [], []
     for k in range(int(round(minutes / 2))):
         chosen = ["rest"] + list(rng.choice(names[1:], size=rng.integers(1, 3), replace=False))
-        parts, t0 = [], 0
+        parts = []
         while sum(len(p) for p in parts) < 2 * 60 * RATE:
             kind = chosen[rng.integers(len(chosen))]
             n = int(rng.uniform(3, 12) * RATE)
@@ -83,8 +84,7 @@ def main() -> None:
     b_mem = np.polyfit(size, np.log([r["peak_mb"] for r in rows]), 1)[0]
     lines = ["# Training cost of the general learner against the amount of data", "",
              f"- command: `python benchmarks/learner_scale.py {' '.join(sys.argv[1:])}`".replace("  ", " "),
-             f"- machine: {platform.node()}, {platform.machine()}, Python {platform.python_version()}, "
-             f"numpy {np.__version__}", f"- date: {datetime.now(timezone.utc).strftime('%Y-%m-%d %H:%M UTC')}",
+             f"- machine: {describe()}", f"- date: {datetime.now(timezone.utc).strftime('%Y-%m-%d %H:%M UTC')}",
              "- goal (issue 31): an hour of 20 Hz recordings in under 30 s and under 1 GB", "",
              "| minutes of 20 Hz data | windows | fit s | peak resident MB |", "|---|---|---|---|"]
     lines += [f"| {r['minutes']:g} | {r['windows']} | {r['seconds']:.1f} | {r['peak_mb']:.0f} |" for r in rows]

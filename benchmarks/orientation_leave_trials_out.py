@@ -24,11 +24,8 @@ from __future__ import annotations
 
 import argparse
 import itertools
-import os
-import platform
 import sys
 from datetime import datetime, timezone
-from importlib.metadata import version
 from pathlib import Path
 
 import numpy as np
@@ -37,6 +34,7 @@ import broad
 import broad_orientation as peers
 import synthetic_ride
 import tune_orientation as tune
+from machine import describe
 from spotfree.signal.orientation import GravityPI
 
 GUARD_SEEDS = (10, 11)
@@ -78,13 +76,7 @@ def _vqf_roll_pitch(acc: np.ndarray, gyr: np.ndarray):
 
     return VQFAttitude(20.0).run(acc, gyr).T
 
-
-def machine() -> str:
-    cpu = next((line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo") if line.startswith("model name")),
-               platform.machine())
-    packages = ", ".join(f"{p} {version(p)}" for p in ("numpy", "scipy", "numba", "ahrs", "imufusion", "vqf"))
-    return (f"{cpu}, {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at the start (shared machine); "
-            f"Python {platform.python_version()}, {packages}")
+PACKAGES = ("numpy", "scipy", "numba", "ahrs", "imufusion", "vqf")
 
 
 def main() -> None:
@@ -92,9 +84,9 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results" / "orientation_leave_trials_out.md")
     args = parser.parse_args()
     started = datetime.now(timezone.utc)
-    header = [f"# Default orientation gains by leave-trials-out on BROAD (20.4 Hz)", "",
+    header = ["# Default orientation gains by leave-trials-out on BROAD (20.4 Hz)", "",
               f"Command (from `benchmarks/`): `python {' '.join([Path(sys.argv[0]).name, *sys.argv[1:]])}`", "",
-              f"Machine: {machine()}. Date: {started:%Y-%m-%d %H:%M} UTC.", "",
+              f"Machine: {describe(PACKAGES)}. Date: {started:%Y-%m-%d %H:%M} UTC.", "",
               "Score: inclination RMSE in degrees (movement phase, valid optical reference), four BROAD trials "
               "(Laidig et al. 2021, CC BY 4.0) block-averaged by 14 to 20.4 Hz. Grid of the default filter: "
               + ", ".join(f"`{k}` {v}" for k, v in tune.GRID.items()) + "."]

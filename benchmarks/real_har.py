@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import argparse
 import gzip
-import platform
 import sys
 import time
 from datetime import datetime, timezone
@@ -34,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from machine import describe
 from spotfree.evaluation.metrics import near_transitions
 from spotfree.io.recording import IMU_CHANNELS, Recording
 from spotfree.io.resample import Stream, merge_streams
@@ -136,8 +136,7 @@ def write(rows: list[dict], command: str) -> None:
     classes = list(rows[0]["recall"])
     lines = ["# Spotting-free learning on real recordings (sp_sw_har)", "",
              f"- command: `{command}`",
-             f"- machine: {platform.node()}, {platform.machine()}, {platform.processor() or 'cpu'}, "
-             f"Python {platform.python_version()}, numpy {np.__version__}",
+             f"- machine: {describe()}",
              f"- date: {datetime.now(timezone.utc).strftime('%Y-%m-%d %H:%M UTC')}",
              "- training: the recordings of the first training subjects cut into clips, each declared with its set of "
              f"classes; test: {rows[0]['test_recordings']} whole recordings of the other subjects per device",

@@ -51,6 +51,7 @@ from sklearn.base import BaseEstimator
 from sklearn.cluster import MiniBatchKMeans
 from sklearn.ensemble import ExtraTreesClassifier
 
+from spotfree.classify.batch import classify_recording
 from spotfree.classify.kcrc import KernelCRCClassifier
 from spotfree.errors import InputError
 from spotfree.io.recording import GPS_CHANNELS, Recording
@@ -190,8 +191,6 @@ class SetSupervisedLearner(BaseEstimator):
         """One class name per sample of ``recording`` (``""`` where no window labels it); ``centred``: each window
         labels its centre (offline), else its last sample (live); ``smoothing``: majority vote over that many
         samples."""
-        from spotfree.classify.batch import classify_recording
-
         if not hasattr(self, "model_"):
             raise InputError("the learner is not fitted; call fit(recordings, class_sets) first")
         return classify_recording(self.model_, recording, centred=centred, smoothing=smoothing,

@@ -16,6 +16,7 @@ from collections import Counter
 import numpy as np
 from sklearn.base import BaseEstimator
 
+from spotfree.classify.batch import classify_recording
 from spotfree.classify.crc import CRCClassifier
 from spotfree.cluster.osc import OrderedSubspaceClustering
 from spotfree.errors import InputError
@@ -85,8 +86,6 @@ class PaperRecipe(BaseEstimator):
 
     def predict(self, recording: Recording, centred: bool = True) -> np.ndarray:
         """One class name per sample of ``recording`` (``""`` where no window labels it)."""
-        from spotfree.classify.batch import classify_recording
-
         return classify_recording(self.model_, recording, method="crc", centred=centred,
                                   classifier=self.classifier_).label.astype(str)
 
