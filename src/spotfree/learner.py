@@ -66,6 +66,9 @@ CHANGED = 0.002
 BLOCK_SECONDS = 5.0
 """Length of the time blocks that alternate between the two cross-fitting folds."""
 EM_ITERATIONS = 200
+LANDMARKS = 128
+"""Nystroem landmarks of the kernel CRC_RLS that labels with the dictionary
+(:class:`~spotfree.classify.kcrc.KernelCRCClassifier`; a window costs about ``m d + 2 C m^2`` operations)."""
 LEAF = 8
 """Fewest windows in a leaf of the relabelling trees: a posterior averages several windows, so that a few wrong
 names among the training windows do not decide a leaf."""
@@ -351,7 +354,7 @@ class SetSupervisedLearner(BaseEstimator):
             features=recordings[0].meta.get("features", "channels"),
             orientation=recordings[0].meta.get("orientation", "default"),
             parameters={"groups": self.groups, "rounds": self.rounds, "smoothing": self.smoothing,
-                        "max_columns": self.max_columns, "seed": self.seed, "landmarks": 64,
+                        "max_columns": self.max_columns, "seed": self.seed, "landmarks": LANDMARKS,
                         "prior": type(self.prior).__name__ if self.prior is not None else None},
             summary=summary,
         )
