@@ -199,3 +199,26 @@ def test_bad_input_is_refused_with_a_clear_message(case, message):
         train[1] = Recording(time=train[1].time, channels=train[1].channels, rate=40.0, source="fast")
     with pytest.raises(InputError, match=message):
         SetSupervisedLearner().fit(train, sets)
+
+
+def test_a_class_that_looks_like_another_is_warned_about():
+    """A declared class that never shows in its recording still gets windows (every declared class does), and the
+    summary says it could not be told apart."""
+    rng = np.random.default_rng(8)
+    train = [_alternating("still", "slow", rng, "a"), _recording([("still", 30)], rng, "ghost")]
+    learner = SetSupervisedLearner(seed=0).fit(train, [{"still", "slow"}, {"still", "ghost"}])
+    assert any("class ghost is not told apart" in w for w in learner.warnings_), learner.warnings_
+    assert learner.model_.summary["warnings"] == learner.warnings_
+    assert not any("class slow" in w or "class still" in w for w in learner.warnings_)
+
+
+def test_thousands_of_short_recordings():
+    rng = np.random.default_rng(9)
+    train, sets = [], []
+    for k in range(1000):
+        kind = ("slow", "fast")[k % 2]
+        train.append(_recording([("still", 2.0), (kind, 2.0)], rng, f"r{k}"))
+        sets.append({"still", kind})
+    learner = SetSupervisedLearner(seed=0).fit(train, sets)
+    assert all(set(names) == declared for names, declared in zip(learner.window_labels_, sets))
+    assert set(learner.model_.summary["columns_per_class"]) == {"still", "slow", "fast"}

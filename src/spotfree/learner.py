@@ -66,6 +66,9 @@ CHANGED = 0.002
 BLOCK_SECONDS = 5.0
 """Length of the time blocks that alternate between the two cross-fitting folds."""
 EM_ITERATIONS = 200
+SEPARABLE = 0.3
+"""Ratio of a class's mean cross-fitted posterior on windows of recordings without it to that on its own windows
+from which the summary warns."""
 LANDMARKS = 128
 """Nystroem landmarks of the kernel CRC_RLS that labels with the dictionary
 (:class:`~spotfree.classify.kcrc.KernelCRCClassifier`; a window costs about ``m d + 2 C m^2`` operations)."""
@@ -77,12 +80,18 @@ names among the training windows do not decide a leaf."""
 @dataclass
 class _Windows:
     """The training windows of all recordings: represented rows ``X`` ``(n, p)``, the recording of each row, its
-    window's last sample in that recording, and the start of every run of contiguous windows."""
+    window's last sample in that recording, every run of contiguous windows and where each recording's rows start."""
 
     X: np.ndarray
     recording: np.ndarray
     ends: list[np.ndarray]
     runs: list[tuple[int, int]]
+    offsets: np.ndarray
+
+    def rows(self, r: int) -> slice:
+        """The rows of recording ``r`` (the recordings' windows are stacked in order)."""
+        return slice(int(self.offsets[r]), int(self.offsets[r + 1]))
+
 
 
 class SetSupervisedLearner(BaseEstimator):
@@ -180,11 +189,12 @@ class SetSupervisedLearner(BaseEstimator):
             self.history_.append(changed)
             if changed < CHANGED:
                 break
-
+        if self.rounds:
+            self._warn_inseparable(log_p, labels, mask)
         margin = _margins(self._smoothed(log_q, data), labels)
         self.model_ = self._dictionary(X, labels, margin, data, channels, scaling, offset, scale, sets, recordings)
         names = np.asarray(self.classes_, dtype=object)
-        self.window_labels_ = [names[labels[data.recording == r]].astype(str) for r in range(len(recordings))]
+        self.window_labels_ = [names[labels[data.rows(r)]].astype(str) for r in range(len(recordings))]
         self.window_ends_ = data.ends
         self.classifier_ = KernelCRCClassifier(landmarks=self.model_.parameters["landmarks"]).fit(
             self.model_.dictionary.T, names[self.model_.column_class].astype(str))
@@ -246,7 +256,8 @@ class SetSupervisedLearner(BaseEstimator):
         X = np.vstack(rows)
         if not np.all(np.isfinite(X)):
             raise InputError("a training window is not finite; check the recordings for NaN or infinite values")
-        return _Windows(X=X, recording=np.concatenate(owner), ends=ends, runs=runs)
+        return _Windows(X=X, recording=np.concatenate(owner), ends=ends, runs=runs,
+                        offsets=np.r_[0, np.cumsum([len(e) for e in ends])])
 
     def _log_prior(self, recordings: list[Recording], data: _Windows) -> np.ndarray:
         n = len(data.X)
@@ -282,7 +293,7 @@ class SetSupervisedLearner(BaseEstimator):
         cost = self._switch_cost
         for r in range(len(allowed)):
             classes = np.flatnonzero(allowed[r])
-            rows = np.flatnonzero(data.recording == r)
+            rows = np.arange(len(log_q))[data.rows(r)]
             labels[rows] = classes[decode_runs(log_q[np.ix_(rows, classes)], cost)]
             warning = (f"recording {r + 1} declares {len(classes)} classes over {len(rows)} windows: too many to make "
                        "each appear; split it into shorter recordings")
@@ -293,6 +304,21 @@ class SetSupervisedLearner(BaseEstimator):
     @property
     def _switch_cost(self) -> float:
         return float(self.smoothing * self.rate_ / self.step)
+
+    def _warn_inseparable(self, log_p: np.ndarray, labels: np.ndarray, mask: np.ndarray) -> None:
+        """Warn about a class that a classifier which did not see the windows gives, on average, at least
+        :data:`SEPARABLE` times as much to the windows of recordings that do not declare it as to its own windows:
+        what the sets named it looks like what happens without it."""
+        p = np.exp(log_p)
+        for c, name in enumerate(self.classes_):
+            own, elsewhere = labels == c, ~mask[:, c]
+            if own.any() and elsewhere.any():
+                ratio = p[elsewhere, c].mean() / p[own, c].mean()
+                if ratio >= SEPARABLE:
+                    self.warnings_.append(
+                        f"class {name} is not told apart from what happens without it (its windows get it "
+                        f"{p[own, c].mean():.2f} on average, windows of recordings without it "
+                        f"{p[elsewhere, c].mean():.2f}); check that it happens in the recordings that declare it")
 
     def _cross_fitted(self, X: np.ndarray, labels: np.ndarray, data: _Windows,
                       rng: np.random.Generator) -> np.ndarray:
@@ -335,14 +361,15 @@ class SetSupervisedLearner(BaseEstimator):
             self.warnings_.append(f"class {names[c]} has no window that holds it alone; declare it in recordings "
                                   "where it lasts longer than one window")
         counts = {str(names[c]): int(np.sum(labels == c)) for c in range(len(names))}
+        per_recording = np.zeros((len(recordings), len(names)), dtype=int)
+        np.add.at(per_recording, (data.recording, labels), 1)
         summary = {
             "learner": "set-supervised",
             "windows_per_class": counts,
             "columns_per_class": {str(names[c]): int(found[c]) for c in range(len(names))},
             "rounds_changed": [round(h, 5) for h in self.history_],
             "recordings": [{"source": rec.source, "classes": sorted(s),
-                            "windows": {str(names[c]): int(np.sum((labels == c) & (data.recording == r)))
-                                        for c in range(len(names)) if np.any((labels == c) & (data.recording == r))}}
+                            "windows": {str(names[c]): int(k) for c, k in enumerate(per_recording[r]) if k}}
                            for r, (rec, s) in enumerate(zip(recordings, sets))],
             "warnings": self.warnings_,
         }
