@@ -35,8 +35,10 @@ CHANNELS = ("acc_long", "pitch_rate")
 
 def methods():
     return {
-        "spotfree, ride prior": lambda: SetSupervisedLearner(channels=CHANNELS, prior=RidePrior()),
-        "spotfree, no prior": lambda: SetSupervisedLearner(channels=CHANNELS),
+        "spotfree, hankel, ride prior": lambda: SetSupervisedLearner(channels=CHANNELS, representation="hankel",
+                                                                     prior=RidePrior()),
+        "spotfree, summary, ride prior": lambda: SetSupervisedLearner(channels=CHANNELS, prior=RidePrior()),
+        "spotfree, hankel, no prior": lambda: SetSupervisedLearner(channels=CHANNELS, representation="hankel"),
         "MiniRocket (every label)": lambda: MiniRocketPeer(channels=CHANNELS, alignment="centred"),
     }
 

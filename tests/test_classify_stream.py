@@ -78,3 +78,21 @@ def test_a_ride_model_needs_ride_feature_channels(raw):
     model.channels = ["lean", "speedometer"]
     with pytest.raises(InputError, match="speedometer are not ride features"):
         RideClassifier(model)
+
+
+def test_stream_equals_batch_for_a_model_of_the_general_learner(raw):
+    """A hankel model of :class:`~spotfree.learner.SetSupervisedLearner` runs live like any other; a summary model
+    is refused there with one line."""
+    from spotfree.learner import SetSupervisedLearner
+    from spotfree.ride_prior import RidePrior
+
+    feats = ride_features(raw, derived=True)
+    rides = [part for _, part in feats.experiments()]
+    learner = SetSupervisedLearner(channels=("acc_long", "pitch_rate"), representation="hankel", prior=RidePrior(),
+                                   rounds=2).fit(rides, [{"cruising", "normal-braking", "sudden-braking"}] * len(rides))
+    labels = stream_labels(RideClassifier(learner.model_), raw)
+    np.testing.assert_array_equal(labels, classify_recording(learner.model_, raw).label)
+    summary = SetSupervisedLearner(channels=("acc_long", "pitch_rate"), rounds=0).fit(
+        rides, [{"cruising", "normal-braking", "sudden-braking"}] * len(rides)).model_
+    with pytest.raises(InputError, match="cannot run sample by sample"):
+        RideClassifier(summary)

@@ -162,6 +162,9 @@ def train(
                                          "(the ride learner) | paper (the paper's recipe, literally); default: sets for "
                                          "--features body, evidence for rides"),
     prior: Optional[str] = typer.Option(None, "--prior", help="ride: braking loses GPS speed (sets learner only)"),
+    representation: str = typer.Option("summary", "--representation", help="sets learner: summary (level, spread "
+                                       "and band powers of each window) | hankel (the paper's raw windows; also "
+                                       "classified live)"),
     background: Optional[str] = typer.Option(None, "--background", help="the background class (default: the "
                                              "first class declared in every recording)"),
     name: list[str] = typer.Option([], "--name", help="CLUSTER=CLASS: override the name of a level-1 cluster"),
@@ -227,7 +230,8 @@ def train(
         raise InputError(f"--features {features!r}: use one of {', '.join(FEATURES)}")
     recipe = recipe or ("sets" if features == "body" else "evidence")
     if recipe == "sets":
-        _train_sets(output, experiment, channels, window, step, orientation, features, prior, max_columns, seed)
+        _train_sets(output, experiment, channels, window, step, orientation, features, prior, representation,
+                    max_columns, seed)
         return
     if prior is not None:
         raise InputError(f"--prior is for the sets learner; add --recipe sets (the {recipe} recipe has its own rules)")
@@ -279,7 +283,8 @@ def train(
 
 
 def _train_sets(output: Path, experiment: list[str], channels: Optional[str], window: int, step: int,
-                orientation: str, features: str, prior: Optional[str], max_columns: int, seed: int) -> None:
+                orientation: str, features: str, prior: Optional[str], representation: str, max_columns: int,
+                seed: int) -> None:
     """``spotfree train --recipe sets``: :class:`~spotfree.learner.SetSupervisedLearner` on the declared sets."""
     from rich.table import Table
 
@@ -297,7 +302,7 @@ def _train_sets(output: Path, experiment: list[str], channels: Optional[str], wi
         sets.append(classes)
     learner = SetSupervisedLearner(
         channels=tuple(c.strip() for c in channels.split(",")) if channels else None, window=window, step=step,
-        max_columns=max_columns, prior=priors[prior]() if prior else None, seed=seed).fit(recordings, sets)
+        representation=representation, max_columns=max_columns, prior=priors[prior]() if prior else None, seed=seed).fit(recordings, sets)
     model = learner.model_
     model.save(output)
     out.print(f"learner: sets ({model.representation} of {model.features} channels {','.join(model.channels)}; "

@@ -5,8 +5,9 @@ Method (``docs/training.md`` has the derivation and the references):
 
 1. **Windows.** Every recording is cut into sliding windows of ``window`` samples every ``step`` samples (none
    spans a gap), each channel divided by its training scale, and represented (:mod:`spotfree.representation`,
-   default ``summary``: level, spread and band powers per channel); the representation is standardised over all
-   training windows.
+   default ``summary``: level, spread and band powers per channel); a ``summary`` is standardised over all
+   training windows, a ``hankel`` window kept as the channel scales leave it (so that the streaming classifiers run
+   it as they run the paper's).
 2. **Groups.** The windows of all recordings are grouped by k-means into ``groups`` groups per declared class.
 3. **Naming by evidence.** A recording ``r`` is a bag of windows whose classes lie in its declared set ``S_r``.
    With ``n_rg`` windows of recording ``r`` in group ``g``, the groups are named by the set-constrained mixture
@@ -170,6 +171,8 @@ class SetSupervisedLearner(BaseEstimator):
         data = self._windows(recordings, channels, scaling)
         offset, scale = data.X.mean(axis=0), data.X.std(axis=0)
         scale = np.where(scale > 1e-12 * max(scale.max(), 1.0), scale, 1.0)
+        if self.representation == "hankel":  # the paper's windows, as the streaming classifiers take them
+            offset, scale = np.zeros_like(offset), np.ones_like(scale)
         X = (data.X - offset) / scale
         rng = np.random.default_rng(self.seed)
         mask = allowed[data.recording]
@@ -377,7 +380,9 @@ class SetSupervisedLearner(BaseEstimator):
             classes=list(self.classes_), channels=list(channels), rate=self.rate_, window=self.window,
             step=self.step, normalisation="scale", scale=scaling.scale, dictionary=X[columns].T,
             column_class=column_class, causal_dictionary=X[causal_columns].T, causal_column_class=causal_class,
-            representation=self.representation, feature_offset=offset, feature_scale=scale,
+            representation=self.representation,
+            feature_offset=offset if self.representation == "summary" else None,
+            feature_scale=scale if self.representation == "summary" else None,
             features=recordings[0].meta.get("features", "channels"),
             orientation=recordings[0].meta.get("orientation", "default"),
             parameters={"groups": self.groups, "rounds": self.rounds, "smoothing": self.smoothing,
