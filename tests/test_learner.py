@@ -147,7 +147,7 @@ def test_the_ride_prior_never_engages_for_other_data():
     sets = [{"still", "slow"}, {"still"}]
     prior = RidePrior()
     for rec in train:
-        assert not prior.log_prior(rec, np.arange(19, len(rec)), ["slow", "still"]).any()  # no GPS speed here
+        assert not prior.log_prior(rec, np.arange(len(rec)), ["slow", "still"]).any()  # no GPS speed here
     with_prior = SetSupervisedLearner(prior=prior, seed=0).fit(train, sets).model_
     without = SetSupervisedLearner(seed=0).fit(train, sets).model_
     np.testing.assert_array_equal(with_prior.dictionary, without.dictionary)
@@ -158,9 +158,9 @@ def test_the_ride_prior_favours_braking_where_the_speed_falls():
     speed = np.full(n, np.nan)
     speed[::20] = np.r_[np.full(5, 5.0), 5.0 - np.arange(1, 6)]  # 1 Hz fixes: steady, then losing 1 m/s^2
     rec = Recording(time=np.arange(n) / RATE, channels={"u": np.zeros(n), "speed": speed}, rate=RATE)
-    log_prior = RidePrior(braking=("braking",)).log_prior(rec, np.arange(19, n), ["braking", "cruising"])
-    assert log_prior[30, 1] > 0 and log_prior[30, 0] == 0  # centre at 2.0 s: steady speed
-    assert log_prior[150, 0] > 0 and log_prior[150, 1] == 0  # centre at 8.0 s: slowing down
+    log_prior = RidePrior(braking=("braking",)).log_prior(rec, np.arange(n), ["braking", "cruising"])
+    assert log_prior[40, 1] > 0 and log_prior[40, 0] == 0  # 2.0 s: steady speed
+    assert log_prior[160, 0] > 0 and log_prior[160, 1] == 0  # 8.0 s: slowing down
 
 
 def test_decode_runs_every_class_appears_and_runs_are_kept():

@@ -292,7 +292,7 @@ def _train_sets(output: Path, experiment: list[str], channels: Optional[str], wi
     from spotfree.pipeline import feature_recording
     from spotfree.ride_prior import RidePrior
 
-    priors = {"ride": lambda: RidePrior(window=window)}
+    priors = {"ride": RidePrior}
     if prior is not None and prior not in priors:
         raise InputError(f"--prior {prior!r} is unknown; use one of {', '.join(priors)}")
     recordings, sets = [], []

@@ -33,8 +33,8 @@ Method (``docs/training.md`` has the derivation and the references):
    windows by the class at their last sample. Classification is kernel CRC_RLS on the dictionary
    (:class:`~spotfree.classify.kcrc.KernelCRCClassifier`).
 
-Domain knowledge enters only through ``prior``: an object whose ``log_prior(recording, ends, classes)`` returns an
-``(m, C)`` array added to ``log q`` of the windows ending at ``ends`` in every step; the generic learner knows
+Domain knowledge enters only through ``prior``: an object whose ``log_prior(recording, centres, classes)`` returns an
+``(m, C)`` array added to ``log q`` of the windows centred at sample indices ``centres`` in every step; the generic learner knows
 nothing of any domain.
 
 The learner's cost is linear in the number of windows: k-means is fitted on at most ``FIT_WINDOWS`` windows, the
@@ -118,7 +118,7 @@ class SetSupervisedLearner(BaseEstimator):
     max_columns : int
         Most dictionary columns per class.
     prior : object or None
-        Domain prior with ``log_prior(recording, ends, classes) -> (m, C)`` (module docstring); None: none.
+        Domain prior with ``log_prior(recording, centres, classes) -> (m, C)`` (module docstring); None: none.
     seed : int
         Seed of k-means and of the classifier; the same data and seed give the same model.
 
@@ -266,7 +266,7 @@ class SetSupervisedLearner(BaseEstimator):
         n = len(data.X)
         if self.prior is None:
             return np.zeros((n, len(self.classes_)))
-        parts = [np.asarray(self.prior.log_prior(rec, ends, self.classes_), dtype=float)
+        parts = [np.asarray(self.prior.log_prior(rec, ends - self.window // 2, self.classes_), dtype=float)
                  for rec, ends in zip(recordings, data.ends)]
         prior = np.vstack(parts)
         if prior.shape != (n, len(self.classes_)) or np.isnan(prior).any():

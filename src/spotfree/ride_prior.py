@@ -48,25 +48,23 @@ class RidePrior:
         Deceleration (m/s^2) from which a window counts as losing speed.
     weight : float
         Log-prior bonus of the classes that agree with the speed's trend.
-    window : int
-        Window length (samples) of the learner, to find each window's centre.
     """
 
     def __init__(self, braking: tuple[str, ...] = ("normal-braking", "sudden-braking"), slowing: float = 0.4,
-                 weight: float = 2.0, window: int = 20):
+                 weight: float = 2.0):
         self.braking = tuple(braking)
         self.slowing = slowing
         self.weight = weight
-        self.window = window
 
-    def log_prior(self, recording, ends: np.ndarray, classes: list[str]) -> np.ndarray:
-        """``(len(ends), len(classes))`` log-prior of the windows ending at ``ends`` of ``recording``."""
-        out = np.zeros((len(ends), len(classes)))
+    def log_prior(self, recording, centres: np.ndarray, classes: list[str]) -> np.ndarray:
+        """``(len(centres), len(classes))`` log-prior of the windows centred at sample indices ``centres`` of
+        ``recording``."""
+        out = np.zeros((len(centres), len(classes)))
         named = np.isin(classes, self.braking)
         if "speed" not in recording.channels or not named.any():
             return out
         trend = speed_trend(np.asarray(recording.channels["speed"], dtype=float), recording.rate,
-                            np.asarray(ends) - self.window // 2)
+                            np.asarray(centres))
         known = np.isfinite(trend)
         slowing = known & (trend <= -self.slowing)
         out[slowing[:, None] & named[None, :]] = self.weight
