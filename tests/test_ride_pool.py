@@ -37,7 +37,8 @@ def test_pool_acknowledges_as_one_process_does(pool, model, raw, tmp_path):
 
     from spotfree.ride.api import create_app
 
-    with TestClient(create_app(pool)) as client, client.websocket_connect("/ws/watch") as view:
+    operator = {"Authorization": f"Bearer {pool.new_operator_token()}"}
+    with TestClient(create_app(pool)) as client, client.websocket_connect("/ws/watch", headers=operator) as view:
         assert view.receive_json()["type"] == "hello"
         with client.websocket_connect("/ws/ride") as ws:
             ws.send_json({"type": "resume", "token": token, "ride_id": first})

@@ -417,7 +417,7 @@ def evaluate(
 @user_errors
 def serve(
     host: str = typer.Option("127.0.0.1", "--host", help="address to listen on (0.0.0.0 for phones on the LAN)"),
-    port: int = typer.Option(8000, "--port"),
+    port: int = typer.Option(8000, "--port", help="TCP port, 1 to 65535 (0: any free port)"),
     database: str = typer.Option("spotfree-rides.db", "--database",
                                  help="SQLite file, or a postgresql:// URL"),
     https: bool = typer.Option(False, "--https", help="TLS with a self-signed certificate (phones need it)"),
@@ -431,6 +431,8 @@ def serve(
                              "a power loss) | normal (survives the server being killed; faster)"),
     workers: int = typer.Option(0, "--workers", min=0, help="classify and record rides in this many worker "
                                 "processes (0: in the server's process)"),
+    new_operator_token: bool = typer.Option(False, "--new-operator-token", help="issue a new operator token "
+                                            "(the old one stops working) and write it beside the store"),
 ) -> None:
     """The live ride assistant: phone page (/), rider view (/rider), operator view (/operator)."""
     from spotfree.ride.server import run_server
@@ -440,7 +442,7 @@ def serve(
 
     run_server(host=host, port=port, database=database, https=https, replay=replay, simulate=simulate,
                model_path=model_path, speed=speed, seed=seed, say=err.print, synchronous=sync,
-               workers=workers)
+               workers=workers, new_operator_token=new_operator_token)
 
 
 @hand_app.command("simulate")
@@ -563,7 +565,7 @@ def fleet_ingest(
         out.print(f"logs: {ingest_logs(target, entries)}")
         if from_store:
             with RideStore(from_store) as source:
-                out.print(f"{from_store}: {ingest_store(target, source)}")
+                out.print(f"{source.name}: {ingest_store(target, source)}")
 
 
 @fleet_app.command("process")

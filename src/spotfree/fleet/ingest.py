@@ -121,7 +121,7 @@ def ingest_store(store: RideStore, source: RideStore) -> IngestReport:
         token = token or store.register_device(DEVICE_NAME)[1]
         report.added.append(_write(store, token, ride.vehicle, ride.rider_id, ride.started,
                                    {c: getattr(ride, c) for c in RIDER_FIELDS}, samples, ride.ended,
-                                   where=f"{source.location} ride {ride.ride_id}"))
+                                   where=f"{source.name} ride {ride.ride_id}"))
     return report
 
 

@@ -13,6 +13,11 @@ device gets is sent after the commit: an acknowledged sample is on disk. :meth:`
 reported to the device, but the ride's filters and assistant have taken the batch: end that ride and start a new
 one. Ending a ride closes the assistant's open episodes and records them.
 
+Credentials (:meth:`RideService.identify`): the operator token (its hash in the store, issued by
+:meth:`RideService.new_operator_token`) reads every ride and issues enrolment codes; a device token, got with
+such a code (:meth:`RideService.enrol_device`), writes and reads only the rides it started, and a device's view
+(:meth:`RideService.watch`) is sent only the messages of those rides.
+
 Rate: each ride has a bucket of ``BACKLOG_SECONDS * rate`` samples (``rate`` the model's, Hz) refilled at
 ``RATE_FACTOR * rate`` samples/s; a batch of ``n`` samples takes ``n`` from it or is refused whole (HTTP 429,
 with the seconds to wait). A phone streaming at ``rate`` keeps the bucket full, so the backlog of a disconnect of
@@ -23,6 +28,7 @@ from __future__ import annotations
 
 import asyncio
 import functools
+import hmac
 import math
 import threading
 import time as clock
@@ -39,7 +45,7 @@ from spotfree.ride import validation
 from spotfree.ride.assistant import RideAssistant
 from spotfree.ride.live import LiveRide, pipeline_spec
 from spotfree.ride.records import FEATURE_COLUMNS, SAMPLE_COLUMNS
-from spotfree.ride.store import AccessError, RideStore
+from spotfree.ride.store import AccessError, ForbiddenError, RideStore
 from spotfree.ride.tokens import token_hash
 
 PLOT_CHANNELS = ("pitch", "pitch_rate", "acc_long")
@@ -92,6 +98,19 @@ def assistant_factory(model: DictionaryModel) -> Callable[[], RideAssistant]:
     return functools.partial(RideAssistant, dangerous=dangerous)
 
 
+OPERATOR, DEVICE = "operator", "device"
+
+
+@dataclass(frozen=True)
+class Identity:
+    """Who sent a request: ``role`` :data:`OPERATOR` (reads every ride, issues enrolment codes) or
+    :data:`DEVICE` (``device_id``: writes and reads only its own rides); ``token_hash`` of the credential."""
+
+    role: str
+    device_id: str | None
+    token_hash: str
+
+
 @dataclass
 class _OpenRide:
     ride_id: str
@@ -134,17 +153,75 @@ class RideService:
                                   "refractory": rule.refractory}}
         self._open: dict[str, _OpenRide] = {}
         self._lock = threading.Lock()
-        self._watchers: set[tuple[asyncio.AbstractEventLoop, asyncio.Queue, str | None]] = set()
+        self._watchers: set[tuple[asyncio.AbstractEventLoop, asyncio.Queue, str | None, str | None]] = set()
+        self._owners: dict[str, str] = {}
+        self._devices: dict[str, str] = {}
+        self._operator_hash = store.operator_token_hash()
+
+    # ------------------------------------------------------------ credentials
+
+    def identify(self, token: object) -> Identity:
+        """Who holds ``token``: the operator, or a device (:class:`AccessError` for no token or an unknown one).
+        A device's token, once found in the store, is remembered (tokens are never revoked while serving)."""
+        if not isinstance(token, str) or not token:
+            raise AccessError("no credential; send 'Authorization: Bearer <token>' (a device's token, or the "
+                              "operator token)")
+        digest = token_hash(token)
+        operator = self._operator_hash
+        if operator is not None and hmac.compare_digest(digest, operator):
+            return Identity(OPERATOR, None, digest)
+        device_id = self._devices.get(digest)
+        if device_id is None:
+            try:
+                device_id = self.store.authenticate(token)
+            except AccessError:
+                raise AccessError("unknown token; enrol the device with an enrolment code from the operator, "
+                                  "or use the operator token") from None
+            self._devices[digest] = device_id
+        return Identity(DEVICE, device_id, digest)
+
+    def require_operator(self, token: object) -> Identity:
+        """:meth:`identify`, refused (:class:`ForbiddenError`) unless the token is the operator's."""
+        who = self.identify(token)
+        if who.role != OPERATOR:
+            raise ForbiddenError("this view needs the operator token; a device token reads only its own rides")
+        return who
+
+    def new_operator_token(self) -> str:
+        """Issue a new operator token (the previous one stops working at once); shown only now."""
+        token = self.store.new_operator_token()
+        self._operator_hash = token_hash(token)
+        return token
+
+    def issue_enrolment(self, uses: int = 1, ttl: float = 3600.0) -> tuple[str, float]:
+        """A new enrolment code (:meth:`~spotfree.ride.store.RideStore.issue_enrolment`)."""
+        return self.store.issue_enrolment(uses, ttl)
+
+    def enrol_device(self, code: str, name: str = "") -> tuple[str, str]:
+        """``(device_id, token)`` of a new device that gave a valid enrolment code (ForbiddenError otherwise)."""
+        return self.store.enrol_device(code, name)
+
+    def readable(self, who: Identity, ride_id: str):
+        """The ride's metadata if ``who`` may read it (the operator any ride, a device its own):
+        NotFoundError, ForbiddenError otherwise."""
+        ride = self.store.ride(ride_id)
+        if who.role != OPERATOR and ride.device_id != who.device_id:
+            raise ForbiddenError(f"ride {ride_id} belongs to another device; a device token reads only its own "
+                                 "rides")
+        return ride
 
     # ------------------------------------------------------------ devices and rides
 
     def register_device(self, name: str = "") -> tuple[str, str]:
-        """``(device_id, token)`` of a new device."""
+        """``(device_id, token)`` of a new device, without an enrolment code: for code running in the server's
+        process (replays, simulations), never for a request."""
         return self.store.register_device(name)
 
     def start_ride(self, token: str, vehicle: str, rider_id: str, **meta) -> str:
         """Open a ride for the token's device; ``meta``: ``age_band``, ``gender``, ``skill``, ``started``."""
         ride_id = self._open_ride(token, vehicle, rider_id, meta)
+        with self._lock:
+            self._owners[ride_id] = token_hash(token)
         self._publish({"type": "ride", "ride_id": ride_id, "vehicle": vehicle, "rider_id": rider_id}, ride_id)
         return ride_id
 
@@ -175,6 +252,8 @@ class RideService:
         """Close the ride: its open episodes become events, and the store refuses later samples."""
         events = self._close_ride(token, ride_id)
         self._publish({"type": "end", "ride_id": ride_id, "events": events}, ride_id)
+        with self._lock:
+            self._owners.pop(ride_id, None)
 
     def _close_ride(self, token: str, ride_id: str) -> list[dict]:
         ride = self._own(token, ride_id)
@@ -269,18 +348,21 @@ class RideService:
 
     # ------------------------------------------------------------ views
 
-    def watch(self, ride_id: str | None = None) -> asyncio.Queue:
-        """A queue of the messages published for ``ride_id`` (all rides when None), on the calling loop."""
+    def watch(self, ride_id: str | None = None, who: Identity | None = None) -> asyncio.Queue:
+        """A queue of the messages published for ``ride_id`` (all rides when None), on the calling loop; for a
+        device (``who``), only those of the rides its token started."""
         queue: asyncio.Queue = asyncio.Queue(maxsize=1000)
-        self._watchers.add((asyncio.get_running_loop(), queue, ride_id))
+        owner = who.token_hash if who is not None and who.role == DEVICE else None
+        self._watchers.add((asyncio.get_running_loop(), queue, ride_id, owner))
         return queue
 
     def unwatch(self, queue: asyncio.Queue) -> None:
         self._watchers = {w for w in self._watchers if w[1] is not queue}
 
     def _publish(self, message: dict, ride_id: str) -> None:
-        for loop, queue, wanted in list(self._watchers):
-            if wanted is None or wanted == ride_id:
+        owner = self._owners.get(ride_id)
+        for loop, queue, wanted, device in list(self._watchers):
+            if (wanted is None or wanted == ride_id) and (device is None or device == owner):
                 loop.call_soon_threadsafe(_offer, queue, message)
 
 

@@ -43,11 +43,18 @@ class Warner {
 }
 
 async function deviceToken() {
+  // the device's token, kept by the browser; the first time, got with the operator's enrolment code
   let token = localStorage.getItem("spotfree-token");
   if (!token) {
-    const r = await fetch("/api/devices", { method: "POST", body: JSON.stringify({ name: navigator.userAgent.slice(0, 90) }) });
-    token = (await r.json()).token;
+    const r = await fetch("/api/devices", {
+      method: "POST", headers: { "Content-Type": "application/json" },
+      body: JSON.stringify({ name: navigator.userAgent.slice(0, 90), code: $("code").value.trim() }),
+    });
+    const answer = await r.json();
+    if (!r.ok) throw new Error(answer.detail || `enrolment refused (${r.status})`);
+    token = answer.token;
     localStorage.setItem("spotfree-token", token);
+    $("enrol").hidden = true;
   }
   return token;
 }
@@ -190,7 +197,12 @@ async function start() {
     const answer = await DeviceMotionEvent.requestPermission();
     if (answer !== "granted") { $("status").textContent = "motion permission refused"; return; }
   }
-  state.token = await deviceToken();
+  try {
+    state.token = await deviceToken();
+  } catch (e) {
+    $("status").textContent = e.message;
+    return;
+  }
   window.addEventListener("devicemotion", onMotion);
   if (navigator.geolocation) {
     navigator.geolocation.watchPosition(onPosition, (e) => { $("status").textContent = `location: ${e.message}`; },
@@ -208,6 +220,7 @@ function setDestination() {
 
 async function init() {
   if (!window.isSecureContext) $("secure").hidden = false;
+  $("enrol").hidden = Boolean(localStorage.getItem("spotfree-token"));
   state.spec = await (await fetch("/api/model")).json();
   state.pipeline = new spotfreePipeline.Pipeline(state.spec);
   state.warner = new Warner(state.spec.warnings);
