@@ -3,7 +3,11 @@ experiment, sample columns as JSON sends them, and devices enrolled as a phone i
 
 from __future__ import annotations
 
+import contextlib
 import math
+import socket
+import threading
+import time
 
 import pytest
 
@@ -34,3 +38,23 @@ def enrol(client, operator: dict, name: str = "phone") -> str:
     """A device token, enrolled through the API with a code the operator issued."""
     code = client.post("/api/enrolments", json={}, headers=operator).json()["code"]
     return client.post("/api/devices", json={"name": name, "code": code}).json()["token"]
+
+
+@contextlib.contextmanager
+def served(app):
+    """``app`` under a real uvicorn server on a free loopback port, in a thread; yields its base URL."""
+    import uvicorn
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="warning"))
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    while not server.started:
+        time.sleep(0.05)
+    try:
+        yield f"http://127.0.0.1:{port}"
+    finally:
+        server.should_exit = True
+        thread.join(5)

@@ -6,7 +6,6 @@ warning banner and the operator view lists the event and draws the track."""
 import math
 import os
 import shutil
-import socket
 import tempfile
 import threading
 import time
@@ -18,6 +17,7 @@ playwright_api = pytest.importorskip("playwright.sync_api")
 uvicorn = pytest.importorskip("uvicorn")
 
 from classify_fixtures import rides, truth_model  # noqa: E402
+from service_fixtures import served  # noqa: E402
 from spotfree.ride.api import create_app  # noqa: E402
 from spotfree.ride.records import SAMPLE_COLUMNS  # noqa: E402
 from spotfree.ride.service import RideService  # noqa: E402
@@ -36,19 +36,9 @@ def server(tmp_path_factory):
     raw = rides(seed=1, repeats=2)
     service = RideService(truth_model(raw.select_experiment(1)),
                           RideStore(tmp_path_factory.mktemp("db") / "rides.db", synchronous="normal"))
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    config = uvicorn.Config(create_app(service), host="127.0.0.1", port=port, log_level="warning")
-    srv = uvicorn.Server(config)
-    thread = threading.Thread(target=srv.run, daemon=True)
-    thread.start()
-    while not srv.started:
-        time.sleep(0.05)
     service.operator_token = service.new_operator_token()
-    yield f"http://127.0.0.1:{port}", service, recording_rows(raw.select_experiment(2))
-    srv.should_exit = True
-    thread.join(5)
+    with served(create_app(service)) as url:
+        yield url, service, recording_rows(raw.select_experiment(2))
 
 
 @pytest.fixture(scope="module")

@@ -340,6 +340,35 @@ def test_sensor_logger_push(client, raw):
     assert client.post("/push", json=_push_message("s2", 1.7e18, rows[:5])).status_code == 401
 
 
+def test_push_refusals_change_nothing_and_drops_are_counted(client, raw):
+    headers = _device(client)
+    rows = _ride_rows(raw)[:60]
+    first = client.post("/push", json=_push_message("s1", 1.7e18, rows[:30]), headers=headers)
+    assert first.status_code == 200 and first.json()["count"] == 29 and first.json()["dropped"] == 0
+    ride = first.json()["ride_id"]
+    stored = lambda: len(client.get(f"/api/rides/{ride}", headers=headers).json()["samples"]["time"])  # noqa: E731
+    late = client.post("/push", json=_push_message("s1", 1.7e18, rows[:30]), headers=headers)  # sent twice
+    assert late.status_code == 400 and "already stored" in late.json()["detail"]
+    bad = _push_message("s1", 1.7e18, rows[30:40])
+    bad["payload"][3]["values"]["x"] = 1e300  # beyond any phone's accelerometer: the whole message refused
+    assert client.post("/push", json=bad, headers=headers).status_code == 400
+    for broken in ({"x": "0.5", "y": 0.0, "z": 9.8}, [1.0, 2.0]):
+        message = _push_message("s1", 1.7e18, rows[30:40])
+        message["payload"][0]["values"] = broken
+        assert client.post("/push", json=message, headers=headers).status_code == 400
+    located = _push_message("s1", 1.7e18, rows[30:40])
+    located["payload"].append({"name": "location", "time": int(1.7e18 + rows[35, 0] * 1e9), "values": [35.0, 139.0]})
+    assert client.post("/push", json=located, headers=headers).status_code == 400
+    assert stored() == 29
+    # the refused messages left the session as it was: the next one goes on from slot 29
+    again = _push_message("s1", 1.7e18, rows[30:40])
+    again["payload"] = [r for r in again["payload"]
+                        if not (r["name"] == "gyroscope" and r["time"] < 1.7e18 + rows[33, 0] * 1e9)]
+    answer = client.post("/push", json=again, headers=headers).json()
+    # slot 29 (pending) and 33-38 stored; 30-32 lacked a gyroscope reading: their accelerometer readings dropped
+    assert answer["count"] == 7 and answer["dropped"] == 3 and stored() == 36
+
+
 def test_push_resampler_averages_slots():
     readings = [("acc", 1e9 + k * 0.01, (k, 0.0, 9.8)) for k in range(10)]
     readings += [("gyr", 1e9 + k * 0.01, (0.0, 0.0, k)) for k in range(10)]

@@ -19,7 +19,9 @@ Pages: ``/`` the phone page (streams DeviceMotion and Geolocation), ``/rider`` a
   ``{"type": "error", "status", "message"}`` (``seq`` too for a batch, ``retry_after`` s for a 429) and changes
   nothing; a binary frame is answered by closing the socket (code 1003, with the reason);
 * ``POST /push?platform=android|ios`` the Sensor Logger app's HTTP push (:mod:`spotfree.ride.sensorpush`): one
-  ride per ``sessionId``.
+  ride per ``sessionId``; parsed in a thread, in time linear in its size. The answer counts the samples stored
+  (``count``) and the readings ``dropped`` (a slot only one motion sensor filled); a refused message (4xx) changes
+  nothing and may be sent again.
 
 Operator: ``POST /api/enrolments`` ``{"uses"?, "ttl"?}`` -> ``{"code", "expires", "uses"}``. Views (the operator;
 a device for its own rides): ``GET /api/rides``, ``GET /api/rides/{id}`` (samples, features, labels, events, for
@@ -40,6 +42,7 @@ view without the operator token or a bad enrolment code, 404 unknown ride, 413 a
 from __future__ import annotations
 
 import asyncio
+import copy
 import inspect
 import math
 import re
@@ -214,6 +217,7 @@ def create_app(service: RideService) -> FastAPI:
     app.add_middleware(SecurityHeaders)
     app.mount("/static", StaticFiles(directory=STATIC), name="static")
     sessions: dict[tuple[str, str], tuple[str, PushResampler]] = {}
+    locks: dict[tuple[str, str], asyncio.Lock] = {}
 
     for route, page in (("/", "phone.html"), ("/rider", "rider.html"), ("/operator", "operator.html")):
         app.add_api_route(route, lambda page=page: FileResponse(STATIC / page), methods=["GET"],
@@ -291,17 +295,25 @@ def create_app(service: RideService) -> FastAPI:
         except InputError as exc:
             raise HTTPException(400, _one_line(exc)) from None
         key = (token_hash(token), session)
-        if key not in sessions:
-            device = validation.text(body.get("deviceId"), "push", "deviceId", required=False) \
-                if isinstance(body.get("deviceId"), str) else None
-            ride_id = await _call(service.start_ride, token, "sensor-logger", device or "unknown")
-            sessions[key] = (ride_id, PushResampler(service.model.rate))
-        ride_id, resampler = sessions[key]
-        columns = resampler.add(readings)
-        if not columns["time"]:
-            return {"ride_id": ride_id, "count": 0}
-        ack = await _call(service.ingest_async, token, ride_id, columns)
-        return {"ride_id": ride_id, **ack}
+        async with locks.setdefault(key, asyncio.Lock()):  # one message of a session at a time, in order
+            if key not in sessions:
+                device = body.get("deviceId")
+                device = device if isinstance(device, str) and device.isprintable() else "unknown"
+                ride_id = await _call(service.start_ride, token, "sensor-logger", device[:validation.MAX_TEXT])
+                sessions[key] = (ride_id, PushResampler(service.model.rate))
+            ride_id, resampler = sessions[key]
+            # the message is resampled on a copy, kept only once its samples are stored: a refused message
+            # leaves the session as it was, and the app may send it again
+            trial = copy.deepcopy(resampler)
+            try:
+                columns = trial.add(readings)
+            except InputError as exc:
+                raise HTTPException(400, _one_line(exc)) from None
+            ack = {"count": 0}
+            if columns["time"]:
+                ack = await _call(service.ingest_async, token, ride_id, columns)
+            sessions[key] = (ride_id, trial)
+        return {"ride_id": ride_id, **ack, "dropped": trial.dropped - resampler.dropped}
 
     @app.websocket("/ws/ride")
     async def stream(websocket: WebSocket):
