@@ -108,6 +108,14 @@ def test_ride_streamed_recorded_and_listed(client, raw):
     (lambda s: s.update(gx=s["gx"][:-1]), 400),
     (lambda s: s.pop("gz"), 400),
     (lambda s: s.update(ay=["x"] * len(s["ay"])), 400),
+    (lambda s: s.update(ay=[str(v) for v in s["ay"]]), 400),  # numeric text is not converted
+    (lambda s: s.update(gx=[True] * len(s["gx"])), 400),
+    (lambda s: s["time"].__setitem__(-1, 1e300), 400),  # once killed the ride
+    (lambda s: s.update(time=[t * 1000 for t in s["time"]]), 400),  # milliseconds
+    (lambda s: s["time"].__setitem__(-1, s["time"][-2] + 3601.0), 400),  # a pause longer than MAX_STEP
+    (lambda s: s["ax"].__setitem__(3, 1e300), 400),
+    (lambda s: s.update(lat=[35.0] * len(s["lat"]), lon=[500.0] * len(s["lon"])), 400),
+    (lambda s: s.update(speed=[-3.0] * len(s["speed"])), 400),
 ])
 def test_bad_batch_refused_and_nothing_changes(client, raw, change, status):
     headers = _device(client)
@@ -314,6 +322,28 @@ def test_websocket_stream_ack_resume_and_views(client, raw):
             ws.send_json({"type": "batch", "seq": 3, "samples": _columns(rows[30:60])})
             assert ws.receive_json()["count"] == 30
     assert len(client.get(f"/api/rides/{ride_id}", headers=client.operator).json()["samples"]["time"]) == 60
+
+
+@pytest.mark.parametrize("message, code", [
+    (b"\x01\x02", 1003),  # a binary frame
+    ('{"type": "resume", "token": "t", "ride_id": {"a": 1}}', None),  # an object ride id: an error reply
+    ('{"type": "batch", "seq": [1]}', None),
+])
+def test_websocket_refusals_answer_or_close_with_a_reason(client, message, code):
+    from starlette.websockets import WebSocketDisconnect
+
+    with client.websocket_connect("/ws/ride") as ws:
+        if isinstance(message, bytes):
+            ws.send_bytes(message)
+            with pytest.raises(WebSocketDisconnect) as closed:
+                ws.receive_json()
+            assert closed.value.code == code and "binary" in closed.value.reason
+            return
+        ws.send_text(message)
+        reply = ws.receive_json()
+        assert reply["type"] == "error" and 400 <= reply["status"] < 500 and "\n" not in reply["message"]
+        ws.send_text("[]")  # the socket is still open and answers
+        assert ws.receive_json()["status"] == 400
 
 
 def _push_message(session, t0_ns, rows, platform_sign=1.0):

@@ -49,7 +49,11 @@ def user_errors(command: Callable) -> Callable:
 
 
 def _report_repairs_and_gaps(rec) -> None:
-    """Tell the user every repair a reader made and every gap it found (never silently)."""
+    """Refuse a recording outside what a phone records (:func:`spotfree.limits.check_recording`), then tell the
+    user every repair a reader made and every gap it found (never silently)."""
+    from spotfree.limits import check_recording
+
+    check_recording(rec)
     for repair in rec.meta.get("repairs", []):
         err.print(f"note: {repair}")
     for warning in rec.meta.get("warnings", []):
