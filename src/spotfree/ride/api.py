@@ -211,6 +211,38 @@ def _ride_id(value: object) -> str:
     return validation.text(value, "request", "ride_id")
 
 
+def _body_schema(properties: dict, required: tuple[str, ...] = ()) -> dict:
+    """The OpenAPI ``requestBody`` of a JSON object (what the handlers read; they check it themselves)."""
+    schema = {"type": "object", "properties": properties}
+    if required:
+        schema["required"] = list(required)
+    return {"requestBody": {"required": True, "content": {"application/json": {"schema": schema}}}}
+
+
+_TEXT = {"type": "string", "maxLength": 100}
+_NUMBERS = {"type": "array", "items": {"type": ["number", "null"]}, "maxItems": 50}
+_BODIES = {
+    "devices": _body_schema({"name": _TEXT, "code": _TEXT}, ("code",)),
+    "enrolments": _body_schema({"uses": {"type": "integer"}, "ttl": {"type": "number"}}),
+    "rides": _body_schema({"vehicle": _TEXT, "rider_id": _TEXT, "age_band": _TEXT, "gender": _TEXT, "skill": _TEXT},
+                          ("vehicle", "rider_id")),
+    "samples": _body_schema({"samples": {"type": "object", "properties": {
+        c: _NUMBERS for c in ("time", "ax", "ay", "az", "gx", "gy", "gz", "lat", "lon", "speed")}}}, ("samples",)),
+    "destination": _body_schema({"lat": {"type": "number"}, "lon": {"type": "number"}}, ("lat", "lon")),
+    "push": _body_schema({"messageId": {"type": "integer"}, "sessionId": _TEXT, "deviceId": _TEXT,
+                          "payload": {"type": "array", "maxItems": 40, "items": {"type": "object", "properties": {
+                              "name": {"enum": ["totalacceleration", "accelerometer", "gravity", "gyroscope",
+                                                "location", "other"]},
+                              "time": {"type": "number"},
+                              "values": {"type": "object", "properties": {
+                                  k: {"type": "number"} for k in ("x", "y", "z", "latitude", "longitude",
+                                                                  "speed")}}}}}},
+                         ("sessionId", "payload")),
+}
+"""Request bodies as the OpenAPI schema shows them (``/openapi.json``), for clients and for schema-driven fuzzing
+(tests/test_ride_fuzz.py)."""
+
+
 def create_app(service: RideService) -> FastAPI:
     """The FastAPI application serving ``service`` (see the module docstring)."""
     app = FastAPI(title="spotfree ride assistant", docs_url=None, redoc_url=None)
@@ -227,13 +259,13 @@ def create_app(service: RideService) -> FastAPI:
     def model():
         return service.spec
 
-    @app.post("/api/devices")
+    @app.post("/api/devices", openapi_extra=_BODIES["devices"])
     async def register(request: Request):
         body = await _body(request)
         device_id, token = await _call(service.enrol_device, body.get("code"), body.get("name", ""))
         return {"device_id": device_id, "token": token}
 
-    @app.post("/api/enrolments")
+    @app.post("/api/enrolments", openapi_extra=_BODIES["enrolments"])
     async def enrolment(request: Request):
         await _identify(service, request, operator=True)
         body = await _body(request)
@@ -241,7 +273,7 @@ def create_app(service: RideService) -> FastAPI:
         code, expires = await _call(service.issue_enrolment, uses, body.get("ttl", 3600.0))
         return {"code": code, "expires": expires, "uses": uses}
 
-    @app.post("/api/rides")
+    @app.post("/api/rides", openapi_extra=_BODIES["rides"])
     async def start(request: Request):
         _, token = await _identify(service, request)
         body = await _body(request)
@@ -249,13 +281,13 @@ def create_app(service: RideService) -> FastAPI:
         ride_id = await _call(service.start_ride, token, body.get("vehicle"), body.get("rider_id"), **meta)
         return {"ride_id": ride_id}
 
-    @app.post("/api/rides/{ride_id}/samples")
+    @app.post("/api/rides/{ride_id}/samples", openapi_extra=_BODIES["samples"])
     async def samples(ride_id: str, request: Request):
         _, token = await _identify(service, request)
         body = await _body(request)
         return await _call(service.ingest_async, token, ride_id, body.get("samples"))
 
-    @app.post("/api/rides/{ride_id}/destination")
+    @app.post("/api/rides/{ride_id}/destination", openapi_extra=_BODIES["destination"])
     async def destination(ride_id: str, request: Request):
         _, token = await _identify(service, request)
         body = await _body(request)
@@ -285,10 +317,9 @@ def create_app(service: RideService) -> FastAPI:
                     "events": [vars(e) for e in service.store.events(ride_id)], "model": service.model_name}
         return JSONResponse(_clean(await _call(read)))
 
-    @app.post("/push")
-    async def push(request: Request):
+    @app.post("/push", openapi_extra=_BODIES["push"])
+    async def push(request: Request, platform: str = "android"):
         _, token = await _identify(service, request)
-        platform = request.query_params.get("platform", "android")
         body = await _body(request)
         try:
             session, readings = await run_in_threadpool(parse_push, body, platform)
