@@ -37,7 +37,7 @@ def operations(world):
 
 OPERATIONS = ["POST /api/devices", "POST /api/enrolments", "POST /api/rides", "POST /api/rides/{ride_id}/samples",
               "POST /api/rides/{ride_id}/destination", "POST /api/rides/{ride_id}/end", "GET /api/rides",
-              "GET /api/rides/{ride_id}", "GET /api/model", "POST /push"]
+              "GET /api/rides/{ride_id}", "GET /api/model", "GET /api/health", "POST /push"]
 
 
 def test_the_schema_lists_every_operation(operations):

@@ -27,7 +27,13 @@ Operator: ``POST /api/enrolments`` ``{"uses"?, "ttl"?}`` -> ``{"code", "expires"
 a device for its own rides): ``GET /api/rides``, ``GET /api/rides/{id}`` (samples, features, labels, events, for
 replay) and ``WS /ws/watch`` (``?ride=`` one ride; the credential in the ``Authorization`` header or in a first
 message ``{"type": "auth", "token"}`` sent within :data:`AUTH_SECONDS`) stream what the service publishes.
-``GET /api/model`` is the pipeline for the page (:func:`~spotfree.ride.live.pipeline_spec`).
+``GET /api/model`` is the pipeline for the page (:func:`~spotfree.ride.live.pipeline_spec`); ``GET /api/health``
+(no credential) the service's :meth:`~spotfree.ride.service.RideService.health`, 503 while degraded.
+
+Restarts: a ride open in the store goes on after the server restarts (or its worker dies): ``resume`` and every
+later call rebuild it from the stored samples (:mod:`spotfree.ride.service`). A ride that ended (or was closed
+after :data:`~spotfree.ride.service.IDLE_SECONDS` without samples) is refused with 403; the phone page then starts
+a new ride with the samples it still holds.
 
 Every HTTP answer carries the headers of :data:`SECURITY_HEADERS` and a Content-Security-Policy that lets a page
 load and connect only to this server and not be framed. A body with a credential must be ``application/json``
@@ -36,12 +42,14 @@ load and connect only to this server and not be framed. A body with a credential
 Refusals (one line in ``detail``): 400 bad input, 401 no or unknown credential, 403 a ride of another device, a
 view without the operator token or a bad enrolment code, 404 unknown ride, 413 a body over :data:`MAX_BODY` bytes
 (refused while it is read), 415 a body that is not JSON, 429 samples sent faster than the service takes them
-(``Retry-After``; see :mod:`spotfree.ride.service`).
+(``Retry-After``; see :mod:`spotfree.ride.service`), 503 a ride worker being replaced (``Retry-After``: send
+again).
 """
 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import copy
 import inspect
 import math
@@ -59,7 +67,7 @@ from starlette.websockets import WebSocketState
 from spotfree.errors import InputError, SpotfreeError
 from spotfree.ride import validation
 from spotfree.ride.sensorpush import PushResampler, parse_push
-from spotfree.ride.service import OPERATOR, Identity, RateError, RideService
+from spotfree.ride.service import OPERATOR, Identity, RateError, RideService, UnavailableError
 from spotfree.ride.store import AccessError, ForbiddenError, NotFoundError
 from spotfree.ride.tokens import token_hash
 
@@ -113,6 +121,8 @@ def _status(exc: Exception) -> int:
         return 404
     if isinstance(exc, RateError):
         return 429
+    if isinstance(exc, UnavailableError):
+        return 503
     if isinstance(exc, ForbiddenError):
         return 403
     if isinstance(exc, AccessError):
@@ -132,7 +142,8 @@ async def _call(function, *args, **kwargs):
             return await function(*args, **kwargs)
         return await run_in_threadpool(function, *args, **kwargs)
     except (SpotfreeError, ValueError) as exc:
-        headers = {"Retry-After": str(math.ceil(exc.retry_after))} if isinstance(exc, RateError) else None
+        headers = {"Retry-After": str(math.ceil(exc.retry_after))} \
+            if isinstance(exc, (RateError, UnavailableError)) else None
         if isinstance(exc, AccessError) and _status(exc) == 401:
             headers = {"WWW-Authenticate": "Bearer"}
         raise HTTPException(_status(exc), _one_line(exc), headers=headers) from None
@@ -259,6 +270,11 @@ def create_app(service: RideService) -> FastAPI:
     def model():
         return service.spec
 
+    @app.get("/api/health")
+    def health():
+        report = service.health()
+        return JSONResponse(report, status_code=200 if report["status"] == "ok" else 503)
+
     @app.post("/api/devices", openapi_extra=_BODIES["devices"])
     async def register(request: Request):
         body = await _body(request)
@@ -372,13 +388,23 @@ def create_app(service: RideService) -> FastAPI:
         if who is None:
             return
         queue = service.watch(websocket.query_params.get("ride"), who)
-        try:
+
+        async def forward() -> None:
             await websocket.send_json({"type": "hello", "role": who.role, "open": service.open_rides()})
             while True:
                 await websocket.send_json(await queue.get())
+        # the socket is read as well as written: a watcher that leaves (or a server shutting down) is noticed at
+        # once, not at the next published message, which may never come
+        sender = asyncio.create_task(forward())
+        try:
+            while (await websocket.receive())["type"] != "websocket.disconnect":
+                pass
         except (WebSocketDisconnect, RuntimeError):
-            return
+            pass
         finally:
+            sender.cancel()
+            with contextlib.suppress(asyncio.CancelledError, WebSocketDisconnect, RuntimeError):
+                await sender
             service.unwatch(queue)
 
     return app
@@ -465,4 +491,5 @@ async def _ws_message(service: RideService, raw: str, token: str | None, ride_id
         raise InputError(f"unknown message type {kind!r:.40}; send start, resume, batch, destination or end")
     except (SpotfreeError, ValueError) as exc:
         reply = {"type": "error", "status": _status(exc), "message": _one_line(exc), "seq": seq}
-        return {**reply, "retry_after": exc.retry_after} if isinstance(exc, RateError) else reply
+        return {**reply, "retry_after": exc.retry_after} if isinstance(exc, (RateError, UnavailableError)) \
+            else reply

@@ -13,6 +13,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import os
+import signal
 from pathlib import Path
 from typing import Callable
 
@@ -58,6 +59,11 @@ def build_service(database: str, model_path: Path | None, say: Callable[[str], N
     return RideService(model, store, model_name=name)
 
 
+SHUTDOWN_SECONDS = 10
+"""Seconds a SIGTERM or Ctrl-C waits for open requests and sockets before the server stops anyway (the store is
+closed after them: every acknowledged sample is committed)."""
+
+
 def operator_token_file(database: str) -> Path:
     """Where the operator token of the store at ``database`` is written: beside a SQLite file, or
     ``spotfree-operator-token`` in the working folder for a ``postgresql://`` URL."""
@@ -94,6 +100,7 @@ def run_server(host: str, port: int, database: str, https: bool, replay: str | N
     rows = _rider_rows(replay, simulate, seed) if (replay or simulate) else None
     service = build_service(database, model_path, say, synchronous, workers)
     provide_operator_token(service, operator_token_file(database), new_operator_token, say)
+    service.keep_tidy()  # rides left open longer than IDLE_SECONDS are closed now, and checked again while serving
     app = create_app(service)
     if rows is not None:
         from spotfree.ride.sources import ride_live
@@ -118,7 +125,21 @@ def run_server(host: str, port: int, database: str, https: bool, replay: str | N
     collector.settle()  # no full garbage collection pauses while serving (spotfree.ride.collector)
     # no per-message compression: a batch or an acknowledgement is under a few kB, and deflating each one cost
     # an eighth of the server's CPU under load (BENCHMARKS.md)
+    # uvicorn shuts down gracefully on SIGTERM, then raises the signal again for the handler it found: this one
+    # ends the run normally, so that the store and the ride workers are closed and the exit status is 0
+    signal.signal(signal.SIGTERM, _stop)
     try:
-        uvicorn.run(app, host=host, port=port, log_level="warning", ws_per_message_deflate=False, **tls)
+        uvicorn.run(app, host=host, port=port, log_level="warning", ws_per_message_deflate=False,
+                    timeout_graceful_shutdown=SHUTDOWN_SECONDS, **tls)
+    except _Stopped:
+        pass
     finally:
         service.close()
+
+
+class _Stopped(Exception):
+    """SIGTERM reached the server after uvicorn's graceful shutdown."""
+
+
+def _stop(signum, frame) -> None:
+    raise _Stopped

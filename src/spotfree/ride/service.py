@@ -32,6 +32,7 @@ import hmac
 import math
 import threading
 import time as clock
+from time import time as clock_time
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Future
 from dataclasses import dataclass, field
@@ -39,7 +40,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from spotfree.classify.batch import dictionary_classifier
-from spotfree.errors import InputError
+from spotfree.errors import InputError, SpotfreeError
 from spotfree.model import DictionaryModel
 from spotfree.ride import validation
 from spotfree.ride.assistant import RideAssistant
@@ -54,8 +55,18 @@ RATE_FACTOR = 4.0
 """Samples a device may send per second, sustained, in multiples of the model's rate."""
 BACKLOG_SECONDS = 60.0
 """Seconds of samples (at the model's rate) a device may send at once: the backlog of a disconnect this long."""
+IDLE_SECONDS = 3600.0
+"""Seconds without a sample after which an open ride is closed (:meth:`RideService.close_idle_rides`): the
+longest pause within a ride (:data:`spotfree.limits.MAX_STEP`)."""
 DANGEROUS_CLASSES = ("sudden-braking", "sharp-turn", "cobblestone")
 """Classes the rider is warned of when the model has them: a hard stop, a sharp turn, a surface to slow down on."""
+
+
+class UnavailableError(SpotfreeError):
+    """The service cannot take this call now (a ride worker stopped and is being replaced): send it again in
+    ``retry_after`` s; nothing of it was acknowledged."""
+
+    retry_after = 1.0
 
 
 class RateError(InputError):
@@ -157,6 +168,8 @@ class RideService:
         self._owners: dict[str, str] = {}
         self._devices: dict[str, str] = {}
         self._operator_hash = store.operator_token_hash()
+        self._restoring = threading.Lock()
+        self._stopping = threading.Event()
 
     # ------------------------------------------------------------ credentials
 
@@ -267,13 +280,32 @@ class RideService:
                 self._open.pop(ride_id, None)
         return [vars(e) for e in events]
 
+    def keep_tidy(self, every: float = IDLE_SECONDS / 6) -> None:
+        """Close idle rides now (:meth:`close_idle_rides`) and then every ``every`` s in a daemon thread, until
+        :meth:`close`."""
+        self.close_idle_rides()
+
+        def loop() -> None:
+            while not self._stopping.wait(every):
+                try:
+                    self.close_idle_rides()
+                except SpotfreeError:  # a store error now: tried again next round
+                    pass
+        threading.Thread(target=loop, name="spotfree-idle-rides", daemon=True).start()
+
     def close(self) -> None:
         """Close the store (after committing what is queued)."""
+        self._stopping.set()
         self.store.close()
 
     def open_rides(self) -> list[str]:
         with self._lock:
             return list(self._open)
+
+    def health(self) -> dict:
+        """``status`` (``"ok"``, or ``"degraded"`` while a ride worker is down), ``open_rides`` and, with worker
+        processes, one ``{"index", "alive", "rides"}`` per worker and the ``restarts`` so far."""
+        return {"status": "ok", "open_rides": len(self.open_rides()), "workers": [], "restarts": 0}
 
     # ------------------------------------------------------------ samples
 
@@ -340,11 +372,73 @@ class RideService:
         with self._lock:
             ride = self._open.get(ride_id)
         if ride is None:
-            self.store.ride(ride_id)  # NotFoundError for an unknown id
-            raise AccessError(f"ride {ride_id} is not open on this server; start a new ride")
+            ride = self._restore(token, ride_id)
         if not isinstance(token, str) or token_hash(token) != ride.token_hash:
             raise AccessError(f"this device token may not write to ride {ride_id}; use the token that started it")
         return ride
+
+    def _restore(self, token: str, ride_id: str) -> _OpenRide:
+        """An open ride of the store that this process does not hold (the server restarted, or the worker that
+        held it died), rebuilt by replaying its stored samples; refused (NotFoundError, ForbiddenError) for an
+        unknown ride, one that has ended, or a token not its device's."""
+        record = self.store.ride(ride_id)  # NotFoundError for an unknown id
+        if record.ended is not None:
+            raise ForbiddenError(f"ride {ride_id} is not open (it has ended); start a new ride")
+        if self.identify(token).device_id != record.device_id:
+            raise AccessError(f"this device token may not write to ride {ride_id}; use the token that started it")
+        with self._restoring:
+            with self._lock:
+                ride = self._open.get(ride_id)
+            if ride is None:
+                ride = self._replay(ride_id, token_hash(token))
+                with self._lock:
+                    self._open[ride_id] = ride
+                    self._owners[ride_id] = ride.token_hash
+        return ride
+
+    def _replay(self, ride_id: str, owner: str) -> _OpenRide:
+        """The state of an open ride rebuilt from the store: its stored samples run through a new
+        :class:`LiveRide` and assistant in blocks (the same labels and episodes as when they came, since blocks
+        and single samples give the same results); the events that ended then are already stored and are
+        dropped. The rate bucket starts full; a destination set before is not kept (the phone sets it again)."""
+        columns = self.store.samples(ride_id)
+        table = np.column_stack([np.asarray(columns[c], dtype=float) for c in SAMPLE_COLUMNS])
+        ride = _OpenRide(ride_id, owner, LiveRide(self.model, self.classifier), self.assistant(),
+                         SampleBucket(BACKLOG_SECONDS * self.model.rate, RATE_FACTOR * self.model.rate))
+        for start in range(0, len(table), validation.MAX_BATCH):
+            block = table[start:start + validation.MAX_BATCH]
+            _, labels = ride.live.update_block(block)
+            ride.assistant.update_block(block[:, _ASSISTED].tolist(), labels)
+            ride.assistant.pop_events()
+        ride.last_time = float(table[-1, 0]) if len(table) else None
+        return ride
+
+    def close_idle_rides(self, idle: float = IDLE_SECONDS, now: float | None = None) -> list[str]:
+        """Close every open ride with no sample for more than ``idle`` s (:data:`IDLE_SECONDS`; UNIX ``now``):
+        its open episodes become events, ``ended`` is the time of its last sample. Returns their ids. A ride that
+        a worker process holds (:class:`~spotfree.ride.pool.RideServicePool`) is left to that worker."""
+        now = clock_time() if now is None else now
+        closed = []
+        for ride_id, last in self.store.open_ride_activity():
+            if now - last <= idle or ride_id in self._held_elsewhere():
+                continue
+            with self._lock:
+                ride = self._open.pop(ride_id, None)
+            if ride is None:
+                ride = self._replay(ride_id, "")
+            with ride.lock:
+                ride.assistant.finish()
+                events = ride.assistant.pop_events()
+            if self.store.close_idle_ride(ride_id, max(last, self.store.ride(ride_id).started), events):
+                closed.append(ride_id)
+                self._publish({"type": "end", "ride_id": ride_id, "events": [vars(e) for e in events]}, ride_id)
+            with self._lock:
+                self._owners.pop(ride_id, None)
+        return closed
+
+    def _held_elsewhere(self) -> set[str]:
+        """Rides held by other processes (none here; the pool's workers' rides there)."""
+        return set()
 
     # ------------------------------------------------------------ views
 

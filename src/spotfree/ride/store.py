@@ -236,6 +236,28 @@ class RideStore:
             db.execute("UPDATE rides SET ended = ? WHERE ride_id = ?", (end, ride_id))
         self._write(write)
 
+    def close_idle_ride(self, ride_id: str, ended: float, events: Iterable[Event] = ()) -> bool:
+        """Close an open ride that its device left (no token: for the server's own housekeeping, never for a
+        request): record ``events`` and set ``ended`` (UNIX s); False when it had already ended."""
+        rows = [_event_row(ride_id, event) for event in events]
+        end = _epoch(ended, f"ride {ride_id}", "ended")
+
+        def write(db) -> bool:
+            row = db.execute("SELECT ended FROM rides WHERE ride_id = ?", (ride_id,)).fetchone()
+            if row is None or row[0] is not None:
+                return False
+            if rows:
+                db.executemany(_EVENT_SQL, rows)
+            db.execute("UPDATE rides SET ended = ? WHERE ride_id = ?", (end, ride_id))
+            return True
+        return self._write(write)
+
+    def open_ride_activity(self) -> list[tuple[str, float]]:
+        """``(ride_id, last activity)`` of every open ride: UNIX s of its last stored sample (its start when it
+        has none), the start plus that sample's time since the start."""
+        rows = self._query(f"SELECT r.ride_id, r.started, {blocks.LAST_TIME} FROM rides r WHERE r.ended IS NULL")
+        return [(ride_id, float(started) + float(last or 0.0)) for ride_id, started, last in rows]
+
     def append_samples(self, token: str, ride_id: str, samples: Mapping[str, Sequence[float]],
                        features: Mapping[str, Sequence[float]] | None = None,
                        labels: Mapping[str, Sequence[str | None]] | None = None,
