@@ -437,16 +437,22 @@ def serve(
                                 "processes (0: in the server's process)"),
     new_operator_token: bool = typer.Option(False, "--new-operator-token", help="issue a new operator token "
                                             "(the old one stops working) and write it beside the store"),
+    cert: Optional[Path] = typer.Option(None, "--cert", help="your own TLS certificate (PEM) for https; "
+                                        "with --key"),
+    key: Optional[Path] = typer.Option(None, "--key", help="the private key (PEM) of --cert"),
 ) -> None:
     """The live ride assistant: phone page (/), rider view (/rider), operator view (/operator)."""
     from spotfree.ride.server import run_server
 
     if sync not in ("full", "normal"):
         raise InputError(f"--sync {sync}: use full or normal")
+    if (cert is None) != (key is None):
+        raise InputError("--cert and --key go together: give both, or neither (--https makes its own)")
 
     run_server(host=host, port=port, database=database, https=https, replay=replay, simulate=simulate,
                model_path=model_path, speed=speed, seed=seed, say=err.print, synchronous=sync,
-               workers=workers, new_operator_token=new_operator_token)
+               workers=workers, new_operator_token=new_operator_token,
+               certificate=(cert, key) if cert is not None else None)
 
 
 @hand_app.command("simulate")

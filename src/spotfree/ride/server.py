@@ -91,12 +91,18 @@ def provide_operator_token(service: RideService, path: Path, renew: bool, say: C
 
 def run_server(host: str, port: int, database: str, https: bool, replay: str | None, simulate: str | None,
                model_path: Path | None, speed: float, seed: int, say: Callable[[str], None],
-               synchronous: str = "full", workers: int = 0, new_operator_token: bool = False) -> None:
-    """Serve until interrupted (see the module docstring)."""
+               synchronous: str = "full", workers: int = 0, new_operator_token: bool = False,
+               certificate: tuple[Path, Path] | None = None) -> None:
+    """Serve until interrupted (see the module docstring); ``certificate``: the user's own ``(cert, key)`` PEM
+    files for https (else ``https`` uses a self-signed one kept beside the store)."""
     import uvicorn
 
     if not 0 <= port <= 65535:
         raise InputError(f"--port {port}: give a port from 1 to 65535 (0: any free port)")
+    if certificate is not None:
+        from spotfree.ride.tls import user_certificate
+
+        certificate = user_certificate(*certificate)  # refused before anything is loaded
     rows = _rider_rows(replay, simulate, seed) if (replay or simulate) else None
     service = build_service(database, model_path, say, synchronous, workers)
     provide_operator_token(service, operator_token_file(database), new_operator_token, say)
@@ -113,13 +119,15 @@ def run_server(host: str, port: int, database: str, https: bool, replay: str | N
 
         app.router.lifespan_context = rider
     tls = {}
-    if https:
-        from spotfree.ride.tls import lan_addresses, self_signed_certificate
+    if certificate is not None:
+        tls = {"ssl_certfile": str(certificate[0]), "ssl_keyfile": str(certificate[1])}
+    elif https:
+        from spotfree.ride.tls import kept_certificate, lan_addresses
 
         folder = Path(database).parent if "://" not in database else Path(".")
-        cert, key = self_signed_certificate(folder / "spotfree-tls", [host, *lan_addresses()])
+        cert, key = kept_certificate(folder / "spotfree-tls", [host, *lan_addresses()])
         tls = {"ssl_certfile": str(cert), "ssl_keyfile": str(key)}
-    scheme = "https" if https else "http"
+    scheme = "https" if tls else "http"
     say(f"spotfree serve: {scheme}://{host}:{port}/ (phone), /rider, /operator; rides recorded in "
         f"{redact_location(database)}")
     collector.settle()  # no full garbage collection pauses while serving (spotfree.ride.collector)
