@@ -20,7 +20,7 @@ from typing import Callable
 from spotfree.errors import InputError
 from spotfree.model import DictionaryModel
 from spotfree.ride import collector
-from spotfree.ride.api import create_app
+from spotfree.ride.api import MAX_BODY, create_app
 from spotfree.ride.redact import redact_location
 from spotfree.ride.service import RideService
 from spotfree.ride.store import RideStore
@@ -131,6 +131,7 @@ def run_server(host: str, port: int, database: str, https: bool, replay: str | N
     say(f"spotfree serve: {scheme}://{host}:{port}/ (phone), /rider, /operator; rides recorded in "
         f"{redact_location(database)}")
     collector.settle()  # no full garbage collection pauses while serving (spotfree.ride.collector)
+    # a WebSocket message over MAX_BODY closes the socket (1009) as it arrives, before it is buffered whole;
     # no per-message compression: a batch or an acknowledgement is under a few kB, and deflating each one cost
     # an eighth of the server's CPU under load (BENCHMARKS.md)
     # uvicorn shuts down gracefully on SIGTERM, then raises the signal again for the handler it found: this one
@@ -138,7 +139,7 @@ def run_server(host: str, port: int, database: str, https: bool, replay: str | N
     signal.signal(signal.SIGTERM, _stop)
     try:
         uvicorn.run(app, host=host, port=port, log_level="warning", ws_per_message_deflate=False,
-                    timeout_graceful_shutdown=SHUTDOWN_SECONDS, **tls)
+                    ws_max_size=MAX_BODY, timeout_graceful_shutdown=SHUTDOWN_SECONDS, **tls)
     except _Stopped:
         pass
     finally:
