@@ -99,3 +99,27 @@ def test_a_killed_worker_is_replaced_and_its_rides_go_on(model, raw, tmp_path):
         assert len(service.store.samples(doomed)["time"]) == 40
     finally:
         service.close()
+
+
+def _hold(lock, held) -> None:
+    with lock:
+        held.set()
+        time.sleep(600)
+
+
+def test_the_write_lock_of_a_killed_holder_is_free_again(tmp_path):
+    """A worker killed in mid-commit must not leave the other workers waiting on its lock for good."""
+    import multiprocessing
+
+    from spotfree.ride.pool import WriteLock
+
+    context = multiprocessing.get_context("spawn")
+    lock, held = WriteLock(str(tmp_path / "rides.db.write-lock")), context.Event()
+    holder = context.Process(target=_hold, args=(lock, held))
+    holder.start()
+    assert held.wait(60)
+    os.kill(holder.pid, signal.SIGKILL)
+    holder.join(30)
+    started = time.monotonic()
+    with lock:
+        assert time.monotonic() - started < 5

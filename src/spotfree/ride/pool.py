@@ -4,8 +4,8 @@ batches and commits them; the web server's process only parses, routes and answe
 :class:`RideServicePool` is a :class:`~spotfree.ride.service.RideService` (same methods, same refusals, same
 acknowledgements, the views fed in the server's process) whose rides are opened in ``processes`` worker processes,
 each with its own :class:`~spotfree.ride.service.RideService` and its own connection to the same store. SQLite
-takes one writer at a time: the workers' group commits take turns on one lock (a blocking wait, where SQLite's own
-busy handler would poll with sleeps of up to 100 ms); PostgreSQL takes them together.
+takes one writer at a time: the workers' group commits take turns on one lock (:class:`WriteLock`, a blocking
+wait, where SQLite's own busy handler would poll with sleeps of up to 100 ms); PostgreSQL takes them together.
 A new ride goes to the worker with the fewest open rides and stays there; every later call on it is sent to that
 worker over a pipe, and the answer comes back once the worker has committed (an acknowledged sample is in the
 store, as in one process). Python runs one thread at a time per process, so this is how the service uses more
@@ -16,8 +16,10 @@ The server's process keeps its own store connection for device registration and 
 
 from __future__ import annotations
 
+import fcntl
 import itertools
 import multiprocessing
+import os
 import signal
 import threading
 from collections.abc import Callable, Mapping, Sequence
@@ -30,6 +32,40 @@ from spotfree.ride.live import LiveRide
 from spotfree.ride.service import RideService, UnavailableError
 from spotfree.ride.store import ForbiddenError, RideStore
 from spotfree.signal.frame import GRAVITY
+
+
+class WriteLock:
+    """The turn of one process at writing a SQLite file, between processes: an exclusive ``flock`` on a lock file
+    beside it, which the operating system releases when its holder dies (a ``multiprocessing.Lock`` held by a
+    worker killed in mid-commit stayed taken, and every other worker waited on it for good). A context manager,
+    picklable (each process opens the file itself); threads of one process take turns on a thread lock first,
+    since ``flock`` is held per open file."""
+
+    def __init__(self, path: str):
+        self.path = path
+        self._fd: int | None = None
+        self._threads = threading.Lock()
+
+    def __getstate__(self) -> dict:
+        return {"path": self.path}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__init__(state["path"])
+
+    def __enter__(self) -> "WriteLock":
+        self._threads.acquire()
+        try:
+            if self._fd is None:
+                self._fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o600)
+            fcntl.flock(self._fd, fcntl.LOCK_EX)
+        except BaseException:
+            self._threads.release()
+            raise
+        return self
+
+    def __exit__(self, *exc) -> None:
+        fcntl.flock(self._fd, fcntl.LOCK_UN)
+        self._threads.release()
 
 
 class WorkerError(UnavailableError):
@@ -50,7 +86,8 @@ class RideServicePool(RideService):
         if processes < 1:
             raise ValueError(f"processes={processes}: give at least 1 worker process")
         self._context = multiprocessing.get_context("spawn")
-        lock = self._context.Lock()  # the workers take turns at the SQLite file's write lock
+        # the workers take turns at the SQLite file's write lock
+        lock = None if "://" in store.location else WriteLock(store.location + ".write-lock")
         self._service_args = (model, store.location, store.synchronous, lock, model_name, assistant)
         self._closing = False
         self.restarts = 0
