@@ -205,6 +205,8 @@ async def _faults(args, folder: Path, phones: list[Phone]) -> dict[str, list[dic
             resumed = await asyncio.wait_for(_all_acked_since(phones, killed), 120)
             runs[kind].append({"healthy": healthy, "resumed": resumed,
                                "acked": sum(len(p.acked_times) for p in phones) - acked_before})
+            print(f"{kind} killed: health ok after {healthy:.2f} s, every phone acknowledged again after "
+                  f"{resumed:.2f} s", flush=True)
         await asyncio.sleep(args.every)
     finally:
         stop.set()
