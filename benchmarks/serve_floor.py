@@ -31,6 +31,10 @@ def floor_app() -> FastAPI:
     async def model() -> dict:
         return {"classes": ["cruising"]}
 
+    @app.post("/api/enrolments")
+    async def enrolment() -> dict:
+        return {"code": f"c{next(numbers)}"}
+
     @app.post("/api/devices")
     async def device() -> dict:
         return {"device_id": f"d{next(numbers)}", "token": f"t{next(numbers)}"}

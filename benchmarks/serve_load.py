@@ -194,9 +194,15 @@ def _client(url: str, jobs: list[tuple[str, np.ndarray, list[int]]], rate: float
     results.put((cpu, [p.result() for p in phones]))
 
 
-async def _warm_up(client: httpx.AsyncClient, rows: np.ndarray) -> None:
+async def _enrolled(client: httpx.AsyncClient, operator: dict, name: str) -> str:
+    """A device token, enrolled with a code the operator issued."""
+    code = (await client.post("/api/enrolments", json={}, headers=operator)).json()["code"]
+    return (await client.post("/api/devices", json={"name": name, "code": code})).json()["token"]
+
+
+async def _warm_up(client: httpx.AsyncClient, rows: np.ndarray, operator: dict) -> None:
     """One ride of 100 samples first, so that compiling and first-call costs are not counted."""
-    token = (await client.post("/api/devices", json={"name": "warm-up"})).json()["token"]
+    token = await _enrolled(client, operator, "warm-up")
     headers = {"Authorization": f"Bearer {token}"}
     ride = (await client.post("/api/rides", json={"vehicle": "v", "rider_id": "r"}, headers=headers)).json()
     for k in range(0, 100, 5):
@@ -207,11 +213,12 @@ async def _warm_up(client: httpx.AsyncClient, rows: np.ndarray) -> None:
     await client.post(f"/api/rides/{ride['ride_id']}/end", headers=headers)
 
 
-async def _devices(url: str, phones: int, rows: np.ndarray) -> list[str]:
+async def _devices(url: str, phones: int, rows: np.ndarray, folder: Path) -> list[str]:
+    token_file = folder / "rides.db.operator-token"  # written by spotfree serve (none for the floor server)
+    operator = {"Authorization": f"Bearer {token_file.read_text().strip()}"} if token_file.exists() else {}
     async with httpx.AsyncClient(base_url=url) as client:
-        await _warm_up(client, rows)
-        return [(await client.post("/api/devices", json={"name": f"load-{k}"})).json()["token"]
-                for k in range(phones)]
+        await _warm_up(client, rows, operator)
+        return [await _enrolled(client, operator, f"load-{k}") for k in range(phones)]
 
 
 def _cpu_seconds(pid: int) -> float:
@@ -258,7 +265,7 @@ def run(phones: int, seconds: float, batch: float, rows: np.ndarray, rate: float
     with tempfile.TemporaryDirectory() as folder:
         server, url = _start_server(Path(folder), model, sync, workers, floor)
         try:
-            tokens = asyncio.run(_devices(url, phones, rows))
+            tokens = asyncio.run(_devices(url, phones, rows, Path(folder)))
             crowd, server_cpu, client_cpu, wall = _stream(url, server.pid, tokens, seconds, batch, rows, rate,
                                                           clients, DictionaryModel.load(model))
         finally:

@@ -6,7 +6,6 @@ warning banner and the operator view lists the event and draws the track."""
 import math
 import os
 import shutil
-import socket
 import tempfile
 import threading
 import time
@@ -18,6 +17,7 @@ playwright_api = pytest.importorskip("playwright.sync_api")
 uvicorn = pytest.importorskip("uvicorn")
 
 from classify_fixtures import rides, truth_model  # noqa: E402
+from service_fixtures import served  # noqa: E402
 from spotfree.ride.api import create_app  # noqa: E402
 from spotfree.ride.records import SAMPLE_COLUMNS  # noqa: E402
 from spotfree.ride.service import RideService  # noqa: E402
@@ -36,18 +36,9 @@ def server(tmp_path_factory):
     raw = rides(seed=1, repeats=2)
     service = RideService(truth_model(raw.select_experiment(1)),
                           RideStore(tmp_path_factory.mktemp("db") / "rides.db", synchronous="normal"))
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    config = uvicorn.Config(create_app(service), host="127.0.0.1", port=port, log_level="warning")
-    srv = uvicorn.Server(config)
-    thread = threading.Thread(target=srv.run, daemon=True)
-    thread.start()
-    while not srv.started:
-        time.sleep(0.05)
-    yield f"http://127.0.0.1:{port}", service, recording_rows(raw.select_experiment(2))
-    srv.should_exit = True
-    thread.join(5)
+    service.operator_token = service.new_operator_token()
+    with served(create_app(service)) as url:
+        yield url, service, recording_rows(raw.select_experiment(2))
 
 
 @pytest.fixture(scope="module")
@@ -75,13 +66,15 @@ def _rows_js(rows):
     return [[None if math.isnan(v) else float(v) for v in r] for r in rows]
 
 
-def _started_phone(opener, url, **page_args):
-    """The phone page opened by ``opener`` (a browser or a context), its pipeline loaded and Start tapped."""
+def _started_phone(opener, url, service, **page_args):
+    """The phone page opened by ``opener`` (a browser or a context), its pipeline loaded, enrolled with a code
+    the operator issued and Start tapped."""
     page = opener.new_page(**page_args)
     page.goto(url + "/")
-    page.wait_for_function("window.spotfree && window.spotfree.state.pipeline !== null")
+    page.wait_for_function("() => window.spotfree && window.spotfree.state.pipeline !== null")
+    page.fill("#code", service.issue_enrolment()[0])
     page.click("#start")
-    page.wait_for_function("window.spotfree.state.online")
+    page.wait_for_function("() => window.spotfree.state.online")
     return page
 
 
@@ -94,13 +87,13 @@ def _mid_slot(rows):
 
 def test_phone_streams_and_labels_equal_server(server, browser):
     url, service, rows = server
-    page = _started_phone(browser, url, viewport={"width": 420, "height": 860})
+    page = _started_phone(browser, url, service, viewport={"width": 420, "height": 860})
     shifted = _mid_slot(rows)
     for k in range(0, 800, 20):  # 40 s: the first sudden stop of this ride is at 36.7 s
         page.evaluate(MOTION, [_rows_js(shifted[k:k + 20]), 1000.0])
         page.wait_for_timeout(150)
     page.evaluate(MOTION, [_rows_js(shifted[800:801]), 1000.0])
-    page.wait_for_function("window.spotfree.state.serverLabels.length >= 700", timeout=20000)
+    page.wait_for_function("() => window.spotfree.state.serverLabels.length >= 700", timeout=20000)
     remote = page.evaluate("window.spotfree.state.serverLabels")
     local = page.evaluate("window.spotfree.state.localLabels")[:len(remote)]
     assert local == remote
@@ -117,16 +110,16 @@ def test_phone_streams_and_labels_equal_server(server, browser):
 
 
 def test_the_sample_that_warns_is_sent_at_once(server, browser):
-    url, _, rows = server
-    page = _started_phone(browser, url)
+    url, service, rows = server
+    page = _started_phone(browser, url, service)
     shifted = _mid_slot(rows)
     for k in range(0, 700, 20):
         page.evaluate(MOTION, [_rows_js(shifted[k:k + 20]), 1000.0])
         page.wait_for_timeout(100)
     for k in range(700, 801):  # one sample at a time, as a phone gives them, through the first sudden stop
-        page.wait_for_function("window.spotfree.state.inFlight === null")
+        page.wait_for_function("() => window.spotfree.state.inFlight === null")
         page.evaluate(MOTION, [_rows_js(shifted[k:k + 1]), 1000.0])
-    page.wait_for_function("window.spotfree.state.inFlight === null && window.spotfree.state.queue.length < 5")
+    page.wait_for_function("() => window.spotfree.state.inFlight === null && window.spotfree.state.queue.length < 5")
     warned = [w["time"] for w in page.evaluate("window.spotfree.state.warnings")]
     ends = page.evaluate("window.spotfree.state.batchEnds")
     assert warned and all(any(abs(t - end) < 1e-9 for end in ends) for t in warned)
@@ -145,18 +138,18 @@ def test_phone_resends_a_long_backlog_after_being_offline(server, browser):
     waits when refused for the rate, and every sample reaches the store in order."""
     url, service, rows = server
     context = browser.new_context()
-    page = _started_phone(context, url)
+    page = _started_phone(context, url, service)
     shifted = _mid_slot(rows)
     page.evaluate(MOTION, [_rows_js(shifted[:100]), 1000.0])
-    page.wait_for_function("window.spotfree.state.serverLabels.length >= 99")
+    page.wait_for_function("() => window.spotfree.state.serverLabels.length >= 99")
     context.set_offline(True)
     page.evaluate("window.spotfree.state.socket.close()")
-    page.wait_for_function("!window.spotfree.state.online")
+    page.wait_for_function("() => !window.spotfree.state.online")
     for k in range(100, len(shifted), 200):
         page.evaluate(MOTION, [_rows_js(shifted[k:k + 200]), 1000.0])
     assert page.evaluate("window.spotfree.state.queue.length") > 60 * 20
     context.set_offline(False)
-    page.wait_for_function("window.spotfree.state.queue.length <= 1", timeout=30000)
+    page.wait_for_function("() => window.spotfree.state.queue.length <= 1", timeout=30000)
     remote = page.evaluate("window.spotfree.state.serverLabels")
     assert len(remote) == len(shifted) - 1  # the last 20 Hz slot waits for a later reading
     assert page.evaluate("window.spotfree.state.localLabels")[:len(remote)] == remote
@@ -171,10 +164,14 @@ def test_rider_and_operator_views(server, browser):
     url, service, rows = server
     operator = browser.new_page(viewport={"width": 1280, "height": 820})
     rider = browser.new_page(viewport={"width": 420, "height": 760})
+    _, token = service.register_device("replay")
     operator.goto(url + "/operator")
+    operator.fill("#optoken", service.operator_token)
+    operator.click("#signinbtn")
+    # the rider view on the phone that rides: the phone page's device token lets it follow that device's rides
+    rider.add_init_script(f"localStorage.setItem('spotfree-token', {token!r})")
     rider.goto(url + "/rider")
     operator.wait_for_timeout(500)
-    _, token = service.register_device("replay")
     ride_id = service.start_ride(token, "segway", "replay")
     warnings = []
 
@@ -194,12 +191,33 @@ def test_rider_and_operator_views(server, browser):
     streaming.join()
     assert warnings
     listed = operator.locator("#events li[data-kind='sudden-braking']")
-    operator.wait_for_function(f"document.querySelectorAll('#events li').length >= {len(warnings)}")
+    operator.wait_for_function(f"() => document.querySelectorAll('#events li').length >= {len(warnings)}")
     assert listed.count() == len(warnings)
     assert listed.last.inner_text().startswith(f"{warnings[0]['onset']:.1f} s sudden-braking")
-    operator.wait_for_function("Number(document.getElementById('track').dataset.points || 0) > 5", timeout=10000)
+    operator.wait_for_function("() => Number(document.getElementById('track').dataset.points || 0) > 5", timeout=10000)
     assert operator.locator("#scalebar text").text_content().endswith("m")
     assert rider.locator("#speed").inner_text() != "–"
+    assert operator.locator("#signin").is_hidden()
+    operator.click("#enrolbtn")
+    operator.wait_for_function("() => document.getElementById('code').textContent.includes('one device')")
     operator.screenshot(path=str(SHOTS / "operator.png"))
     operator.close()
     rider.close()
+
+
+def test_views_without_a_credential_show_nothing(server, browser):
+    """A view opened without a credential is refused its data and says what to do; a wrong operator token is
+    refused with the server's reason; the pages load under their Content-Security-Policy."""
+    url, service, _ = server
+    page = browser.new_page()
+    violations = []
+    page.on("console", lambda m: violations.append(m.text) if "Content Security Policy" in m.text else None)
+    page.goto(url + "/rider")
+    page.wait_for_selector("#nocredential", state="visible")
+    page.goto(url + "/operator")
+    page.fill("#optoken", "not-the-token")
+    page.click("#signinbtn")
+    page.wait_for_function("() => document.getElementById('signinmsg').textContent.includes('unknown token')")
+    assert page.locator("#rides li").count() == 0
+    assert not violations
+    page.close()

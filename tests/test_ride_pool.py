@@ -1,17 +1,19 @@
 """The live service with its rides in worker processes (``spotfree serve --workers``): the same acknowledgements,
 labels, refusals and views as in one process, rides spread over the workers, and a killed worker failing only
-its own rides' calls, with what it acknowledged in the store."""
+its own rides' calls, replaced by a new worker that rebuilds those rides from the store."""
 
 from __future__ import annotations
 
 import os
 import signal
+import time
 
 import pytest
 from test_ride_service import _columns, model, raw  # noqa: F401 (fixtures)
 
 from spotfree.errors import InputError
-from spotfree.ride.pool import RideServicePool, WorkerError
+from spotfree.ride.live import LiveRide
+from spotfree.ride.pool import RideServicePool
 from spotfree.ride.service import BACKLOG_SECONDS, RateError, RideService
 from spotfree.ride.sources import recording_rows
 from spotfree.ride.store import AccessError, NotFoundError, RideStore
@@ -37,7 +39,8 @@ def test_pool_acknowledges_as_one_process_does(pool, model, raw, tmp_path):
 
     from spotfree.ride.api import create_app
 
-    with TestClient(create_app(pool)) as client, client.websocket_connect("/ws/watch") as view:
+    operator = {"Authorization": f"Bearer {pool.new_operator_token()}"}
+    with TestClient(create_app(pool)) as client, client.websocket_connect("/ws/watch", headers=operator) as view:
         assert view.receive_json()["type"] == "hello"
         with client.websocket_connect("/ws/ride") as ws:
             ws.send_json({"type": "resume", "token": token, "ride_id": first})
@@ -73,7 +76,7 @@ def test_pool_acknowledges_as_one_process_does(pool, model, raw, tmp_path):
     assert refused.value.retry_after > 0
 
 
-def test_a_killed_worker_fails_only_its_rides(model, raw, tmp_path):
+def test_a_killed_worker_is_replaced_and_its_rides_go_on(model, raw, tmp_path):
     rows = recording_rows(raw.select_experiment(2))
     service = RideServicePool(model, RideStore(tmp_path / "rides.db"), processes=2)
     try:
@@ -83,9 +86,40 @@ def test_a_killed_worker_fails_only_its_rides(model, raw, tmp_path):
         victim = service._home[doomed]
         os.kill(victim._process.pid, signal.SIGKILL)
         victim._process.join(30)
-        with pytest.raises(WorkerError, match="stopped"):
-            service.ingest(token, doomed, _columns(rows[20:40]))
-        assert service.ingest(token, spared, _columns(rows[:20]))["count"] == 20
+        deadline = time.monotonic() + 120
+        while service.health()["restarts"] < 1 or service.health()["status"] != "ok":
+            assert time.monotonic() < deadline, service.health()
+            time.sleep(0.1)
         assert len(service.store.samples(doomed)["time"]) == acked
+        assert service.resume(token, doomed) == pytest.approx(rows[19, 0])  # rebuilt from the store
+        ack = service.ingest(token, doomed, _columns(rows[20:40]))
+        live = LiveRide(model)
+        assert ack["labels"] == [live.update(r[0], r[1:4], r[4:7], r[9])[1] for r in rows[:40]][20:]
+        assert service.ingest(token, spared, _columns(rows[:20]))["count"] == 20
+        assert len(service.store.samples(doomed)["time"]) == 40
     finally:
         service.close()
+
+
+def _hold(lock, held) -> None:
+    with lock:
+        held.set()
+        time.sleep(600)
+
+
+def test_the_write_lock_of_a_killed_holder_is_free_again(tmp_path):
+    """A worker killed in mid-commit must not leave the other workers waiting on its lock for good."""
+    import multiprocessing
+
+    from spotfree.ride.pool import WriteLock
+
+    context = multiprocessing.get_context("spawn")
+    lock, held = WriteLock(str(tmp_path / "rides.db.write-lock")), context.Event()
+    holder = context.Process(target=_hold, args=(lock, held))
+    holder.start()
+    assert held.wait(60)
+    os.kill(holder.pid, signal.SIGKILL)
+    holder.join(30)
+    started = time.monotonic()
+    with lock:
+        assert time.monotonic() - started < 5

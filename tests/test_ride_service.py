@@ -13,12 +13,11 @@ import pytest
 pytest.importorskip("fastapi")
 from fastapi.testclient import TestClient  # noqa: E402
 
-from classify_fixtures import rides, truth_model  # noqa: E402
+from service_fixtures import bearer, columns as _columns, enrol, model, raw  # noqa: E402,F401
 from spotfree.classify.batch import dictionary_classifier  # noqa: E402
 from spotfree.classify.stream import RideClassifier  # noqa: E402
 from spotfree.ride.api import create_app  # noqa: E402
 from spotfree.ride.live import LiveRide, pipeline_spec  # noqa: E402
-from spotfree.ride.records import SAMPLE_COLUMNS  # noqa: E402
 from spotfree.ride.sensorpush import PushResampler, parse_push  # noqa: E402
 from spotfree.ride import service as service_module  # noqa: E402
 from spotfree.ride.service import BACKLOG_SECONDS, RATE_FACTOR, RideService  # noqa: E402
@@ -26,31 +25,21 @@ from spotfree.ride.sources import recording_rows  # noqa: E402
 from spotfree.ride.store import RideStore  # noqa: E402
 
 
-@pytest.fixture(scope="module")
-def raw():
-    return rides(seed=1, repeats=2)
-
-
-@pytest.fixture(scope="module")
-def model(raw):
-    return truth_model(raw.select_experiment(1))
-
-
 @pytest.fixture()
 def client(tmp_path, model):
     service = RideService(model, RideStore(tmp_path / "rides.db", synchronous="normal"))
     with TestClient(create_app(service)) as c:
         c.service = service
+        c.operator = bearer(service.new_operator_token())
         yield c
 
 
+def _enrol(client):
+    return enrol(client, client.operator)
+
+
 def _device(client):
-    body = client.post("/api/devices", json={"name": "phone"}).json()
-    return {"Authorization": f"Bearer {body['token']}"}
-
-
-def _columns(rows):
-    return {name: [None if math.isnan(v) else float(v) for v in rows[:, j]] for j, name in enumerate(SAMPLE_COLUMNS)}
+    return bearer(_enrol(client))
 
 
 def _ride_rows(raw):
@@ -102,9 +91,9 @@ def test_ride_streamed_recorded_and_listed(client, raw):
         labels += ack.json()["labels"]
     expected = [LiveRide(client.service.model).update(r[0], r[1:4], r[4:7], r[9])[1] for r in rows[:1]]
     assert labels[0] == expected[0]
-    listed = client.get("/api/rides").json()
+    listed = client.get("/api/rides", headers=headers).json()
     assert listed[0]["ride_id"] == ride_id and listed[0]["live"] and listed[0]["skill"] == "novice"
-    stored = client.get(f"/api/rides/{ride_id}").json()
+    stored = client.get(f"/api/rides/{ride_id}", headers=headers).json()
     assert len(stored["samples"]["time"]) == 400
     assert stored["labels"]["default"] == labels
     assert np.allclose(stored["samples"]["ax"], rows[:, 1])
@@ -119,6 +108,14 @@ def test_ride_streamed_recorded_and_listed(client, raw):
     (lambda s: s.update(gx=s["gx"][:-1]), 400),
     (lambda s: s.pop("gz"), 400),
     (lambda s: s.update(ay=["x"] * len(s["ay"])), 400),
+    (lambda s: s.update(ay=[str(v) for v in s["ay"]]), 400),  # numeric text is not converted
+    (lambda s: s.update(gx=[True] * len(s["gx"])), 400),
+    (lambda s: s["time"].__setitem__(-1, 1e300), 400),  # once killed the ride
+    (lambda s: s.update(time=[t * 1000 for t in s["time"]]), 400),  # milliseconds
+    (lambda s: s["time"].__setitem__(-1, s["time"][-2] + 3601.0), 400),  # a pause longer than MAX_STEP
+    (lambda s: s["ax"].__setitem__(3, 1e300), 400),
+    (lambda s: s.update(lat=[35.0] * len(s["lat"]), lon=[500.0] * len(s["lon"])), 400),
+    (lambda s: s.update(speed=[-3.0] * len(s["speed"])), 400),
 ])
 def test_bad_batch_refused_and_nothing_changes(client, raw, change, status):
     headers = _device(client)
@@ -130,7 +127,7 @@ def test_bad_batch_refused_and_nothing_changes(client, raw, change, status):
     change(bad)
     response = client.post(f"/api/rides/{ride_id}/samples", json={"samples": bad}, headers=headers)
     assert response.status_code == status, response.text
-    assert len(client.get(f"/api/rides/{ride_id}").json()["samples"]["time"]) == 40
+    assert len(client.get(f"/api/rides/{ride_id}", headers=headers).json()["samples"]["time"]) == 40
     # the stream goes on where it was: the same good batch is taken, labels as if nothing bad had come
     ack = client.post(f"/api/rides/{ride_id}/samples", json={"samples": _columns(rows[40:60])}, headers=headers)
     assert ack.status_code == 200
@@ -145,14 +142,17 @@ def test_tokens_rides_and_views_are_guarded(client, raw):
     assert client.post(f"/api/rides/{ride_id}/samples", json=batch, headers=other).status_code == 403
     assert client.post(f"/api/rides/{ride_id}/samples", json=batch).status_code == 401
     assert client.post(f"/api/rides/{ride_id}/samples", json=batch,
-                       headers={"Authorization": "Bearer forged"}).status_code == 403
+                       headers={"Authorization": "Bearer forged"}).status_code == 401
     assert client.post("/api/rides", json={"vehicle": "v", "rider_id": "r"},
                        headers={"Authorization": "Bearer forged"}).status_code == 401
     assert client.post("/api/rides/nope/samples", json=batch, headers=owner).status_code == 404
+    as_json = {**owner, "Content-Type": "application/json"}
     assert client.post(f"/api/rides/{ride_id}/samples", content=b"{\"samples\": NaN}",
-                       headers=owner).status_code == 400
+                       headers=as_json).status_code == 400
+    assert client.post(f"/api/rides/{ride_id}/samples", content=b"{}",
+                       headers={**owner, "Content-Type": "text/plain"}).status_code == 415
     assert client.post(f"/api/rides/{ride_id}/samples", content=b"x" * 2_000_001, headers=owner).status_code == 413
-    assert len(client.get(f"/api/rides/{ride_id}").json()["samples"]["time"]) == 0
+    assert len(client.get(f"/api/rides/{ride_id}", headers=owner).json()["samples"]["time"]) == 0
     for page in ("/", "/rider", "/operator", "/static/pipeline.js"):
         assert client.get(page).status_code == 200
     assert client.post("/api/rides/" + ride_id).status_code == 405
@@ -187,7 +187,7 @@ def test_rate_limit_counts_samples_and_takes_a_minute_of_backlog(client, raw, fa
         assert client.post(url, json={"samples": _columns(rows[k:k + 200])}, headers=headers).status_code == 200
     refused = client.post(url, json={"samples": _columns(rows[backlog:backlog + 40])}, headers=headers)
     assert refused.status_code == 429 and refused.headers["retry-after"] == "1"
-    assert len(client.get(f"/api/rides/{ride_id}").json()["samples"]["time"]) == backlog
+    assert len(client.get(f"/api/rides/{ride_id}", headers=client.operator).json()["samples"]["time"]) == backlog
     # sustained: RATE_FACTOR times the model's rate, whatever the batch size
     fake.now += 0.5
     sent, k = 0, backlog
@@ -240,7 +240,7 @@ def test_sudden_stops_warn_once_each_and_are_recorded(client, raw, fake):
     per_stop = [sum(a - 0.5 <= w["onset"] <= b for w in warnings) for a, b in stops]
     assert all(per_stop[stops.index(s)] == 1 for s in sudden) and max(per_stop) == 1
     assert sum(per_stop) == len(warnings)  # no warning away from a stop
-    stored = client.get(f"/api/rides/{ride_id}").json()["events"]
+    stored = client.get(f"/api/rides/{ride_id}", headers=client.operator).json()["events"]
     assert [(e["kind"], e["start"]) for e in stored] == [("sudden-braking", w["onset"]) for w in warnings]
     assert len(events) == len(warnings) - 1 or len(events) == len(warnings)  # the last may end with the ride
     final = states[-1]
@@ -268,30 +268,38 @@ def test_serve_simulate_end_to_end(tmp_path, model):
                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                               env={**os.environ, "SPOTFREE_CACHE": str(tmp_path)})
     url, events, rides_listed = f"http://127.0.0.1:{port}", [], []
+    token_file = tmp_path / "rides.db.operator-token"
     try:
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline and not events:
             time.sleep(0.3)
             assert server.poll() is None, server.stderr.read()
+            if not token_file.exists():
+                continue
+            operator = {"Authorization": f"Bearer {token_file.read_text().strip()}"}
             try:
-                rides_listed = httpx.get(url + "/api/rides").json()
+                rides_listed = httpx.get(url + "/api/rides", headers=operator).json()
             except httpx.TransportError:
                 continue
             if rides_listed:
-                events = httpx.get(f"{url}/api/rides/{rides_listed[-1]['ride_id']}").json()["events"]
+                events = httpx.get(f"{url}/api/rides/{rides_listed[-1]['ride_id']}", headers=operator).json()["events"]
         assert rides_listed and rides_listed[-1]["vehicle"].startswith("simulated sudden-braking")
         assert rides_listed[-1]["live"] and events and events[0]["kind"] == "sudden-braking"
         assert httpx.get(url + "/rider").status_code == 200
+        assert httpx.get(url + "/api/rides").status_code == 401
+        assert oct(token_file.stat().st_mode & 0o777) == "0o600"
     finally:
         server.send_signal(signal.SIGINT)
         server.wait(20)
     assert server.returncode == 0
+    banner = server.stderr.read()
+    assert str(token_file) in banner and token_file.read_text().strip() not in banner
 
 
 def test_websocket_stream_ack_resume_and_views(client, raw):
-    token = client.post("/api/devices", json={}).json()["token"]
+    token = _enrol(client)
     rows = _ride_rows(raw)[:60]
-    with client.websocket_connect("/ws/watch") as view:
+    with client.websocket_connect("/ws/watch", headers=client.operator) as view:
         assert view.receive_json()["type"] == "hello"
         with client.websocket_connect("/ws/ride") as ws:
             ws.send_json({"type": "batch", "seq": 1, "samples": _columns(rows[:5])})
@@ -313,7 +321,29 @@ def test_websocket_stream_ack_resume_and_views(client, raw):
             assert ws.receive_json()["status"] == 400  # already recorded: refused, nothing doubled
             ws.send_json({"type": "batch", "seq": 3, "samples": _columns(rows[30:60])})
             assert ws.receive_json()["count"] == 30
-    assert len(client.get(f"/api/rides/{ride_id}").json()["samples"]["time"]) == 60
+    assert len(client.get(f"/api/rides/{ride_id}", headers=client.operator).json()["samples"]["time"]) == 60
+
+
+@pytest.mark.parametrize("message, code", [
+    (b"\x01\x02", 1003),  # a binary frame
+    ('{"type": "resume", "token": "t", "ride_id": {"a": 1}}', None),  # an object ride id: an error reply
+    ('{"type": "batch", "seq": [1]}', None),
+])
+def test_websocket_refusals_answer_or_close_with_a_reason(client, message, code):
+    from starlette.websockets import WebSocketDisconnect
+
+    with client.websocket_connect("/ws/ride") as ws:
+        if isinstance(message, bytes):
+            ws.send_bytes(message)
+            with pytest.raises(WebSocketDisconnect) as closed:
+                ws.receive_json()
+            assert closed.value.code == code and "binary" in closed.value.reason
+            return
+        ws.send_text(message)
+        reply = ws.receive_json()
+        assert reply["type"] == "error" and 400 <= reply["status"] < 500 and "\n" not in reply["message"]
+        ws.send_text("[]")  # the socket is still open and answers
+        assert ws.receive_json()["status"] == 400
 
 
 def _push_message(session, t0_ns, rows, platform_sign=1.0):
@@ -333,11 +363,40 @@ def test_sensor_logger_push(client, raw):
     second = client.post("/push?platform=ios", json=_push_message("s1", 1.7e18, rows[50:], -1.0),
                          headers=headers).json()
     assert first["ride_id"] == second["ride_id"]
-    stored = client.get(f"/api/rides/{first['ride_id']}").json()["samples"]
+    stored = client.get(f"/api/rides/{first['ride_id']}", headers=headers).json()["samples"]
     assert len(stored["time"]) == 99  # the last slot waits for a later reading
     assert np.allclose(stored["ax"], rows[:99, 1]) and np.allclose(stored["gz"], rows[:99, 6])
     assert client.post("/push", json={"payload": "x"}, headers=headers).status_code == 400
     assert client.post("/push", json=_push_message("s2", 1.7e18, rows[:5])).status_code == 401
+
+
+def test_push_refusals_change_nothing_and_drops_are_counted(client, raw):
+    headers = _device(client)
+    rows = _ride_rows(raw)[:60]
+    first = client.post("/push", json=_push_message("s1", 1.7e18, rows[:30]), headers=headers)
+    assert first.status_code == 200 and first.json()["count"] == 29 and first.json()["dropped"] == 0
+    ride = first.json()["ride_id"]
+    stored = lambda: len(client.get(f"/api/rides/{ride}", headers=headers).json()["samples"]["time"])  # noqa: E731
+    late = client.post("/push", json=_push_message("s1", 1.7e18, rows[:30]), headers=headers)  # sent twice
+    assert late.status_code == 400 and "already stored" in late.json()["detail"]
+    bad = _push_message("s1", 1.7e18, rows[30:40])
+    bad["payload"][3]["values"]["x"] = 1e300  # beyond any phone's accelerometer: the whole message refused
+    assert client.post("/push", json=bad, headers=headers).status_code == 400
+    for broken in ({"x": "0.5", "y": 0.0, "z": 9.8}, [1.0, 2.0]):
+        message = _push_message("s1", 1.7e18, rows[30:40])
+        message["payload"][0]["values"] = broken
+        assert client.post("/push", json=message, headers=headers).status_code == 400
+    located = _push_message("s1", 1.7e18, rows[30:40])
+    located["payload"].append({"name": "location", "time": int(1.7e18 + rows[35, 0] * 1e9), "values": [35.0, 139.0]})
+    assert client.post("/push", json=located, headers=headers).status_code == 400
+    assert stored() == 29
+    # the refused messages left the session as it was: the next one goes on from slot 29
+    again = _push_message("s1", 1.7e18, rows[30:40])
+    again["payload"] = [r for r in again["payload"]
+                        if not (r["name"] == "gyroscope" and r["time"] < 1.7e18 + rows[33, 0] * 1e9)]
+    answer = client.post("/push", json=again, headers=headers).json()
+    # slot 29 (pending) and 33-38 stored; 30-32 lacked a gyroscope reading: their accelerometer readings dropped
+    assert answer["count"] == 7 and answer["dropped"] == 3 and stored() == 36
 
 
 def test_push_resampler_averages_slots():

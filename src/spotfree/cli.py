@@ -74,10 +74,13 @@ def _report_mount(line: str, warnings: list[str]) -> None:
 
 
 def _report_repairs_and_gaps(rec) -> None:
-    """Tell the user what was read (for a sensor log), every repair a reader made and every gap it found (never
-    silently); called once the command succeeded, so that a refusal stays one line."""
+    """Refuse a recording outside what a phone records (:func:`spotfree.limits.check_recording`), then tell the
+    user what was read (for a sensor log), every repair a reader made and every gap it found (never silently);
+    called once the command's work is done, so that a refusal stays one line."""
     from spotfree.io import describe
+    from spotfree.limits import check_recording
 
+    check_recording(rec)
     if rec.meta.get("describe"):
         err.print(f"read: {describe(rec)}")
     for repair in rec.meta.get("repairs", []):
@@ -535,7 +538,7 @@ def evaluate(
 @user_errors
 def serve(
     host: str = typer.Option("127.0.0.1", "--host", help="address to listen on (0.0.0.0 for phones on the LAN)"),
-    port: int = typer.Option(8000, "--port"),
+    port: int = typer.Option(8000, "--port", help="TCP port, 1 to 65535 (0: any free port)"),
     database: str = typer.Option("spotfree-rides.db", "--database",
                                  help="SQLite file, or a postgresql:// URL"),
     https: bool = typer.Option(False, "--https", help="TLS with a self-signed certificate (phones need it)"),
@@ -549,16 +552,24 @@ def serve(
                              "a power loss) | normal (survives the server being killed; faster)"),
     workers: int = typer.Option(0, "--workers", min=0, help="classify and record rides in this many worker "
                                 "processes (0: in the server's process)"),
+    new_operator_token: bool = typer.Option(False, "--new-operator-token", help="issue a new operator token "
+                                            "(the old one stops working) and write it beside the store"),
+    cert: Optional[Path] = typer.Option(None, "--cert", help="your own TLS certificate (PEM) for https; "
+                                        "with --key"),
+    key: Optional[Path] = typer.Option(None, "--key", help="the private key (PEM) of --cert"),
 ) -> None:
     """The live ride assistant: phone page (/), rider view (/rider), operator view (/operator)."""
     from spotfree.ride.server import run_server
 
     if sync not in ("full", "normal"):
         raise InputError(f"--sync {sync}: use full or normal")
+    if (cert is None) != (key is None):
+        raise InputError("--cert and --key go together: give both, or neither (--https makes its own)")
 
     run_server(host=host, port=port, database=database, https=https, replay=replay, simulate=simulate,
                model_path=model_path, speed=speed, seed=seed, say=err.print, synchronous=sync,
-               workers=workers)
+               workers=workers, new_operator_token=new_operator_token,
+               certificate=(cert, key) if cert is not None else None)
 
 
 @hand_app.command("simulate")
@@ -681,7 +692,7 @@ def fleet_ingest(
         out.print(f"logs: {ingest_logs(target, entries)}")
         if from_store:
             with RideStore(from_store) as source:
-                out.print(f"{from_store}: {ingest_store(target, source)}")
+                out.print(f"{source.name}: {ingest_store(target, source)}")
 
 
 @fleet_app.command("process")

@@ -22,6 +22,8 @@ from __future__ import annotations
 import json
 import os
 import tempfile
+import zipfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -33,6 +35,10 @@ from spotfree.signal.features import CHANNEL_CHANGED, FEATURE_CHANGES, FEATURE_V
 
 SCHEMA_VERSION = 2
 READABLE_SCHEMAS = (1, 2)
+MAX_MODEL_BYTES = 1 << 30
+"""Bytes the arrays of a model file may declare in all (uncompressed); a trained model is a few MB."""
+_METADATA_TYPES = {"classes": list, "channels": list, "rate": (int, float), "window": int, "step": int,
+                   "normalisation": str, "features": str, "orientation": str, "parameters": dict, "summary": dict}
 
 
 @dataclass
@@ -165,6 +171,7 @@ class DictionaryModel:
         path = Path(path)
         if not path.exists():
             raise InputError(f"{path}: no such model file; train one with 'spotfree train -o {path.name} ...'")
+        check_model_file(path)
         try:
             with np.load(path, allow_pickle=False) as archive:
                 meta = json.loads(str(archive["metadata"]))
@@ -198,3 +205,69 @@ class DictionaryModel:
             summary=meta["summary"],
             **arrays,
         )
+
+
+def check_model_file(path: Path) -> None:
+    """Refuse (InputError, one line) a file that :meth:`DictionaryModel.load` should not read, before reading any
+    array: not a zip archive, truncated or corrupt (every member is read once, in bounded chunks, and its CRC
+    checked), a member that is not a NumPy array of numbers or text (object arrays would need unpickling), an
+    array whose header declares more bytes than the member holds, arrays declaring more than
+    :data:`MAX_MODEL_BYTES` in all (the sizes the zip directory and the array headers declare are checked
+    before anything is decompressed), or metadata that is not the JSON object a model file holds."""
+    where = f"{path}: not a spotfree model file"
+    fix = "give the .npz that 'spotfree train' wrote, or train it again"
+    try:
+        with zipfile.ZipFile(path) as archive:
+            members = archive.infolist()
+            declared = sum(info.file_size for info in members)
+            if declared > MAX_MODEL_BYTES:
+                raise InputError(f"{where} (it declares {declared} bytes, more than {MAX_MODEL_BYTES}); {fix}")
+            for info in members:
+                with archive.open(info) as member:
+                    _check_member(member, info, where, fix)
+            if "metadata.npy" not in archive.namelist():
+                raise InputError(f"{where} (no metadata); {fix}")
+            with archive.open("metadata.npy") as member:
+                meta = np.lib.format.read_array(member, allow_pickle=False)
+    except InputError:
+        raise
+    except (zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError) as exc:
+        reason = "truncated or corrupt" if not isinstance(exc, ValueError) else "unreadable array"
+        raise InputError(f"{where} ({reason}); {fix}") from None
+    try:
+        meta = json.loads(str(meta))
+    except (json.JSONDecodeError, RecursionError):
+        meta = None
+    if not isinstance(meta, dict):
+        raise InputError(f"{where} (its metadata is not a JSON object); {fix}")
+    for key, kind in _METADATA_TYPES.items():
+        value = meta.get(key)
+        if not isinstance(value, kind) or isinstance(value, bool):
+            raise InputError(f"{where} (metadata field {key!r} is missing or not a {getattr(kind, '__name__', 'number')})"
+                             f"; {fix}")
+    if not all(isinstance(c, str) for c in meta["classes"] + meta["channels"]) or not meta["channels"] or \
+            not (meta["window"] > 0 and meta["step"] > 0 and 0 < meta["rate"] < float("inf")):
+        raise InputError(f"{where} (metadata classes, channels, rate, window or step out of range); {fix}")
+
+
+def _check_member(member, info: zipfile.ZipInfo, where: str, fix: str) -> None:
+    """One ``.npy`` member: its header read (bounded), its dtype plain, its declared size that of its data; then
+    the rest read in chunks, so that a truncated or altered member fails its CRC here."""
+    if not info.filename.endswith(".npy"):
+        raise InputError(f"{where} (it holds {info.filename!r}, not an array); {fix}")
+    version = np.lib.format.read_magic(member)
+    readers = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
+    if version not in readers:
+        raise InputError(f"{where} ({info.filename}: NumPy format {version}); {fix}")
+    shape, _, dtype = readers[version](member)
+    if dtype.hasobject or dtype.kind not in "biufU":
+        raise InputError(f"{where} ({info.filename} holds {dtype} values; a model holds numbers and text only); "
+                         f"{fix}")
+    size = dtype.itemsize
+    for n in shape:
+        size *= int(n)
+    if size != info.file_size - member.tell():
+        raise InputError(f"{where} ({info.filename} declares {size} bytes of data but holds "
+                         f"{info.file_size - member.tell()}); {fix}")
+    while member.read(1 << 20):
+        pass

@@ -5,6 +5,7 @@ from __future__ import annotations
 from spotfree.errors import InputError
 from spotfree.io import read_recording
 from spotfree.io.recording import Recording
+from spotfree.limits import check_recording
 from spotfree.signal.body import body_features
 from spotfree.signal.features import DERIVED_CHANNELS, FEATURE_CHANNELS, ride_features
 
@@ -19,10 +20,12 @@ def feature_recording(spec: str, orientation: str = "default", rate: float = 20.
     as is.
 
     ``meta['features']`` says which: ``"ride"`` (with ``meta['orientation']``), ``"body"`` or ``"channels"``.
+    A log outside what a phone records is refused (:func:`spotfree.limits.check_recording`).
     """
     if features not in FEATURES:
         raise InputError(f"--features {features!r}: use one of {', '.join(FEATURES)}")
     rec = read_recording(spec, rate=rate)
+    check_recording(rec)
     if rec.has_imu and features == "body":
         return body_features(rec)
     if rec.has_imu:

@@ -121,7 +121,7 @@ def ingest_store(store: RideStore, source: RideStore) -> IngestReport:
         token = token or store.register_device(DEVICE_NAME)[1]
         report.added.append(_write(store, token, ride.vehicle, ride.rider_id, ride.started,
                                    {c: getattr(ride, c) for c in RIDER_FIELDS}, samples, ride.ended,
-                                   where=f"{source.location} ride {ride.ride_id}"))
+                                   where=f"{source.name} ride {ride.ride_id}"))
     return report
 
 
@@ -158,8 +158,11 @@ def _write(store: RideStore, token: str, vehicle: str, rider_id: str, started: f
 def _table(path: Path, required: tuple[str, ...]) -> pd.DataFrame:
     try:
         table = pd.read_csv(path, dtype={"rider_id": str, "vehicle": str})
-    except (OSError, pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
-        raise InputError(f"{path}: cannot read the CSV ({exc}); give a readable CSV file") from None
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not a text file; give the manifest as a UTF-8 CSV") from None
+    except (OSError, pd.errors.ParserError, pd.errors.EmptyDataError, ValueError) as exc:
+        first = " ".join(str(exc).split())[:120]
+        raise InputError(f"{path}: cannot read the CSV ({first}); give a readable CSV file") from None
     missing = [c for c in required if c not in table.columns]
     if missing:
         raise InputError(f"{path}: no column {', '.join(missing)}; add it (columns: {', '.join(required)})")

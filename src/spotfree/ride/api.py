@@ -1,10 +1,15 @@
 """The web API of :class:`~spotfree.ride.service.RideService` (FastAPI).
 
-Pages: ``/`` the phone page (streams DeviceMotion and Geolocation), ``/rider`` and ``/operator`` the views
-(read-only), ``/static/*`` their scripts. Devices (``Authorization: Bearer <token>``, or the ``token`` field of a
-WebSocket message):
+Credentials: every call but the pages, ``/static/*`` and ``GET /api/model`` needs ``Authorization: Bearer
+<token>`` (never a token in the URL), checked before the body is read. The operator token (``spotfree serve``
+writes it to a file on first start, :mod:`spotfree.ride.server`) reads every ride and issues enrolment codes; a
+device token, got once with an enrolment code, writes and reads only the rides that device started.
 
-* ``POST /api/devices`` ``{"name"}`` -> ``{"device_id", "token"}`` (the token is shown once);
+Pages: ``/`` the phone page (streams DeviceMotion and Geolocation), ``/rider`` and ``/operator`` the views,
+``/static/*`` their scripts; a page holds no data, it asks for it with a credential. Devices:
+
+* ``POST /api/devices`` ``{"name", "code"}`` (an enrolment code, no credential) -> ``{"device_id", "token"}``
+  (the token is shown once);
 * ``POST /api/rides`` ``{"vehicle", "rider_id", "age_band"?, "gender"?, "skill"?}`` -> ``{"ride_id"}``;
 * ``POST /api/rides/{id}/samples`` ``{"samples": {column: [...]}}`` -> the acknowledgement;
 * ``POST /api/rides/{id}/destination`` ``{"lat", "lon"}``; ``POST /api/rides/{id}/end``;
@@ -12,40 +17,103 @@ WebSocket message):
   "ride_id"}``, then ``{"type": "batch", "seq", "samples"}`` (answered ``{"type": "ack", "seq", ...}``),
   ``{"type": "destination", "lat", "lon"}``, ``{"type": "end"}``; a refused message is answered
   ``{"type": "error", "status", "message"}`` (``seq`` too for a batch, ``retry_after`` s for a 429) and changes
-  nothing;
+  nothing; a binary frame is answered by closing the socket (code 1003, with the reason);
 * ``POST /push?platform=android|ios`` the Sensor Logger app's HTTP push (:mod:`spotfree.ride.sensorpush`): one
-  ride per ``sessionId``.
+  ride per ``sessionId``; parsed in a thread, in time linear in its size. The answer counts the samples stored
+  (``count``) and the readings ``dropped`` (a slot only one motion sensor filled); a refused message (4xx) changes
+  nothing and may be sent again.
 
-Views: ``GET /api/model`` (the pipeline for the page, :func:`~spotfree.ride.live.pipeline_spec`),
-``GET /api/rides``, ``GET /api/rides/{id}`` (samples, features, labels, events, for replay) and ``WS /ws/watch``
-(``?ride=`` one ride) stream what the service publishes; nothing a view sends is read.
+Operator: ``POST /api/enrolments`` ``{"uses"?, "ttl"?}`` -> ``{"code", "expires", "uses"}``. Views (the operator;
+a device for its own rides): ``GET /api/rides``, ``GET /api/rides/{id}`` (samples, features, labels, events, for
+replay) and ``WS /ws/watch`` (``?ride=`` one ride; the credential in the ``Authorization`` header or in a first
+message ``{"type": "auth", "token"}`` sent within :data:`AUTH_SECONDS`) stream what the service publishes.
+``GET /api/model`` is the pipeline for the page (:func:`~spotfree.ride.live.pipeline_spec`); ``GET /api/health``
+(no credential) the service's :meth:`~spotfree.ride.service.RideService.health`, 503 while degraded.
 
-Refusals: 400 bad input, 401 no or unknown token, 403 a ride of another device, 404 unknown ride, 413 a body over
-:data:`MAX_BODY` bytes, 429 samples sent faster than the service takes them (``Retry-After``; see
-:mod:`spotfree.ride.service`).
+Restarts: a ride open in the store goes on after the server restarts (or its worker dies): ``resume`` and every
+later call rebuild it from the stored samples (:mod:`spotfree.ride.service`). A ride that ended (or was closed
+after :data:`~spotfree.ride.service.IDLE_SECONDS` without samples) is refused with 403; the phone page then starts
+a new ride with the samples it still holds.
+
+Every HTTP answer carries the headers of :data:`SECURITY_HEADERS` and a Content-Security-Policy that lets a page
+load and connect only to this server and not be framed. A body with a credential must be ``application/json``
+(a cross-site form cannot send that without the browser asking first).
+
+Refusals (one line in ``detail``): 400 bad input, 401 no or unknown credential, 403 a ride of another device, a
+view without the operator token or a bad enrolment code, 404 unknown ride, 413 a body over :data:`MAX_BODY` bytes
+(refused while it is read), 415 a body that is not JSON, 429 samples sent faster than the service takes them
+(``Retry-After``; see :mod:`spotfree.ride.service`), 503 a ride worker being replaced (``Retry-After``: send
+again).
 """
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
+import copy
 import inspect
 import math
+import re
 from importlib.resources import files
 from pathlib import Path
 
-from fastapi import FastAPI, HTTPException, Request, WebSocket, WebSocketDisconnect
 import orjson
+from fastapi import FastAPI, HTTPException, Request, WebSocket, WebSocketDisconnect
 from fastapi.responses import FileResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 from starlette.concurrency import run_in_threadpool
+from starlette.websockets import WebSocketState
 
 from spotfree.errors import InputError, SpotfreeError
+from spotfree.ride import validation
 from spotfree.ride.sensorpush import PushResampler, parse_push
-from spotfree.ride.service import RateError, RideService
-from spotfree.ride.store import AccessError, NotFoundError
+from spotfree.ride.service import OPERATOR, Identity, RateError, RideService, UnavailableError
+from spotfree.ride.store import AccessError, ForbiddenError, NotFoundError
+from spotfree.ride.tokens import token_hash
 
 MAX_BODY = 2_000_000
 """Bytes in one request body or WebSocket message."""
+AUTH_SECONDS = 10.0
+"""Seconds a watcher has to send its credential (``{"type": "auth", "token"}``) once connected."""
 STATIC = Path(str(files("spotfree.ride") / "static"))
+SECURITY_HEADERS = (
+    (b"x-content-type-options", b"nosniff"),
+    (b"x-frame-options", b"DENY"),
+    (b"referrer-policy", b"no-referrer"),
+    (b"cross-origin-opener-policy", b"same-origin"),
+    (b"cache-control", b"no-store"),
+)
+"""Headers on every HTTP answer (with the Content-Security-Policy of :func:`content_security_policy`)."""
+_HOST = re.compile(r"^[A-Za-z0-9.\-]+(:[0-9]{1,5})?$|^\[[0-9A-Fa-f:.]+\](:[0-9]{1,5})?$")
+
+
+def content_security_policy(host: str | None) -> bytes:
+    """The page policy: scripts, styles, images and connections from this server only (its WebSocket at
+    ``host`` named, for browsers whose ``'self'`` does not cover ``ws:``), no plugins, no framing. Inline styles
+    are allowed (the views colour labels with them); inline scripts are not."""
+    sockets = f" ws://{host} wss://{host}" if host and _HOST.match(host) else ""
+    return ("default-src 'self'; script-src 'self'; style-src 'self' 'unsafe-inline'; img-src 'self' data:; "
+            f"connect-src 'self'{sockets}; object-src 'none'; base-uri 'none'; form-action 'self'; "
+            "frame-ancestors 'none'").encode()
+
+
+class SecurityHeaders:
+    """ASGI middleware: :data:`SECURITY_HEADERS` and the Content-Security-Policy on every HTTP answer."""
+
+    def __init__(self, app):
+        self.app = app
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http":
+            return await self.app(scope, receive, send)
+        host = dict(scope.get("headers", ())).get(b"host", b"").decode("latin-1")
+        extra = [*SECURITY_HEADERS, (b"content-security-policy", content_security_policy(host))]
+
+        async def send_with_headers(message):
+            if message["type"] == "http.response.start":
+                message = {**message, "headers": [*message.get("headers", ()), *extra]}
+            await send(message)
+        await self.app(scope, receive, send_with_headers)
 
 
 def _status(exc: Exception) -> int:
@@ -53,9 +121,17 @@ def _status(exc: Exception) -> int:
         return 404
     if isinstance(exc, RateError):
         return 429
+    if isinstance(exc, UnavailableError):
+        return 503
+    if isinstance(exc, ForbiddenError):
+        return 403
     if isinstance(exc, AccessError):
         return 403 if "may not write" in str(exc) or "not open" in str(exc) else 401
     return 400
+
+
+def _one_line(exc: Exception) -> str:
+    return " ".join(str(exc).split()) or type(exc).__name__
 
 
 async def _call(function, *args, **kwargs):
@@ -66,26 +142,53 @@ async def _call(function, *args, **kwargs):
             return await function(*args, **kwargs)
         return await run_in_threadpool(function, *args, **kwargs)
     except (SpotfreeError, ValueError) as exc:
-        headers = {"Retry-After": str(math.ceil(exc.retry_after))} if isinstance(exc, RateError) else None
-        raise HTTPException(_status(exc), str(exc), headers=headers) from None
+        headers = {"Retry-After": str(math.ceil(exc.retry_after))} \
+            if isinstance(exc, (RateError, UnavailableError)) else None
+        if isinstance(exc, AccessError) and _status(exc) == 401:
+            headers = {"WWW-Authenticate": "Bearer"}
+        raise HTTPException(_status(exc), _one_line(exc), headers=headers) from None
 
 
-def _token(request: Request) -> str:
-    header = request.headers.get("authorization", "")
-    if header.lower().startswith("bearer "):
-        return header[7:].strip()
-    token = request.query_params.get("token")
-    if not token:
-        raise HTTPException(401, "no device token; send 'Authorization: Bearer <token>' (POST /api/devices gives one)")
-    return token
+def _bearer(headers) -> str | None:
+    """The token of an ``Authorization: Bearer <token>`` header (None without one)."""
+    header = headers.get("authorization", "")
+    scheme, _, token = header.partition(" ")
+    return token.strip() or None if scheme.lower() == "bearer" else None
+
+
+async def _identify(service: RideService, request: Request, operator: bool = False) -> tuple[Identity, str]:
+    """``(who, token)`` of the request's credential, checked before its body is read (401/403 otherwise)."""
+    token = _bearer(request.headers)
+    check = service.require_operator if operator else service.identify
+    return await _call(check, token), token
 
 
 async def _body(request: Request) -> dict:
-    raw = await request.body()
-    if len(raw) > MAX_BODY:
-        raise HTTPException(413, f"body of {len(raw)} bytes; send at most {MAX_BODY}")
+    """The JSON object of the body, read at most :data:`MAX_BODY` bytes far (413 as soon as it is over: the
+    declared length, or the bytes read so far); 415 unless it is ``application/json``."""
+    declared = request.headers.get("content-length")
+    if declared is not None and (not declared.isdigit() or int(declared) > MAX_BODY):
+        raise HTTPException(413, f"body of {declared} bytes; send at most {MAX_BODY}")
+    chunks, size = [], 0
+    async for chunk in request.stream():
+        size += len(chunk)
+        if size > MAX_BODY:
+            raise HTTPException(413, f"body over {MAX_BODY} bytes; send at most {MAX_BODY}")
+        chunks.append(chunk)
+    raw = b"".join(chunks)
+    if raw and request.headers.get("content-type", "").split(";")[0].strip().lower() != "application/json":
+        raise HTTPException(415, "send the body as JSON with 'Content-Type: application/json'")
+    body = await run_in_threadpool(_object, raw or b"{}") if size > _INLINE_JSON else _object(raw or b"{}")
+    return body
+
+
+_INLINE_JSON = 64_000
+"""Bytes of a body parsed on the event loop; a longer one is parsed in a thread."""
+
+
+def _object(raw: bytes) -> dict:
     try:
-        body = _json(raw or b"{}")
+        body = _json(raw)
     except InputError as exc:
         raise HTTPException(400, f"body {exc}") from None
     if not isinstance(body, dict):
@@ -114,11 +217,50 @@ def _clean(value):
     return value
 
 
+def _ride_id(value: object) -> str:
+    """A ride id as sent (path or message): printable text of at most MAX_TEXT characters (InputError)."""
+    return validation.text(value, "request", "ride_id")
+
+
+def _body_schema(properties: dict, required: tuple[str, ...] = ()) -> dict:
+    """The OpenAPI ``requestBody`` of a JSON object (what the handlers read; they check it themselves)."""
+    schema = {"type": "object", "properties": properties}
+    if required:
+        schema["required"] = list(required)
+    return {"requestBody": {"required": True, "content": {"application/json": {"schema": schema}}}}
+
+
+_TEXT = {"type": "string", "maxLength": 100}
+_NUMBERS = {"type": "array", "items": {"type": ["number", "null"]}, "maxItems": 50}
+_BODIES = {
+    "devices": _body_schema({"name": _TEXT, "code": _TEXT}, ("code",)),
+    "enrolments": _body_schema({"uses": {"type": "integer"}, "ttl": {"type": "number"}}),
+    "rides": _body_schema({"vehicle": _TEXT, "rider_id": _TEXT, "age_band": _TEXT, "gender": _TEXT, "skill": _TEXT},
+                          ("vehicle", "rider_id")),
+    "samples": _body_schema({"samples": {"type": "object", "properties": {
+        c: _NUMBERS for c in ("time", "ax", "ay", "az", "gx", "gy", "gz", "lat", "lon", "speed")}}}, ("samples",)),
+    "destination": _body_schema({"lat": {"type": "number"}, "lon": {"type": "number"}}, ("lat", "lon")),
+    "push": _body_schema({"messageId": {"type": "integer"}, "sessionId": _TEXT, "deviceId": _TEXT,
+                          "payload": {"type": "array", "maxItems": 40, "items": {"type": "object", "properties": {
+                              "name": {"enum": ["totalacceleration", "accelerometer", "gravity", "gyroscope",
+                                                "location", "other"]},
+                              "time": {"type": "number"},
+                              "values": {"type": "object", "properties": {
+                                  k: {"type": "number"} for k in ("x", "y", "z", "latitude", "longitude",
+                                                                  "speed")}}}}}},
+                         ("sessionId", "payload")),
+}
+"""Request bodies as the OpenAPI schema shows them (``/openapi.json``), for clients and for schema-driven fuzzing
+(tests/test_ride_fuzz.py)."""
+
+
 def create_app(service: RideService) -> FastAPI:
     """The FastAPI application serving ``service`` (see the module docstring)."""
     app = FastAPI(title="spotfree ride assistant", docs_url=None, redoc_url=None)
+    app.add_middleware(SecurityHeaders)
     app.mount("/static", StaticFiles(directory=STATIC), name="static")
     sessions: dict[tuple[str, str], tuple[str, PushResampler]] = {}
+    locks: dict[tuple[str, str], asyncio.Lock] = {}
 
     for route, page in (("/", "phone.html"), ("/rider", "rider.html"), ("/operator", "operator.html")):
         app.add_api_route(route, lambda page=page: FileResponse(STATIC / page), methods=["GET"],
@@ -128,67 +270,97 @@ def create_app(service: RideService) -> FastAPI:
     def model():
         return service.spec
 
-    @app.post("/api/devices")
+    @app.get("/api/health")
+    def health():
+        report = service.health()
+        return JSONResponse(report, status_code=200 if report["status"] == "ok" else 503)
+
+    @app.post("/api/devices", openapi_extra=_BODIES["devices"])
     async def register(request: Request):
         body = await _body(request)
-        device_id, token = await _call(service.register_device, body.get("name", ""))
+        device_id, token = await _call(service.enrol_device, body.get("code"), body.get("name", ""))
         return {"device_id": device_id, "token": token}
 
-    @app.post("/api/rides")
+    @app.post("/api/enrolments", openapi_extra=_BODIES["enrolments"])
+    async def enrolment(request: Request):
+        await _identify(service, request, operator=True)
+        body = await _body(request)
+        uses = body.get("uses", 1)
+        code, expires = await _call(service.issue_enrolment, uses, body.get("ttl", 3600.0))
+        return {"code": code, "expires": expires, "uses": uses}
+
+    @app.post("/api/rides", openapi_extra=_BODIES["rides"])
     async def start(request: Request):
-        body, token = await _body(request), _token(request)
+        _, token = await _identify(service, request)
+        body = await _body(request)
         meta = {k: body.get(k) for k in ("age_band", "gender", "skill")}
         ride_id = await _call(service.start_ride, token, body.get("vehicle"), body.get("rider_id"), **meta)
         return {"ride_id": ride_id}
 
-    @app.post("/api/rides/{ride_id}/samples")
+    @app.post("/api/rides/{ride_id}/samples", openapi_extra=_BODIES["samples"])
     async def samples(ride_id: str, request: Request):
-        body, token = await _body(request), _token(request)
+        _, token = await _identify(service, request)
+        body = await _body(request)
         return await _call(service.ingest_async, token, ride_id, body.get("samples"))
 
-    @app.post("/api/rides/{ride_id}/destination")
+    @app.post("/api/rides/{ride_id}/destination", openapi_extra=_BODIES["destination"])
     async def destination(ride_id: str, request: Request):
-        body, token = await _body(request), _token(request)
+        _, token = await _identify(service, request)
+        body = await _body(request)
         await _call(service.set_destination, token, ride_id, body.get("lat"), body.get("lon"))
         return {"ride_id": ride_id}
 
     @app.post("/api/rides/{ride_id}/end")
     async def end(ride_id: str, request: Request):
-        await _call(service.end_ride, _token(request), ride_id)
+        _, token = await _identify(service, request)
+        await _call(service.end_ride, token, ride_id)
         return {"ride_id": ride_id}
 
     @app.get("/api/rides")
-    async def rides():
-        listed = await _call(service.store.rides)
+    async def rides(request: Request):
+        who, _ = await _identify(service, request)
+        listed = await _call(service.store.rides, None if who.role == OPERATOR else who.device_id)
         live = set(service.open_rides())
         return [{**vars(r), "live": r.ride_id in live} for r in reversed(listed)]
 
     @app.get("/api/rides/{ride_id}")
-    async def ride(ride_id: str):
+    async def ride(ride_id: str, request: Request):
+        who, _ = await _identify(service, request)
+
         def read():
-            return {"ride": vars(service.store.ride(ride_id)), "samples": service.store.samples(ride_id),
+            return {"ride": vars(service.readable(who, ride_id)), "samples": service.store.samples(ride_id),
                     "features": service.store.features(ride_id), "labels": service.store.labels(ride_id),
                     "events": [vars(e) for e in service.store.events(ride_id)], "model": service.model_name}
         return JSONResponse(_clean(await _call(read)))
 
-    @app.post("/push")
-    async def push(request: Request):
-        body, token = await _body(request), _token(request)
-        platform = request.query_params.get("platform", "android")
+    @app.post("/push", openapi_extra=_BODIES["push"])
+    async def push(request: Request, platform: str = "android"):
+        _, token = await _identify(service, request)
+        body = await _body(request)
         try:
-            session, readings = parse_push(body, platform)
+            session, readings = await run_in_threadpool(parse_push, body, platform)
         except InputError as exc:
-            raise HTTPException(400, str(exc)) from None
-        key = (token, session)
-        if key not in sessions:
-            ride_id = await _call(service.start_ride, token, "sensor-logger", body.get("deviceId") or "unknown")
-            sessions[key] = (ride_id, PushResampler(service.model.rate))
-        ride_id, resampler = sessions[key]
-        columns = resampler.add(readings)
-        if not columns["time"]:
-            return {"ride_id": ride_id, "count": 0}
-        ack = await _call(service.ingest_async, token, ride_id, columns)
-        return {"ride_id": ride_id, **ack}
+            raise HTTPException(400, _one_line(exc)) from None
+        key = (token_hash(token), session)
+        async with locks.setdefault(key, asyncio.Lock()):  # one message of a session at a time, in order
+            if key not in sessions:
+                device = body.get("deviceId")
+                device = device if isinstance(device, str) and device.isprintable() else "unknown"
+                ride_id = await _call(service.start_ride, token, "sensor-logger", device[:validation.MAX_TEXT])
+                sessions[key] = (ride_id, PushResampler(service.model.rate))
+            ride_id, resampler = sessions[key]
+            # the message is resampled on a copy, kept only once its samples are stored: a refused message
+            # leaves the session as it was, and the app may send it again
+            trial = copy.deepcopy(resampler)
+            try:
+                columns = trial.add(readings)
+            except InputError as exc:
+                raise HTTPException(400, _one_line(exc)) from None
+            ack = {"count": 0}
+            if columns["time"]:
+                ack = await _call(service.ingest_async, token, ride_id, columns)
+            sessions[key] = (ride_id, trial)
+        return {"ride_id": ride_id, **ack, "dropped": trial.dropped - resampler.dropped}
 
     @app.websocket("/ws/ride")
     async def stream(websocket: WebSocket):
@@ -196,7 +368,9 @@ def create_app(service: RideService) -> FastAPI:
         token = ride_id = None
         try:
             while True:
-                raw = await websocket.receive_text()
+                raw = await _receive_text(websocket)
+                if raw is None:
+                    return
                 reply = await _ws_message(service, raw, token, ride_id)
                 if reply.get("type") in ("started", "resumed"):
                     token, ride_id = reply.pop("_token"), reply["ride_id"]
@@ -207,17 +381,75 @@ def create_app(service: RideService) -> FastAPI:
     @app.websocket("/ws/watch")
     async def watch(websocket: WebSocket):
         await websocket.accept()
-        queue = service.watch(websocket.query_params.get("ride"))
         try:
-            await websocket.send_json({"type": "hello", "open": service.open_rides()})
+            who = await _watcher(service, websocket)
+        except WebSocketDisconnect:
+            return
+        if who is None:
+            return
+        queue = service.watch(websocket.query_params.get("ride"), who)
+
+        async def forward() -> None:
+            await websocket.send_json({"type": "hello", "role": who.role, "open": service.open_rides()})
             while True:
                 await websocket.send_json(await queue.get())
+        # the socket is read as well as written: a watcher that leaves (or a server shutting down) is noticed at
+        # once, not at the next published message, which may never come
+        sender = asyncio.create_task(forward())
+        try:
+            while (await websocket.receive())["type"] != "websocket.disconnect":
+                pass
         except (WebSocketDisconnect, RuntimeError):
-            return
+            pass
         finally:
+            sender.cancel()
+            with contextlib.suppress(asyncio.CancelledError, WebSocketDisconnect, RuntimeError):
+                await sender
             service.unwatch(queue)
 
     return app
+
+
+async def _close(websocket: WebSocket, code: int, reason: str) -> None:
+    """Close with ``code`` and a one-line ``reason`` (at most the 123 bytes a close frame holds)."""
+    if websocket.application_state != WebSocketState.DISCONNECTED:
+        await websocket.close(code, reason.encode()[:123].decode(errors="ignore"))
+
+
+async def _receive_text(websocket: WebSocket) -> str | None:
+    """The next text message; a binary frame closes the socket (1003, with the reason) and gives None."""
+    message = await websocket.receive()
+    if message["type"] == "websocket.disconnect":
+        raise WebSocketDisconnect(message.get("code", 1000))
+    if message.get("text") is None:
+        await _close(websocket, 1003, "binary frames are not accepted; send JSON text")
+        return None
+    return message["text"]
+
+
+async def _watcher(service: RideService, websocket: WebSocket) -> Identity | None:
+    """Who watches: the ``Authorization`` header, or a first ``{"type": "auth", "token"}`` message within
+    :data:`AUTH_SECONDS`; None once the socket was closed (1008 with the reason) for a missing or bad one."""
+    token = _bearer(websocket.headers)
+    if token is None:
+        try:
+            raw = await asyncio.wait_for(_receive_text(websocket), AUTH_SECONDS)
+        except asyncio.TimeoutError:
+            await _close(websocket, 1008, f"no credential within {AUTH_SECONDS:g} s; send "
+                                          "{\"type\": \"auth\", \"token\": ...} first")
+            return None
+        if raw is None:
+            return None
+        try:
+            message = _json(raw) if len(raw) <= MAX_BODY else None
+        except InputError:
+            message = None
+        token = message.get("token") if isinstance(message, dict) and message.get("type") == "auth" else None
+    try:
+        return await run_in_threadpool(service.identify, token)
+    except AccessError as exc:
+        await _close(websocket, 1008, _one_line(exc))
+        return None
 
 
 async def _ws_message(service: RideService, raw: str, token: str | None, ride_id: str | None) -> dict:
@@ -233,13 +465,16 @@ async def _ws_message(service: RideService, raw: str, token: str | None, ride_id
         if not isinstance(message, dict):
             raise InputError("a message must be a JSON object with a 'type'")
         kind, seq = message.get("type"), message.get("seq")
+        if not (seq is None or (isinstance(seq, int) and not isinstance(seq, bool) and abs(seq) < 2 ** 53)):
+            seq = None
+            raise InputError("field 'seq' must be a whole number (or left out)")
         if kind == "start":
             meta = {k: message.get(k) for k in ("age_band", "gender", "skill")}
             new = await run_in_threadpool(service.start_ride, message.get("token"), message.get("vehicle"),
                                           message.get("rider_id"), **meta)
             return {"type": "started", "ride_id": new, "_token": message.get("token")}
         if kind == "resume":
-            wanted = message.get("ride_id")
+            wanted = _ride_id(message.get("ride_id"))
             last = await run_in_threadpool(service.resume, message.get("token"), wanted)
             return {"type": "resumed", "ride_id": wanted, "_token": message.get("token"), "last_time": last}
         if ride_id is None:
@@ -253,7 +488,8 @@ async def _ws_message(service: RideService, raw: str, token: str | None, ride_id
         if kind == "end":
             await run_in_threadpool(service.end_ride, token, ride_id)
             return {"type": "ended", "ride_id": ride_id}
-        raise InputError(f"unknown message type {kind!r}; send start, resume, batch, destination or end")
+        raise InputError(f"unknown message type {kind!r:.40}; send start, resume, batch, destination or end")
     except (SpotfreeError, ValueError) as exc:
-        reply = {"type": "error", "status": _status(exc), "message": str(exc), "seq": seq}
-        return {**reply, "retry_after": exc.retry_after} if isinstance(exc, RateError) else reply
+        reply = {"type": "error", "status": _status(exc), "message": _one_line(exc), "seq": seq}
+        return {**reply, "retry_after": exc.retry_after} if isinstance(exc, (RateError, UnavailableError)) \
+            else reply

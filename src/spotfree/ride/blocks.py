@@ -49,6 +49,8 @@ SCHEMA = (
     "CREATE TABLE IF NOT EXISTS events (ride_id TEXT NOT NULL REFERENCES rides (ride_id), kind TEXT NOT NULL, "
     f"start_time {_REAL} NOT NULL, end_time {_REAL} NOT NULL, detail TEXT NOT NULL, "
     "PRIMARY KEY (ride_id, kind, start_time))",
+    f"CREATE TABLE IF NOT EXISTS enrolments (code_hash TEXT PRIMARY KEY, expires {_REAL} NOT NULL, "
+    "uses INTEGER NOT NULL)",
 )
 
 INSERT_SAMPLES = ("INSERT INTO sample_blocks (ride_id, t0, t1, n, samples, feature_set, features) "

@@ -4,8 +4,8 @@ batches and commits them; the web server's process only parses, routes and answe
 :class:`RideServicePool` is a :class:`~spotfree.ride.service.RideService` (same methods, same refusals, same
 acknowledgements, the views fed in the server's process) whose rides are opened in ``processes`` worker processes,
 each with its own :class:`~spotfree.ride.service.RideService` and its own connection to the same store. SQLite
-takes one writer at a time: the workers' group commits take turns on one lock (a blocking wait, where SQLite's own
-busy handler would poll with sleeps of up to 100 ms); PostgreSQL takes them together.
+takes one writer at a time: the workers' group commits take turns on one lock (:class:`WriteLock`, a blocking
+wait, where SQLite's own busy handler would poll with sleeps of up to 100 ms); PostgreSQL takes them together.
 A new ride goes to the worker with the fewest open rides and stays there; every later call on it is sent to that
 worker over a pipe, and the answer comes back once the worker has committed (an acknowledged sample is in the
 store, as in one process). Python runs one thread at a time per process, so this is how the service uses more
@@ -16,25 +16,61 @@ The server's process keeps its own store connection for device registration and 
 
 from __future__ import annotations
 
+import fcntl
 import itertools
 import multiprocessing
+import os
 import signal
 import threading
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Future
 
-from spotfree.errors import SpotfreeError
 from spotfree.model import DictionaryModel
 from spotfree.ride import collector
 from spotfree.ride.assistant import RideAssistant
 from spotfree.ride.live import LiveRide
-from spotfree.ride.service import RideService
-from spotfree.ride.store import AccessError, RideStore
+from spotfree.ride.service import RideService, UnavailableError
+from spotfree.ride.store import ForbiddenError, RideStore
 from spotfree.signal.frame import GRAVITY
 
 
-class WorkerError(SpotfreeError):
-    """A worker process stopped or failed in a way its answer could not carry."""
+class WriteLock:
+    """The turn of one process at writing a SQLite file, between processes: an exclusive ``flock`` on a lock file
+    beside it, which the operating system releases when its holder dies (a ``multiprocessing.Lock`` held by a
+    worker killed in mid-commit stayed taken, and every other worker waited on it for good). A context manager,
+    picklable (each process opens the file itself); threads of one process take turns on a thread lock first,
+    since ``flock`` is held per open file."""
+
+    def __init__(self, path: str):
+        self.path = path
+        self._fd: int | None = None
+        self._threads = threading.Lock()
+
+    def __getstate__(self) -> dict:
+        return {"path": self.path}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__init__(state["path"])
+
+    def __enter__(self) -> "WriteLock":
+        self._threads.acquire()
+        try:
+            if self._fd is None:
+                self._fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o600)
+            fcntl.flock(self._fd, fcntl.LOCK_EX)
+        except BaseException:
+            self._threads.release()
+            raise
+        return self
+
+    def __exit__(self, *exc) -> None:
+        fcntl.flock(self._fd, fcntl.LOCK_UN)
+        self._threads.release()
+
+
+class WorkerError(UnavailableError):
+    """A worker process stopped or failed in a way its answer could not carry (send the call again: its
+    replacement takes the ride over from the store)."""
 
 
 class RideServicePool(RideService):
@@ -49,19 +85,55 @@ class RideServicePool(RideService):
         super().__init__(model, store, model_name, assistant)
         if processes < 1:
             raise ValueError(f"processes={processes}: give at least 1 worker process")
-        context = multiprocessing.get_context("spawn")
-        lock = context.Lock()  # the workers take turns at the SQLite file's write lock
-        self._workers = [_Worker(context, k, (model, store.location, store.synchronous, lock, model_name,
-                                              assistant)) for k in range(processes)]
+        self._context = multiprocessing.get_context("spawn")
+        # the workers take turns at the SQLite file's write lock
+        lock = None if "://" in store.location else WriteLock(store.location + ".write-lock")
+        self._service_args = (model, store.location, store.synchronous, lock, model_name, assistant)
+        self._closing = False
+        self.restarts = 0
+        self._home: dict[str, _Worker] = {}
+        self._workers = [self._start_worker(k) for k in range(processes)]
         for worker in self._workers:
             worker.ready()
-        self._home: dict[str, _Worker] = {}
+
+    def _start_worker(self, index: int) -> "_Worker":
+        return _Worker(self._context, index, self._service_args, on_stop=self._replace)
+
+    def _replace(self, dead: "_Worker") -> None:
+        """Supervision: a worker that stopped while serving is replaced by a new process at its index; its rides
+        are no longer homed, so the next call on each goes to a live worker, which rebuilds it from the store."""
+        with self._lock:
+            if self._closing or self._workers[dead.index] is not dead:
+                return
+            for ride_id in [r for r, w in self._home.items() if w is dead]:
+                del self._home[ride_id]
+            fresh = self._start_worker(dead.index)
+            self._workers[dead.index] = fresh
+            self.restarts += 1
+        try:
+            fresh.ready()
+        except Exception:  # noqa: BLE001 - the replacement's own failure ends it, and _replace runs again
+            pass
 
     def close(self) -> None:
         """Stop the workers (each commits what it holds first), then close the server's store."""
+        with self._lock:
+            self._closing = True
+        self._stopping.set()
         for worker in self._workers:
             worker.stop()
         super().close()
+
+    def health(self) -> dict:
+        with self._lock:
+            workers = [{"index": w.index, "alive": w.alive(), "rides": w.rides} for w in self._workers]
+            restarts = self.restarts
+        status = "ok" if all(w["alive"] for w in workers) else "degraded"
+        return {"status": status, "open_rides": len(self.open_rides()), "workers": workers, "restarts": restarts}
+
+    def _held_elsewhere(self) -> set[str]:
+        with self._lock:
+            return set(self._home)
 
     def _open_ride(self, token: str, vehicle: str, rider_id: str, meta: dict) -> str:
         with self._lock:
@@ -100,19 +172,29 @@ class RideServicePool(RideService):
         return self._worker(ride_id).call("submit", token, ride_id, samples, check_rate, describe)
 
     def _worker(self, ride_id: str) -> "_Worker":
+        """The worker holding ``ride_id``; an open ride of the store that no worker holds (after a restart, or
+        its worker's death) is given to the least loaded one, which rebuilds it from the store on this call."""
         with self._lock:
             worker = self._home.get(ride_id)
-        if worker is None:
-            self.store.ride(ride_id)  # NotFoundError for an unknown id
-            raise AccessError(f"ride {ride_id} is not open on this server; start a new ride")
+        if worker is not None:
+            return worker
+        if self.store.ride(ride_id).ended is not None:  # NotFoundError for an unknown id
+            raise ForbiddenError(f"ride {ride_id} is not open (it has ended); start a new ride")
+        with self._lock:
+            worker = self._home.get(ride_id)
+            if worker is None:
+                worker = min(self._workers, key=lambda w: w.rides)
+                worker.rides += 1
+                self._home[ride_id] = worker
         return worker
 
 
 class _Worker:
     """The server's end of one worker process: calls go down a pipe, answers come back on a reader thread."""
 
-    def __init__(self, context, index: int, service_args: tuple):
+    def __init__(self, context, index: int, service_args: tuple, on_stop=None):
         self.index = index
+        self._on_stop = on_stop
         self.rides = 0
         self._pipe, child = context.Pipe()
         self._process = context.Process(target=_serve, args=(child, service_args), daemon=True,
@@ -144,7 +226,7 @@ class _Worker:
                 self._pipe.send((call_id, name, args))
             except (OSError, ValueError) as exc:
                 self._pending.pop(call_id, None)
-                raise WorkerError(f"ride worker {self.index} has stopped ({exc}); start new rides") from None
+                raise WorkerError(f"ride worker {self.index} has stopped ({exc}); send again") from None
         return future
 
     def stop(self) -> None:
@@ -174,10 +256,17 @@ class _Worker:
         self._process.join(5)
         with self._send_lock:
             self._stopped = WorkerError(f"ride worker {self.index} has stopped (exit code "
-                                        f"{self._process.exitcode}); the rides it held are closed, start new ones")
+                                        f"{self._process.exitcode}); send again: its rides go on in its "
+                                        "replacement")
             pending, self._pending = list(self._pending.values()), {}
         for future in pending:
             future.set_exception(WorkerError(str(self._stopped)))
+        if self._on_stop is not None:
+            self._on_stop(self)
+
+    def alive(self) -> bool:
+        """Whether the process runs and answers (False once its pipe closed)."""
+        return self._stopped is None and self._process.is_alive()
 
 
 def _warm_up(service: RideService) -> None:  # pragma: no cover - runs in the worker process

@@ -7,6 +7,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 
 from spotfree.errors import InputError
+from spotfree.ride.redact import redact_location
 
 
 class PostgresConnection:
@@ -16,14 +17,14 @@ class PostgresConnection:
         try:
             import psycopg
         except ImportError:
-            raise InputError(f"{_safe(url)}: PostgreSQL needs the psycopg driver; "
+            raise InputError(f"{redact_location(url)}: PostgreSQL needs the psycopg driver; "
                              "pip install 'spotfree[postgres]'") from None
         self.url = url
         try:
             self._connection = psycopg.connect(url, autocommit=True)
         except psycopg.Error as exc:
             first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-            raise InputError(f"{_safe(url)}: cannot connect ({first}); check the URL and that the server "
+            raise InputError(f"{redact_location(url)}: cannot connect ({first}); check the URL and that the server "
                              "runs") from None
 
     @contextmanager
@@ -55,12 +56,3 @@ class _Cursor:
 def _placeholders(sql: str) -> str:
     """The store's SQL never holds a literal ``?`` or ``%``, so a plain replacement is exact."""
     return sql.replace("?", "%s")
-
-
-def _safe(url: str) -> str:
-    """The URL without its password, for messages."""
-    head, at, tail = url.rpartition("@")
-    if not at:
-        return url
-    scheme, _, credentials = head.partition("://")
-    return f"{scheme}://{credentials.split(':')[0]}@{tail}"

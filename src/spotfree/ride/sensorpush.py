@@ -17,7 +17,9 @@ than ``max_gap``). A location fix goes on the first grid sample at or after its 
 
 from __future__ import annotations
 
+import bisect
 import math
+from collections import deque
 from collections.abc import Mapping
 
 from spotfree.errors import InputError
@@ -28,10 +30,10 @@ PLATFORMS = ("android", "ios")
 
 
 def _number(value, where: str) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{where}: {value!r} is not a number; send numbers") from None
+    """A JSON number as float; text (even "1.5"), booleans and null are refused, not converted."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InputError(f"{where}: {value!r:.40} is not a number; send numbers, not text")
+    x = float(value)
     if not math.isfinite(x):
         raise InputError(f"{where}: {value!r} is not finite; send finite numbers")
     return x
@@ -77,6 +79,8 @@ def parse_push(message: object, platform: str = "android") -> tuple[str, list[tu
             raise InputError(f"{where}.time: {reading.get('time')!r} is not UNIX epoch nanoseconds")
         if name == "location":
             values = reading.get("values", reading)
+            if not isinstance(values, Mapping):
+                raise InputError(f"{where}: 'values' must be an object with latitude, longitude (and speed)")
             lat = _number(values.get("latitude"), f"{where}.values.latitude")
             lon = _number(values.get("longitude"), f"{where}.values.longitude")
             speed = _number(values.get("speed", -1.0), f"{where}.values.speed")
@@ -95,10 +99,22 @@ def parse_push(message: object, platform: str = "android") -> tuple[str, list[tu
                              "readings in the same message; enable Gravity in Sensor Logger")
         times = sorted(gravity)
         for t, values in linear:
-            nearest = min(times, key=lambda s: abs(s - t))
+            nearest = _nearest(times, t)
             readings.append(("acc", t, tuple(sign * (a + g) for a, g in zip(values, gravity[nearest]))))
     readings.sort(key=lambda r: r[1])
     return session, readings
+
+
+def _nearest(times: list[float], t: float) -> float:
+    """The element of the sorted, non-empty ``times`` closest to ``t`` (the earlier one on a tie): a bisection,
+    so that matching every reading of a message costs ``O(n log n)``."""
+    k = bisect.bisect_left(times, t)
+    if k == 0:
+        return times[0]
+    if k == len(times):
+        return times[-1]
+    before, after = times[k - 1], times[k]
+    return before if t - before <= after - t else after
 
 
 class PushResampler:
@@ -109,12 +125,23 @@ class PushResampler:
         self.origin: float | None = None
         self._slot = {"acc": None, "gyr": None}
         self._sums: dict[str, dict[int, list[float]]] = {"acc": {}, "gyr": {}}
-        self._fixes: list[tuple[float, tuple]] = []
+        self._fixes: deque[tuple[float, tuple]] = deque()
         self._emitted = -1
+        self.dropped = 0
+        """Motion readings not stored so far: their slot lacked a reading of the other motion sensor."""
 
     def add(self, readings: list[tuple[str, float, tuple]]) -> dict[str, list[float]]:
         """Take readings from :func:`parse_push`; return the grid samples now complete, as columns of
-        :data:`~spotfree.ride.records.SAMPLE_COLUMNS` (time in s since the session's first motion reading)."""
+        :data:`~spotfree.ride.records.SAMPLE_COLUMNS` (time in s since the session's first motion reading).
+
+        A motion reading for a slot already emitted (late, or sent twice) refuses the whole message
+        (InputError) and changes nothing; readings of a slot that only one of the two motion sensors filled are
+        counted in :attr:`dropped` (never stored)."""
+        if self.origin is not None:
+            for kind, t, _ in readings:
+                if kind != "fix" and math.floor((t - self.origin) * self.rate + 0.5) <= self._emitted:
+                    raise InputError(f"push: a {kind} reading at {t:.3f} s (UNIX) is for a sample already stored; "
+                                     "send each reading once, in time order")
         for kind, t, values in readings:
             if kind == "fix":
                 self._fixes.append((t, values))
@@ -122,8 +149,6 @@ class PushResampler:
             if self.origin is None:
                 self.origin = t
             slot = math.floor((t - self.origin) * self.rate + 0.5)
-            if slot <= self._emitted:
-                continue
             total = self._sums[kind].setdefault(slot, [0.0, 0.0, 0.0, 0.0])
             for i in range(3):
                 total[i] += values[i]
@@ -141,15 +166,16 @@ class PushResampler:
             acc = self._sums["acc"].pop(slot)
             gyr = self._sums["gyr"].pop(slot, None)
             if gyr is None:
+                self.dropped += int(acc[3])
                 continue
             t = slot / self.rate
             fix = (math.nan, math.nan, math.nan)
             while self._fixes and self._fixes[0][0] - self.origin <= t:
-                fix = self._fixes.pop(0)[1]
+                fix = self._fixes.popleft()[1]
             for name, value in zip(columns, (t, *(v / acc[3] for v in acc[:3]), *(v / gyr[3] for v in gyr[:3]),
                                              *fix)):
                 columns[name].append(value)
         for slot in [s for s in self._sums["gyr"] if s <= done]:
-            del self._sums["gyr"][slot]
+            self.dropped += int(self._sums["gyr"].pop(slot)[3])
         self._emitted = max(self._emitted, done)
         return columns

@@ -1,17 +1,27 @@
 """``spotfree serve``: the model, the store, the service and its web API under uvicorn, with the optional
-replayed or simulated rider (:mod:`spotfree.ride.sources`) and a self-signed certificate (:mod:`spotfree.ride.tls`)."""
+replayed or simulated rider (:mod:`spotfree.ride.sources`) and a self-signed certificate (:mod:`spotfree.ride.tls`).
+
+The operator credential: there is no default password. On the first start over a store (no operator token in
+it yet), or with ``--new-operator-token``, a new operator token is issued and written to the file
+:func:`operator_token_file` names (beside a SQLite store, ``<store>.operator-token``; in the working folder for
+a PostgreSQL store), readable by its owner only; the banner names the file, never the token. The store keeps only
+the token's hash, so a lost file is replaced by starting once with ``--new-operator-token``.
+"""
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import os
+import signal
 from pathlib import Path
 from typing import Callable
 
 from spotfree.errors import InputError
 from spotfree.model import DictionaryModel
 from spotfree.ride import collector
-from spotfree.ride.api import create_app
+from spotfree.ride.api import MAX_BODY, create_app
+from spotfree.ride.redact import redact_location
 from spotfree.ride.service import RideService
 from spotfree.ride.store import RideStore
 
@@ -49,14 +59,54 @@ def build_service(database: str, model_path: Path | None, say: Callable[[str], N
     return RideService(model, store, model_name=name)
 
 
+SHUTDOWN_SECONDS = 10
+"""Seconds a SIGTERM or Ctrl-C waits for open requests and sockets before the server stops anyway (the store is
+closed after them: every acknowledged sample is committed)."""
+
+
+def operator_token_file(database: str) -> Path:
+    """Where the operator token of the store at ``database`` is written: beside a SQLite file, or
+    ``spotfree-operator-token`` in the working folder for a ``postgresql://`` URL."""
+    if "://" in database:
+        return Path("spotfree-operator-token")
+    path = Path(database)
+    return path.with_name(path.name + ".operator-token")
+
+
+def provide_operator_token(service: RideService, path: Path, renew: bool, say: Callable[[str], None]) -> None:
+    """Issue an operator token when the store has none (or ``renew``) and write it to ``path`` (mode 0600,
+    replacing the file); say where it is, or how to get one when the file is gone."""
+    if renew or service.store.operator_token_hash() is None:
+        token = service.new_operator_token()
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        with os.fdopen(fd, "w") as file:
+            file.write(token + "\n")
+        os.chmod(path, 0o600)
+        say(f"operator token: new, written to {path} (only you can read it); paste it into /operator")
+    elif path.exists():
+        say(f"operator token: in {path}; paste it into /operator")
+    else:
+        say(f"operator token: {path} is gone; start once with --new-operator-token to issue a new one")
+
+
 def run_server(host: str, port: int, database: str, https: bool, replay: str | None, simulate: str | None,
                model_path: Path | None, speed: float, seed: int, say: Callable[[str], None],
-               synchronous: str = "full", workers: int = 0) -> None:
-    """Serve until interrupted (see the module docstring)."""
+               synchronous: str = "full", workers: int = 0, new_operator_token: bool = False,
+               certificate: tuple[Path, Path] | None = None) -> None:
+    """Serve until interrupted (see the module docstring); ``certificate``: the user's own ``(cert, key)`` PEM
+    files for https (else ``https`` uses a self-signed one kept beside the store)."""
     import uvicorn
 
+    if not 0 <= port <= 65535:
+        raise InputError(f"--port {port}: give a port from 1 to 65535 (0: any free port)")
+    if certificate is not None:
+        from spotfree.ride.tls import user_certificate
+
+        certificate = user_certificate(*certificate)  # refused before anything is loaded
     rows = _rider_rows(replay, simulate, seed) if (replay or simulate) else None
     service = build_service(database, model_path, say, synchronous, workers)
+    provide_operator_token(service, operator_token_file(database), new_operator_token, say)
+    service.keep_tidy()  # rides left open longer than IDLE_SECONDS are closed now, and checked again while serving
     app = create_app(service)
     if rows is not None:
         from spotfree.ride.sources import ride_live
@@ -69,18 +119,36 @@ def run_server(host: str, port: int, database: str, https: bool, replay: str | N
 
         app.router.lifespan_context = rider
     tls = {}
-    if https:
-        from spotfree.ride.tls import lan_addresses, self_signed_certificate
+    if certificate is not None:
+        tls = {"ssl_certfile": str(certificate[0]), "ssl_keyfile": str(certificate[1])}
+    elif https:
+        from spotfree.ride.tls import kept_certificate, lan_addresses
 
         folder = Path(database).parent if "://" not in database else Path(".")
-        cert, key = self_signed_certificate(folder / "spotfree-tls", [host, *lan_addresses()])
+        cert, key = kept_certificate(folder / "spotfree-tls", [host, *lan_addresses()])
         tls = {"ssl_certfile": str(cert), "ssl_keyfile": str(key)}
-    scheme = "https" if https else "http"
-    say(f"spotfree serve: {scheme}://{host}:{port}/ (phone), /rider, /operator; rides recorded in {database}")
+    scheme = "https" if tls else "http"
+    say(f"spotfree serve: {scheme}://{host}:{port}/ (phone), /rider, /operator; rides recorded in "
+        f"{redact_location(database)}")
     collector.settle()  # no full garbage collection pauses while serving (spotfree.ride.collector)
+    # a WebSocket message over MAX_BODY closes the socket (1009) as it arrives, before it is buffered whole;
     # no per-message compression: a batch or an acknowledgement is under a few kB, and deflating each one cost
     # an eighth of the server's CPU under load (BENCHMARKS.md)
+    # uvicorn shuts down gracefully on SIGTERM, then raises the signal again for the handler it found: this one
+    # ends the run normally, so that the store and the ride workers are closed and the exit status is 0
+    signal.signal(signal.SIGTERM, _stop)
     try:
-        uvicorn.run(app, host=host, port=port, log_level="warning", ws_per_message_deflate=False, **tls)
+        uvicorn.run(app, host=host, port=port, log_level="warning", ws_per_message_deflate=False,
+                    ws_max_size=MAX_BODY, timeout_graceful_shutdown=SHUTDOWN_SECONDS, **tls)
+    except _Stopped:
+        pass
     finally:
         service.close()
+
+
+class _Stopped(Exception):
+    """SIGTERM reached the server after uvicorn's graceful shutdown."""
+
+
+def _stop(signum, frame) -> None:
+    raise _Stopped

@@ -13,6 +13,11 @@ device gets is sent after the commit: an acknowledged sample is on disk. :meth:`
 reported to the device, but the ride's filters and assistant have taken the batch: end that ride and start a new
 one. Ending a ride closes the assistant's open episodes and records them.
 
+Credentials (:meth:`RideService.identify`): the operator token (its hash in the store, issued by
+:meth:`RideService.new_operator_token`) reads every ride and issues enrolment codes; a device token, got with
+such a code (:meth:`RideService.enrol_device`), writes and reads only the rides it started, and a device's view
+(:meth:`RideService.watch`) is sent only the messages of those rides.
+
 Rate: each ride has a bucket of ``BACKLOG_SECONDS * rate`` samples (``rate`` the model's, Hz) refilled at
 ``RATE_FACTOR * rate`` samples/s; a batch of ``n`` samples takes ``n`` from it or is refused whole (HTTP 429,
 with the seconds to wait). A phone streaming at ``rate`` keeps the bucket full, so the backlog of a disconnect of
@@ -23,9 +28,11 @@ from __future__ import annotations
 
 import asyncio
 import functools
+import hmac
 import math
 import threading
 import time as clock
+from time import time as clock_time
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Future
 from dataclasses import dataclass, field
@@ -33,13 +40,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from spotfree.classify.batch import dictionary_classifier
-from spotfree.errors import InputError
+from spotfree.errors import InputError, SpotfreeError
 from spotfree.model import DictionaryModel
 from spotfree.ride import validation
 from spotfree.ride.assistant import RideAssistant
 from spotfree.ride.live import LiveRide, pipeline_spec
 from spotfree.ride.records import FEATURE_COLUMNS, SAMPLE_COLUMNS
-from spotfree.ride.store import AccessError, RideStore
+from spotfree.ride.store import AccessError, ForbiddenError, RideStore
 from spotfree.ride.tokens import token_hash
 
 PLOT_CHANNELS = ("pitch", "pitch_rate", "acc_long")
@@ -48,8 +55,18 @@ RATE_FACTOR = 4.0
 """Samples a device may send per second, sustained, in multiples of the model's rate."""
 BACKLOG_SECONDS = 60.0
 """Seconds of samples (at the model's rate) a device may send at once: the backlog of a disconnect this long."""
+IDLE_SECONDS = 3600.0
+"""Seconds without a sample after which an open ride is closed (:meth:`RideService.close_idle_rides`): the
+longest pause within a ride (:data:`spotfree.limits.MAX_STEP`)."""
 DANGEROUS_CLASSES = ("sudden-braking", "sharp-turn", "cobblestone")
 """Classes the rider is warned of when the model has them: a hard stop, a sharp turn, a surface to slow down on."""
+
+
+class UnavailableError(SpotfreeError):
+    """The service cannot take this call now (a ride worker stopped and is being replaced): send it again in
+    ``retry_after`` s; nothing of it was acknowledged."""
+
+    retry_after = 1.0
 
 
 class RateError(InputError):
@@ -90,6 +107,19 @@ def assistant_factory(model: DictionaryModel) -> Callable[[], RideAssistant]:
     (``sudden-braking`` when it has none)."""
     dangerous = tuple(c for c in DANGEROUS_CLASSES if c in model.classes) or DANGEROUS_CLASSES[:1]
     return functools.partial(RideAssistant, dangerous=dangerous)
+
+
+OPERATOR, DEVICE = "operator", "device"
+
+
+@dataclass(frozen=True)
+class Identity:
+    """Who sent a request: ``role`` :data:`OPERATOR` (reads every ride, issues enrolment codes) or
+    :data:`DEVICE` (``device_id``: writes and reads only its own rides); ``token_hash`` of the credential."""
+
+    role: str
+    device_id: str | None
+    token_hash: str
 
 
 @dataclass
@@ -134,17 +164,77 @@ class RideService:
                                   "refractory": rule.refractory}}
         self._open: dict[str, _OpenRide] = {}
         self._lock = threading.Lock()
-        self._watchers: set[tuple[asyncio.AbstractEventLoop, asyncio.Queue, str | None]] = set()
+        self._watchers: set[tuple[asyncio.AbstractEventLoop, asyncio.Queue, str | None, str | None]] = set()
+        self._owners: dict[str, str] = {}
+        self._devices: dict[str, str] = {}
+        self._operator_hash = store.operator_token_hash()
+        self._restoring = threading.Lock()
+        self._stopping = threading.Event()
+
+    # ------------------------------------------------------------ credentials
+
+    def identify(self, token: object) -> Identity:
+        """Who holds ``token``: the operator, or a device (:class:`AccessError` for no token or an unknown one).
+        A device's token, once found in the store, is remembered (tokens are never revoked while serving)."""
+        if not isinstance(token, str) or not token:
+            raise AccessError("no credential; send 'Authorization: Bearer <token>' (a device's token, or the "
+                              "operator token)")
+        digest = token_hash(token)
+        operator = self._operator_hash
+        if operator is not None and hmac.compare_digest(digest, operator):
+            return Identity(OPERATOR, None, digest)
+        device_id = self._devices.get(digest)
+        if device_id is None:
+            try:
+                device_id = self.store.authenticate(token)
+            except AccessError:
+                raise AccessError("unknown token; enrol the device with an enrolment code from the operator, "
+                                  "or use the operator token") from None
+            self._devices[digest] = device_id
+        return Identity(DEVICE, device_id, digest)
+
+    def require_operator(self, token: object) -> Identity:
+        """:meth:`identify`, refused (:class:`ForbiddenError`) unless the token is the operator's."""
+        who = self.identify(token)
+        if who.role != OPERATOR:
+            raise ForbiddenError("this view needs the operator token; a device token reads only its own rides")
+        return who
+
+    def new_operator_token(self) -> str:
+        """Issue a new operator token (the previous one stops working at once); shown only now."""
+        token = self.store.new_operator_token()
+        self._operator_hash = token_hash(token)
+        return token
+
+    def issue_enrolment(self, uses: int = 1, ttl: float = 3600.0) -> tuple[str, float]:
+        """A new enrolment code (:meth:`~spotfree.ride.store.RideStore.issue_enrolment`)."""
+        return self.store.issue_enrolment(uses, ttl)
+
+    def enrol_device(self, code: str, name: str = "") -> tuple[str, str]:
+        """``(device_id, token)`` of a new device that gave a valid enrolment code (ForbiddenError otherwise)."""
+        return self.store.enrol_device(code, name)
+
+    def readable(self, who: Identity, ride_id: str):
+        """The ride's metadata if ``who`` may read it (the operator any ride, a device its own):
+        NotFoundError, ForbiddenError otherwise."""
+        ride = self.store.ride(ride_id)
+        if who.role != OPERATOR and ride.device_id != who.device_id:
+            raise ForbiddenError(f"ride {ride_id} belongs to another device; a device token reads only its own "
+                                 "rides")
+        return ride
 
     # ------------------------------------------------------------ devices and rides
 
     def register_device(self, name: str = "") -> tuple[str, str]:
-        """``(device_id, token)`` of a new device."""
+        """``(device_id, token)`` of a new device, without an enrolment code: for code running in the server's
+        process (replays, simulations), never for a request."""
         return self.store.register_device(name)
 
     def start_ride(self, token: str, vehicle: str, rider_id: str, **meta) -> str:
         """Open a ride for the token's device; ``meta``: ``age_band``, ``gender``, ``skill``, ``started``."""
         ride_id = self._open_ride(token, vehicle, rider_id, meta)
+        with self._lock:
+            self._owners[ride_id] = token_hash(token)
         self._publish({"type": "ride", "ride_id": ride_id, "vehicle": vehicle, "rider_id": rider_id}, ride_id)
         return ride_id
 
@@ -175,6 +265,8 @@ class RideService:
         """Close the ride: its open episodes become events, and the store refuses later samples."""
         events = self._close_ride(token, ride_id)
         self._publish({"type": "end", "ride_id": ride_id, "events": events}, ride_id)
+        with self._lock:
+            self._owners.pop(ride_id, None)
 
     def _close_ride(self, token: str, ride_id: str) -> list[dict]:
         ride = self._own(token, ride_id)
@@ -188,13 +280,32 @@ class RideService:
                 self._open.pop(ride_id, None)
         return [vars(e) for e in events]
 
+    def keep_tidy(self, every: float = IDLE_SECONDS / 6) -> None:
+        """Close idle rides now (:meth:`close_idle_rides`) and then every ``every`` s in a daemon thread, until
+        :meth:`close`."""
+        self.close_idle_rides()
+
+        def loop() -> None:
+            while not self._stopping.wait(every):
+                try:
+                    self.close_idle_rides()
+                except SpotfreeError:  # a store error now: tried again next round
+                    pass
+        threading.Thread(target=loop, name="spotfree-idle-rides", daemon=True).start()
+
     def close(self) -> None:
         """Close the store (after committing what is queued)."""
+        self._stopping.set()
         self.store.close()
 
     def open_rides(self) -> list[str]:
         with self._lock:
             return list(self._open)
+
+    def health(self) -> dict:
+        """``status`` (``"ok"``, or ``"degraded"`` while a ride worker is down), ``open_rides`` and, with worker
+        processes, one ``{"index", "alive", "rides"}`` per worker and the ``restarts`` so far."""
+        return {"status": "ok", "open_rides": len(self.open_rides()), "workers": [], "restarts": 0}
 
     # ------------------------------------------------------------ samples
 
@@ -261,26 +372,91 @@ class RideService:
         with self._lock:
             ride = self._open.get(ride_id)
         if ride is None:
-            self.store.ride(ride_id)  # NotFoundError for an unknown id
-            raise AccessError(f"ride {ride_id} is not open on this server; start a new ride")
+            ride = self._restore(token, ride_id)
         if not isinstance(token, str) or token_hash(token) != ride.token_hash:
             raise AccessError(f"this device token may not write to ride {ride_id}; use the token that started it")
         return ride
 
+    def _restore(self, token: str, ride_id: str) -> _OpenRide:
+        """An open ride of the store that this process does not hold (the server restarted, or the worker that
+        held it died), rebuilt by replaying its stored samples; refused (NotFoundError, ForbiddenError) for an
+        unknown ride, one that has ended, or a token not its device's."""
+        record = self.store.ride(ride_id)  # NotFoundError for an unknown id
+        if record.ended is not None:
+            raise ForbiddenError(f"ride {ride_id} is not open (it has ended); start a new ride")
+        if self.identify(token).device_id != record.device_id:
+            raise AccessError(f"this device token may not write to ride {ride_id}; use the token that started it")
+        with self._restoring:
+            with self._lock:
+                ride = self._open.get(ride_id)
+            if ride is None:
+                ride = self._replay(ride_id, token_hash(token))
+                with self._lock:
+                    self._open[ride_id] = ride
+                    self._owners[ride_id] = ride.token_hash
+        return ride
+
+    def _replay(self, ride_id: str, owner: str) -> _OpenRide:
+        """The state of an open ride rebuilt from the store: its stored samples run through a new
+        :class:`LiveRide` and assistant in blocks (the same labels and episodes as when they came, since blocks
+        and single samples give the same results); the events that ended then are already stored and are
+        dropped. The rate bucket starts full; a destination set before is not kept (the phone sets it again)."""
+        columns = self.store.samples(ride_id)
+        table = np.column_stack([np.asarray(columns[c], dtype=float) for c in SAMPLE_COLUMNS])
+        ride = _OpenRide(ride_id, owner, LiveRide(self.model, self.classifier), self.assistant(),
+                         SampleBucket(BACKLOG_SECONDS * self.model.rate, RATE_FACTOR * self.model.rate))
+        for start in range(0, len(table), validation.MAX_BATCH):
+            block = table[start:start + validation.MAX_BATCH]
+            _, labels = ride.live.update_block(block)
+            ride.assistant.update_block(block[:, _ASSISTED].tolist(), labels)
+            ride.assistant.pop_events()
+        ride.last_time = float(table[-1, 0]) if len(table) else None
+        return ride
+
+    def close_idle_rides(self, idle: float = IDLE_SECONDS, now: float | None = None) -> list[str]:
+        """Close every open ride with no sample for more than ``idle`` s (:data:`IDLE_SECONDS`; UNIX ``now``):
+        its open episodes become events, ``ended`` is the time of its last sample. Returns their ids. A ride that
+        a worker process holds (:class:`~spotfree.ride.pool.RideServicePool`) is left to that worker."""
+        now = clock_time() if now is None else now
+        closed = []
+        for ride_id, last in self.store.open_ride_activity():
+            if now - last <= idle or ride_id in self._held_elsewhere():
+                continue
+            with self._lock:
+                ride = self._open.pop(ride_id, None)
+            if ride is None:
+                ride = self._replay(ride_id, "")
+            with ride.lock:
+                ride.assistant.finish()
+                events = ride.assistant.pop_events()
+            if self.store.close_idle_ride(ride_id, max(last, self.store.ride(ride_id).started), events):
+                closed.append(ride_id)
+                self._publish({"type": "end", "ride_id": ride_id, "events": [vars(e) for e in events]}, ride_id)
+            with self._lock:
+                self._owners.pop(ride_id, None)
+        return closed
+
+    def _held_elsewhere(self) -> set[str]:
+        """Rides held by other processes (none here; the pool's workers' rides there)."""
+        return set()
+
     # ------------------------------------------------------------ views
 
-    def watch(self, ride_id: str | None = None) -> asyncio.Queue:
-        """A queue of the messages published for ``ride_id`` (all rides when None), on the calling loop."""
+    def watch(self, ride_id: str | None = None, who: Identity | None = None) -> asyncio.Queue:
+        """A queue of the messages published for ``ride_id`` (all rides when None), on the calling loop; for a
+        device (``who``), only those of the rides its token started."""
         queue: asyncio.Queue = asyncio.Queue(maxsize=1000)
-        self._watchers.add((asyncio.get_running_loop(), queue, ride_id))
+        owner = who.token_hash if who is not None and who.role == DEVICE else None
+        self._watchers.add((asyncio.get_running_loop(), queue, ride_id, owner))
         return queue
 
     def unwatch(self, queue: asyncio.Queue) -> None:
         self._watchers = {w for w in self._watchers if w[1] is not queue}
 
     def _publish(self, message: dict, ride_id: str) -> None:
-        for loop, queue, wanted in list(self._watchers):
-            if wanted is None or wanted == ride_id:
+        owner = self._owners.get(ride_id)
+        for loop, queue, wanted, device in list(self._watchers):
+            if (wanted is None or wanted == ride_id) and (device is None or device == owner):
                 loop.call_soon_threadsafe(_offer, queue, message)
 
 

@@ -9,7 +9,13 @@ uses a PostgreSQL server through psycopg 3 (:mod:`spotfree.ride.postgres`). Both
 * ``sample_blocks``: a row per batch of raw samples (:data:`~spotfree.ride.records.SAMPLE_COLUMNS`) with their
   features (:data:`~spotfree.ride.records.FEATURE_COLUMNS`), ``label_blocks``: a row per batch of one model's
   labels, read back as one column per model name (the layout: :mod:`.blocks`);
-* ``events``: :class:`~spotfree.ride.records.Event` rows, one per ``(ride, kind, start)``.
+* ``events``: :class:`~spotfree.ride.records.Event` rows, one per ``(ride, kind, start)``;
+* ``enrolments``: the SHA-256 of each enrolment code an operator issued, when it expires (UNIX s) and how many
+  more devices it may enrol; ``meta`` holds the SHA-256 of the operator token (``operator_token_hash``).
+
+Enrolment: a device gets its token from :meth:`RideStore.enrol_device` only with a code that
+:meth:`RideStore.issue_enrolment` gave the operator (:meth:`RideStore.register_device` is for code that runs in
+the server's own process: replays, simulations, imports).
 
 Writing needs the device's token: a device writes only to the rides it started, and only while they are open.
 Every write is one transaction: a batch is validated as a whole first (:mod:`.validation`), and a batch that
@@ -48,14 +54,27 @@ import numpy as np
 from spotfree.errors import InputError, SpotfreeError
 from spotfree.ride import blocks, validation
 from spotfree.ride.commit import GroupCommit
+from spotfree.ride.redact import redact_location
 from spotfree.ride.records import FEATURE_COLUMNS, RIDER_FIELDS, SAMPLE_COLUMNS, Event, Ride
 from spotfree.ride.tokens import new_token, token_hash
 
+MAX_ENROLMENT_USES = 1000
+"""Devices one enrolment code may enrol at most."""
+MAX_ENROLMENT_TTL = 7 * 86400.0
+"""Seconds an enrolment code may stay valid at most."""
+ENROLMENT_CODE_BYTES = 9
+"""Random bytes of an enrolment code (12 characters to type; it is short-lived and limited in uses)."""
+_OPERATOR_KEY = "operator_token_hash"
 _RIDE_FIELDS = ("ride_id", "device_id", "vehicle", "rider_id", "started", "ended", "model", *RIDER_FIELDS)
 
 
 class AccessError(SpotfreeError, PermissionError):
     """A token that belongs to no device, or a device writing to a ride that is not its own."""
+
+
+class ForbiddenError(AccessError):
+    """A known credential asking for what it may not have: another device's ride, an operator's view, or an
+    enrolment code that is unknown, used up or expired."""
 
 
 class NotFoundError(InputError, LookupError):
@@ -68,7 +87,8 @@ class RideStore:
     Parameters
     ----------
     location : str or Path
-        A SQLite file path (created when missing) or a ``postgresql://`` URL.
+        A SQLite file path (created when missing) or a ``postgresql://`` URL. ``name`` is the location as it may
+        be shown (its password hidden, :func:`~spotfree.ride.redact.redact_location`); messages name only that.
     synchronous : str
         SQLite only: ``"full"`` (default: a commit survives a power loss) or ``"normal"`` (a commit survives the
         process being killed, not the machine going down).
@@ -80,6 +100,7 @@ class RideStore:
 
     def __init__(self, location: str | Path, synchronous: str = "full", lock=None):
         self.location = str(location)
+        self.name = redact_location(self.location)
         if synchronous not in ("full", "normal"):
             raise InputError(f"synchronous={synchronous!r}: use 'full' or 'normal'")
         self.synchronous = synchronous
@@ -96,7 +117,7 @@ class RideStore:
             self._feature_set = _open_schema(db)
         version = self._query("SELECT value FROM meta WHERE key = ?", ("schema_version",))[0][0]
         if int(version) != blocks.SCHEMA_VERSION:
-            raise InputError(f"{self.location}: ride store schema version {version}, this spotfree reads "
+            raise InputError(f"{self.name}: ride store schema version {version}, this spotfree reads "
                              f"{blocks.SCHEMA_VERSION}; open it with a matching spotfree version")
 
     def close(self) -> None:
@@ -122,6 +143,56 @@ class RideStore:
             "INSERT INTO devices (device_id, name, token_hash, created) VALUES (?, ?, ?, ?)",
             (device_id, name, token_hash(token), clock.time())))
         return device_id, token
+
+    def enrol_device(self, code: str, name: str = "") -> tuple[str, str]:
+        """:meth:`register_device` for the holder of an enrolment code (:meth:`issue_enrolment`), which then has
+        one use fewer; :class:`ForbiddenError` for a code unknown, used up or expired (nothing is written)."""
+        if not isinstance(code, str) or not 0 < len(code) <= validation.MAX_TEXT:
+            raise ForbiddenError("no enrolment code; ask the operator for one (operator view, 'New enrolment code')")
+        name = validation.text(name, "device", "name", required=False) or ""
+        device_id, token = uuid.uuid4().hex, new_token()
+
+        def write(db) -> None:
+            row = db.execute("SELECT expires, uses FROM enrolments WHERE code_hash = ?",
+                             (token_hash(code),)).fetchone()
+            if row is None or row[0] < clock.time() or row[1] < 1:
+                raise ForbiddenError("enrolment code unknown, used up or expired; ask the operator for a new one")
+            db.execute("UPDATE enrolments SET uses = uses - 1 WHERE code_hash = ?", (token_hash(code),))
+            db.execute("INSERT INTO devices (device_id, name, token_hash, created) VALUES (?, ?, ?, ?)",
+                       (device_id, name, token_hash(token), clock.time()))
+        self._write(write)
+        return device_id, token
+
+    def issue_enrolment(self, uses: int = 1, ttl: float = 3600.0) -> tuple[str, float]:
+        """A new enrolment code for ``uses`` devices (1 to :data:`MAX_ENROLMENT_USES`) within ``ttl`` s (1 s to
+        :data:`MAX_ENROLMENT_TTL`): ``(code, expires)`` with ``expires`` in UNIX s. The code is shown only now;
+        the store keeps its hash. Expired codes are deleted."""
+        if isinstance(uses, bool) or not isinstance(uses, int) or not 1 <= uses <= MAX_ENROLMENT_USES:
+            raise InputError(f"enrolment: field 'uses' must be a whole number from 1 to {MAX_ENROLMENT_USES}")
+        if isinstance(ttl, bool) or not isinstance(ttl, (int, float)) or not 1 <= ttl <= MAX_ENROLMENT_TTL:
+            raise InputError(f"enrolment: field 'ttl' must be seconds from 1 to {MAX_ENROLMENT_TTL:g}")
+        code, now = new_token(ENROLMENT_CODE_BYTES), clock.time()
+        expires = now + float(ttl)
+
+        def write(db) -> None:
+            db.execute("DELETE FROM enrolments WHERE expires < ?", (now,))
+            db.execute("INSERT INTO enrolments (code_hash, expires, uses) VALUES (?, ?, ?)",
+                       (token_hash(code), expires, uses))
+        self._write(write)
+        return code, expires
+
+    def new_operator_token(self) -> str:
+        """A new operator token (any earlier one stops working); shown only now, the store keeps its hash."""
+        token = new_token()
+        self._write(lambda db: db.execute(
+            "INSERT INTO meta (key, value) VALUES (?, ?) ON CONFLICT (key) DO UPDATE SET value = excluded.value",
+            (_OPERATOR_KEY, token_hash(token))))
+        return token
+
+    def operator_token_hash(self) -> str | None:
+        """The SHA-256 of the operator token (None before :meth:`new_operator_token` was first called)."""
+        rows = self._query("SELECT value FROM meta WHERE key = ?", (_OPERATOR_KEY,))
+        return rows[0][0] if rows else None
 
     def authenticate(self, token: str) -> str:
         """The id of the device that holds ``token``; :class:`AccessError` when none does."""
@@ -164,6 +235,28 @@ class RideStore:
                 raise InputError(f"ride {ride_id}: field 'ended' is before the ride started; send a later time")
             db.execute("UPDATE rides SET ended = ? WHERE ride_id = ?", (end, ride_id))
         self._write(write)
+
+    def close_idle_ride(self, ride_id: str, ended: float, events: Iterable[Event] = ()) -> bool:
+        """Close an open ride that its device left (no token: for the server's own housekeeping, never for a
+        request): record ``events`` and set ``ended`` (UNIX s); False when it had already ended."""
+        rows = [_event_row(ride_id, event) for event in events]
+        end = _epoch(ended, f"ride {ride_id}", "ended")
+
+        def write(db) -> bool:
+            row = db.execute("SELECT ended FROM rides WHERE ride_id = ?", (ride_id,)).fetchone()
+            if row is None or row[0] is not None:
+                return False
+            if rows:
+                db.executemany(_EVENT_SQL, rows)
+            db.execute("UPDATE rides SET ended = ? WHERE ride_id = ?", (end, ride_id))
+            return True
+        return self._write(write)
+
+    def open_ride_activity(self) -> list[tuple[str, float]]:
+        """``(ride_id, last activity)`` of every open ride: UNIX s of its last stored sample (its start when it
+        has none), the start plus that sample's time since the start."""
+        rows = self._query(f"SELECT r.ride_id, r.started, {blocks.LAST_TIME} FROM rides r WHERE r.ended IS NULL")
+        return [(ride_id, float(started) + float(last or 0.0)) for ride_id, started, last in rows]
 
     def append_samples(self, token: str, ride_id: str, samples: Mapping[str, Sequence[float]],
                        features: Mapping[str, Sequence[float]] | None = None,
@@ -246,7 +339,7 @@ class RideStore:
         """The ride's metadata; :class:`NotFoundError` for an unknown id."""
         rows = self._query(f"SELECT {', '.join(_RIDE_FIELDS)} FROM rides WHERE ride_id = ?", (ride_id,))
         if not rows:
-            raise NotFoundError(f"ride {ride_id!r} is not in {self.location}; list the rides to find its id")
+            raise NotFoundError(f"ride {ride_id!r} is not in the ride store; list the rides to find its id")
         return Ride(*rows[0])
 
     def samples(self, ride_id: str, since: float | None = None) -> dict[str, np.ndarray]:

@@ -1,12 +1,15 @@
 """Checks on what a device sends before anything is written: a batch that fails any check raises
 :class:`~spotfree.errors.InputError` naming the field, the row and the fix, and the store writes nothing of it.
 
-Limits (SI units):
+Limits (SI units; the physical ones are shared with the command line's readers, :mod:`spotfree.limits`):
 
-* a batch holds 1 to :data:`MAX_BATCH` rows;
-* ``time`` (s since the ride started) is finite, at least 0, strictly increasing within the batch and after the
-  last time already stored for the ride; the batch's mean rate ``(n - 1) / (t_last - t_first)`` is at most
-  :data:`MAX_RATE` Hz;
+* a batch holds 1 to :data:`MAX_BATCH` rows; each column is a list of JSON numbers (``null`` where allowed):
+  text such as ``"1.5"`` and booleans are refused, never converted;
+* ``time`` (s since the ride started) is finite, at least 0, at most :data:`~spotfree.limits.MAX_RIDE_SECONDS`,
+  strictly increasing within the batch and after the last time already stored for the ride, each step at most
+  :data:`~spotfree.limits.MAX_STEP` s; the batch's mean rate ``(n - 1) / (t_last - t_first)`` is at most
+  :data:`MAX_RATE` Hz and, from 3 samples, its median step at most ``1 / MIN_RATE`` s (a larger one is
+  milliseconds);
 * ``ax ay az`` are finite with ``|a| <= MAX_ACCELERATION`` (16 g, the widest range of phone IMUs) and
   ``gx gy gz`` finite with ``|w| <= MAX_ROTATION`` (2000 deg/s);
 * ``lat``, ``lon`` are both present or both NaN, within [-90, 90] and [-180, 180]; ``speed`` is NaN or within
@@ -26,19 +29,12 @@ import numpy as np
 
 from spotfree.errors import InputError
 from spotfree.io.recording import ACC_CHANNELS, GYRO_CHANNELS
+from spotfree.limits import (MAX_ACCELERATION, MAX_RATE, MAX_RIDE_SECONDS, MAX_ROTATION, MAX_SPEED, MAX_STEP,
+                             MIN_RATE)
 from spotfree.ride.records import FEATURE_COLUMNS, GPS_COLUMNS, SAMPLE_COLUMNS
-from spotfree.signal.frame import GRAVITY
 
 MAX_BATCH = 5000
 """Rows per batch: 250 s at 20 Hz, 25 s at 200 Hz."""
-MAX_RATE = 1000.0
-"""Hz, highest mean sampling rate of a batch."""
-MAX_ACCELERATION = 16 * GRAVITY
-"""m/s^2 per axis."""
-MAX_ROTATION = np.deg2rad(2000.0)
-"""rad/s per axis."""
-MAX_SPEED = 100.0
-"""m/s; a GPS speed above it is a receiver fault."""
 MAX_TEXT = 100
 """Characters in a text field (ids, names, labels, event kinds)."""
 
@@ -85,7 +81,7 @@ def _checked(table: np.ndarray) -> CheckedSamples:
 
 
 _LOWER = np.array([0.0, *[-MAX_ACCELERATION] * 3, *[-MAX_ROTATION] * 3, -90.0, -180.0, 0.0])
-_UPPER = np.array([np.finfo(float).max, *[MAX_ACCELERATION] * 3, *[MAX_ROTATION] * 3, 90.0, 180.0, MAX_SPEED])
+_UPPER = np.array([MAX_RIDE_SECONDS, *[MAX_ACCELERATION] * 3, *[MAX_ROTATION] * 3, 90.0, 180.0, MAX_SPEED])
 _OPTIONAL = np.array([name in GPS_COLUMNS for name in SAMPLE_COLUMNS])
 _NO_FIX = [None] * MAX_BATCH
 _LAT, _LON = SAMPLE_COLUMNS.index("lat"), SAMPLE_COLUMNS.index("lon")
@@ -94,16 +90,19 @@ _LAT, _LON = SAMPLE_COLUMNS.index("lat"), SAMPLE_COLUMNS.index("lon")
 def _passes(table: np.ndarray, last_time: float) -> bool:
     """Whether ``table`` passes every check of :func:`sample_batch` after ``last_time`` (-inf for none), in one
     compiled pass; the checks that name the first failing field and row run only when this is False."""
-    return _passes_compiled(table, _LOWER, _UPPER, _OPTIONAL, last_time, MAX_RATE, _LAT, _LON)
+    return _passes_compiled(table, _LOWER, _UPPER, _OPTIONAL, last_time, MAX_RATE, _LAT, _LON, MAX_STEP) \
+        and _median_step_ok(table[:, 0])
 
 
 @numba.njit(cache=True, nogil=True)
-def _passes_compiled(table, lower, upper, optional, last_time, max_rate, lat, lon):  # pragma: no cover - compiled
+def _passes_compiled(table, lower, upper, optional, last_time, max_rate, lat, lon,
+                     max_step):  # pragma: no cover - compiled
     n, m = table.shape
     previous = last_time
     for k in range(n):
         t = table[k, 0]
-        if not (math.isfinite(t) and t >= 0.0 and t > previous):
+        if not (math.isfinite(t) and t >= 0.0 and t > previous and (t - previous <= max_step or k == 0
+                                                                     and previous == -math.inf)):
             return False
         previous = t
         for j in range(m):
@@ -130,6 +129,8 @@ def _sample_table(samples: Mapping[str, Sequence[float]], where: str) -> np.ndar
     if missing:
         raise InputError(f"{where}: sample field {missing[0]!r} is missing; send time, ax, ay, az, gx, gy, gz")
     n = _length(samples, where, "samples")
+    for name in samples:
+        _plain_numbers(samples[name], where, name, optional=name in GPS_COLUMNS)
     try:  # one conversion for the whole batch; a column that fails is found and named below
         table = np.array([samples[name] if name in samples else _NO_FIX[:n] for name in SAMPLE_COLUMNS],
                          dtype=float).T
@@ -144,19 +145,36 @@ def _sample_table(samples: Mapping[str, Sequence[float]], where: str) -> np.ndar
 
 
 def check_times(t: np.ndarray, last_time: float | None, where: str) -> None:
-    """Finite, non-negative, strictly increasing times after ``last_time``, at a mean rate of at most MAX_RATE."""
+    """Times in seconds since the ride started (see the module docstring): finite, within [0, MAX_RIDE_SECONDS],
+    strictly increasing after ``last_time`` by steps of at most MAX_STEP, at a mean rate of at most MAX_RATE and
+    a median step of at most ``1 / MIN_RATE``."""
     times = t.tolist()  # a phone's batch is a few samples: plain floats beat array calls
-    if not (math.isfinite(times[0]) and times[0] >= 0 and math.isfinite(times[-1])
-            and all(b > a for a, b in zip(times, times[1:]))):
+    if not (math.isfinite(times[0]) and 0 <= times[0] <= MAX_RIDE_SECONDS and math.isfinite(times[-1])
+            and times[-1] <= MAX_RIDE_SECONDS and all(a < b <= a + MAX_STEP for a, b in zip(times, times[1:]))):
         steps = np.diff(t)
-        _refuse(~np.isfinite(t) | (t < 0), t, where, "time", "send finite seconds since the ride started")
+        _refuse(~np.isfinite(t) | (t < 0) | (t > MAX_RIDE_SECONDS), t, where, "time",
+                f"send seconds since the ride started, at most {MAX_RIDE_SECONDS:g} (a longer ride is two)")
         _refuse(np.r_[False, ~(steps > 0)], t, where, "time", "times must increase strictly within a batch")
+        _refuse(np.r_[False, steps > MAX_STEP], t, where, "time",
+                f"a pause of more than {MAX_STEP:g} s ends the ride; start a new ride")
     if last_time is not None and times[0] <= last_time:
         raise InputError(f"{where}: field 'time', row 1: {times[0]!r} s is not after the last stored time "
                          f"{float(last_time)!r} s; send only new samples, in order")
+    if last_time is not None and times[0] - last_time > MAX_STEP:
+        raise InputError(f"{where}: field 'time', row 1: {times[0]!r} s is more than {MAX_STEP:g} s after the last "
+                         f"stored time {float(last_time)!r} s; start a new ride")
     if len(times) > 1 and (len(times) - 1) / (times[-1] - times[0]) > MAX_RATE:
         raise InputError(f"{where}: field 'time': {len(times)} samples in {times[-1] - times[0]:.6g} s is faster "
                          f"than {MAX_RATE:g} Hz; send times in seconds")
+    if not _median_step_ok(t):
+        step = float(np.median(np.diff(t)))
+        raise InputError(f"{where}: field 'time': a median step of {step:.6g} s is slower than {MIN_RATE:g} Hz; "
+                         "send times in seconds (steps this long look like milliseconds)")
+
+
+def _median_step_ok(t: np.ndarray) -> bool:
+    """Whether a batch of fewer than 3 times, or its median step, is at most ``1 / MIN_RATE`` s."""
+    return len(t) < 3 or float(np.median(np.diff(t))) <= 1.0 / MIN_RATE
 
 
 def feature_batch(features: Mapping[str, Sequence[float]] | np.ndarray, n: int, where: str) -> np.ndarray:
@@ -242,6 +260,27 @@ def _floats(values: Sequence, n: int, where: str, name: str) -> np.ndarray:
     if column.shape != (n,):
         raise InputError(f"{where}: field {name!r} has shape {column.shape}, expected {n} numbers")
     return column
+
+
+def _is_number_type(kind: type, optional: bool) -> bool:
+    if kind is float or kind is int or (optional and kind is type(None)):
+        return True
+    return issubclass(kind, (int, float, np.integer, np.floating)) and not issubclass(kind, (bool, np.bool_))
+
+
+def _plain_numbers(values: Sequence, where: str, name: str, optional: bool) -> None:
+    """Refuse a column holding anything but numbers (and None where ``optional``): a JSON string such as "1.5"
+    or a boolean is an error of the sender, never converted. NumPy numbers and arrays of them pass."""
+    if isinstance(values, np.ndarray):
+        if values.dtype.kind in "fiu":
+            return
+        values = values.tolist()
+    if all(_is_number_type(kind, optional) for kind in set(map(type, values))):
+        return
+    k = next(k for k, v in enumerate(values) if not _is_number_type(type(v), optional))
+    expected = "numbers or null" if optional else "numbers"
+    raise InputError(f"{where}: field {name!r}, row {k + 1}: {values[k]!r:.40} is not a number; send {expected}, "
+                     "not text")
 
 
 def _refuse(bad: np.ndarray, column: np.ndarray, where: str, name: str, fix: str) -> None:

@@ -7,7 +7,7 @@ const WINDOW_S = 30, R_EARTH = 6371008.8, DEG = Math.PI / 180;
 const PANELS = [["pitch", "pitch (deg)", 1 / DEG], ["pitch_rate", "pitch rate (deg/s)", 1 / DEG],
   ["acc_long", "acc long (m/s²)", 1]];
 const view = { rideId: null, t: [], labels: [], pitch: [], pitch_rate: [], acc_long: [], track: [], events: [],
-  origin: null, replaying: false };
+  origin: null, replaying: false, token: null };
 
 function reset(rideId) {
   Object.assign(view, { rideId, t: [], labels: [], pitch: [], pitch_rate: [], acc_long: [], track: [], events: [],
@@ -41,7 +41,11 @@ function addEvent(kind, start, end, detail) {
   const span = end === null ? "ongoing" : `${(end - start).toFixed(1)} s`;
   li.dataset.kind = kind;
   if (end === null) li.dataset.note = detail || "";
-  li.innerHTML = `<i class="swatch" style="background:${labelColour(kind)}"></i>${start.toFixed(1)} s <b>${kind}</b> ${span} ${detail || li.dataset.note || ""}`;
+  const swatch = document.createElement("i"), name = document.createElement("b");
+  swatch.className = "swatch";
+  swatch.style.background = labelColour(kind);
+  name.textContent = kind;
+  li.replaceChildren(swatch, `${start.toFixed(1)} s `, name, ` ${span} ${detail || li.dataset.note || ""}`);
 }
 
 function drawPlot() {
@@ -103,19 +107,24 @@ function drawTrack() {
 function draw() { drawPlot(); drawTrack(); requestAnimationFrame(draw); }
 
 async function listRides() {
-  const rides = await (await fetch("/api/rides")).json();
+  const rides = await getJson("/api/rides", view.token);
   $("rides").innerHTML = "";
   for (const r of rides.slice(0, 50)) {
-    const li = document.createElement("li");
-    li.innerHTML = `<a href="#" data-ride="${r.ride_id}">${new Date(r.started * 1000).toLocaleString()}</a> ${r.vehicle} / ${r.rider_id}${r.live ? " <b>live</b>" : ""}`;
-    li.querySelector("a").onclick = (ev) => { ev.preventDefault(); replay(r.ride_id); };
+    // text from devices (vehicle, rider id) goes in as text, never as markup
+    const li = document.createElement("li"), a = document.createElement("a");
+    a.href = "#";
+    a.dataset.ride = r.ride_id;
+    a.textContent = new Date(r.started * 1000).toLocaleString();
+    a.onclick = (ev) => { ev.preventDefault(); replay(r.ride_id); };
+    li.append(a, ` ${r.vehicle} / ${r.rider_id}`);
+    if (r.live) { const b = document.createElement("b"); b.textContent = " live"; li.append(b); }
     $("rides").append(li);
   }
 }
 
 async function replay(rideId) {
   // a recorded ride played back at 10x from the store
-  const data = await (await fetch(`/api/rides/${rideId}`)).json();
+  const data = await getJson(`/api/rides/${encodeURIComponent(rideId)}`, view.token);
   view.replaying = true;
   reset(rideId);
   const s = data.samples, f = data.features, labels = data.labels[data.model] || [];
@@ -131,13 +140,47 @@ async function replay(rideId) {
   view.replaying = false;
 }
 
+async function enrolmentCode() {
+  // a code for the next device to enrol with (one device, valid for an hour)
+  try {
+    const answer = await getJson("/api/enrolments", view.token, { method: "POST", body: JSON.stringify({ uses: 1, ttl: 3600 }) });
+    $("code").textContent = `${answer.code} (one device, until ${new Date(answer.expires * 1000).toLocaleTimeString()})`;
+  } catch (e) {
+    $("code").textContent = e.message;
+  }
+}
+
+function signIn() {
+  // the operator token is kept for this tab only
+  const token = $("optoken").value.trim();
+  if (!token) return;
+  sessionStorage.setItem("spotfree-operator", token);
+  $("signin").hidden = true;
+  start(token);
+}
+
 async function init() {
   const spec = await (await fetch("/api/model")).json();
   legend($("legend"), spec.classes);
-  listRides();
+  $("signinbtn").onclick = signIn;
+  $("enrolbtn").onclick = enrolmentCode;
+  const token = sessionStorage.getItem("spotfree-operator");
+  if (token) { $("signin").hidden = true; await start(token); }
+}
+
+async function start(token) {
+  view.token = token;
+  try {
+    await listRides();
+  } catch (e) {
+    sessionStorage.removeItem("spotfree-operator");
+    $("signin").hidden = false;
+    $("signinmsg").textContent = e.message;
+    return;
+  }
   const wanted = new URLSearchParams(location.search).get("ride");
   if (wanted) await replay(wanted);
-  watch("/ws/watch", (msg) => {
+  watch("/ws/watch", token, (msg) => {
     if (view.replaying) return;
     if (msg.type === "ride") listRides();
     if (msg.type === "end" && msg.ride_id === view.rideId) for (const e of msg.events) addEvent(e.kind, e.start, e.end, e.detail);

@@ -11,7 +11,7 @@ const BATCH_SECONDS = 0.25, MAX_BATCH_SECONDS = 10;
 const state = {
   spec: null, pipeline: null, warner: null, resampler: null, socket: null, rideId: null, token: null, origin: null,
   queue: [], seq: 0, inFlight: null, retryTimer: null, fix: null, lastSent: -Infinity, online: false, urgent: false,
-  localLabels: [], serverLabels: [], times: [], warnings: [], localWarnings: [], batchEnds: [],
+  localLabels: [], serverLabels: [], times: [], warnings: [], localWarnings: [], batchEnds: [], previousRides: [],
 };
 
 class Warner {
@@ -43,11 +43,18 @@ class Warner {
 }
 
 async function deviceToken() {
+  // the device's token, kept by the browser; the first time, got with the operator's enrolment code
   let token = localStorage.getItem("spotfree-token");
   if (!token) {
-    const r = await fetch("/api/devices", { method: "POST", body: JSON.stringify({ name: navigator.userAgent.slice(0, 90) }) });
-    token = (await r.json()).token;
+    const r = await fetch("/api/devices", {
+      method: "POST", headers: { "Content-Type": "application/json" },
+      body: JSON.stringify({ name: navigator.userAgent.slice(0, 90), code: $("code").value.trim() }),
+    });
+    const answer = await r.json();
+    if (!r.ok) throw new Error(answer.detail || `enrolment refused (${r.status})`);
+    token = answer.token;
     localStorage.setItem("spotfree-token", token);
+    $("enrol").hidden = true;
   }
   return token;
 }
@@ -139,10 +146,19 @@ function onReply(msg) {
     $("status").textContent = "destination set";
   } else if (msg.type === "error") {
     $("status").textContent = `server refused: ${msg.message}`;
+    if (!state.online && state.rideId && (msg.status === 403 || msg.status === 404)) {
+      // the ride cannot be resumed (it ended, or was closed while the phone was away): go on in a new ride
+      // with every sample still held, linked to the old one by the page's record
+      state.previousRides.push(state.rideId);
+      state.rideId = null;
+      sessionStorage.removeItem("spotfree-ride");
+      state.socket.send(JSON.stringify({ type: "start", token: state.token, ...rideMeta() }));
+      return;
+    }
     if (msg.seq !== null && msg.seq !== undefined && state.inFlight && msg.seq === state.inFlight.seq) {
       const n = state.inFlight.n;
       state.inFlight = null;
-      if (msg.status === 429) {
+      if (msg.status === 429 || msg.status === 503) {
         // too fast: the same rows again when the server can take them
         state.retryTimer = setTimeout(() => { state.retryTimer = null; flush(); }, 1000 * msg.retry_after + 10);
       } else {
@@ -154,15 +170,18 @@ function onReply(msg) {
   }
 }
 
+function rideMeta() {
+  return { vehicle: $("vehicle").value, rider_id: $("rider").value, age_band: $("age_band").value || null,
+    skill: $("skill").value || null };
+}
+
 function connect() {
   const socket = new WebSocket(wsUrl("/ws/ride"));
   state.socket = socket;
   state.inFlight = null;
   socket.onopen = () => {
-    const meta = { vehicle: $("vehicle").value, rider_id: $("rider").value, age_band: $("age_band").value || null,
-      skill: $("skill").value || null };
     socket.send(JSON.stringify(state.rideId ? { type: "resume", token: state.token, ride_id: state.rideId }
-      : { type: "start", token: state.token, ...meta }));
+      : { type: "start", token: state.token, ...rideMeta() }));
   };
   socket.onmessage = (ev) => onReply(JSON.parse(ev.data));
   socket.onclose = () => { setOnline(false); setTimeout(connect, 1000); };
@@ -190,7 +209,12 @@ async function start() {
     const answer = await DeviceMotionEvent.requestPermission();
     if (answer !== "granted") { $("status").textContent = "motion permission refused"; return; }
   }
-  state.token = await deviceToken();
+  try {
+    state.token = await deviceToken();
+  } catch (e) {
+    $("status").textContent = e.message;
+    return;
+  }
   window.addEventListener("devicemotion", onMotion);
   if (navigator.geolocation) {
     navigator.geolocation.watchPosition(onPosition, (e) => { $("status").textContent = `location: ${e.message}`; },
@@ -208,6 +232,7 @@ function setDestination() {
 
 async function init() {
   if (!window.isSecureContext) $("secure").hidden = false;
+  $("enrol").hidden = Boolean(localStorage.getItem("spotfree-token"));
   state.spec = await (await fetch("/api/model")).json();
   state.pipeline = new spotfreePipeline.Pipeline(state.spec);
   state.warner = new Warner(state.spec.warnings);

@@ -23,17 +23,30 @@ function wsUrl(path) {
   return `${location.protocol === "https:" ? "wss" : "ws"}://${location.host}${path}`;
 }
 
-function watch(path, onMessage, onState) {
-  // a read-only subscription to the server's published messages; reconnects after 1 s
+function watch(path, token, onMessage, onState) {
+  // a read-only subscription to the server's published messages, the credential sent as the first message
+  // (never in the URL); reconnects after 1 s unless the server refused the credential (close code 1008)
   let socket = null;
   function open() {
     socket = new WebSocket(wsUrl(path));
-    socket.onopen = () => onState && onState(true);
+    socket.onopen = () => { socket.send(JSON.stringify({ type: "auth", token })); onState && onState(true); };
     socket.onmessage = (ev) => onMessage(JSON.parse(ev.data));
-    socket.onclose = () => { onState && onState(false); setTimeout(open, 1000); };
+    socket.onclose = (ev) => {
+      onState && onState(false, ev.code === 1008 ? ev.reason : null);
+      if (ev.code !== 1008) setTimeout(open, 1000);
+    };
   }
   open();
   return () => socket;
+}
+
+async function getJson(path, token, options = {}) {
+  // a call of the API with the credential in the Authorization header; an Error with the server's reason
+  const headers = { Authorization: `Bearer ${token}`, ...(options.body ? { "Content-Type": "application/json" } : {}) };
+  const r = await fetch(path, { ...options, headers });
+  const answer = await r.json();
+  if (!r.ok) throw new Error(answer.detail || `refused (${r.status})`);
+  return answer;
 }
 
 function legend(element, classes) {
