@@ -70,3 +70,14 @@ def test_misuse_of_the_learner_options_exits_2(tmp_path, extra, message):
                                  "--experiment", f"{tmp_path / 'walk.csv'}=still,walking", *extra])
     assert result.exit_code == 2
     assert message in " ".join(result.output.split())
+
+
+def test_a_recording_shorter_than_a_window_exits_2_with_one_line(tmp_path):
+    _imu_log(tmp_path / "walk.csv", [("still", 6), ("walking", 6)], 1)
+    _imu_log(tmp_path / "short.csv", [("still", 0.5)], 2)
+    result = runner.invoke(app, ["train", "-o", str(tmp_path / "m.npz"), "--features", "body",
+                                 "--experiment", f"{tmp_path / 'walk.csv'}=still,walking",
+                                 "--experiment", f"{tmp_path / 'short.csv'}=still"])
+    assert result.exit_code == 2
+    assert "short.csv: no gap-free stretch is as long as one window" in " ".join(result.output.split())
+    assert not (tmp_path / "m.npz").exists()

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from spotfree.errors import InputError
 from spotfree.evaluation.metrics import near_transitions
@@ -222,3 +224,33 @@ def test_thousands_of_short_recordings():
     learner = SetSupervisedLearner(seed=0).fit(train, sets)
     assert all(set(names) == declared for names, declared in zip(learner.window_labels_, sets))
     assert set(learner.model_.summary["columns_per_class"]) == {"still", "slow", "fast"}
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(data=st.data())
+def test_any_input_trains_or_is_refused_with_an_input_error(data):
+    """Recordings of any length (some shorter than a window), with NaN stretches, constant or huge channels, and any
+    class sets: the learner either fits, every window taking a class its recording declares, or refuses with an
+    InputError; nothing else escapes."""
+    n_recordings = data.draw(st.integers(1, 4))
+    classes = ["a", "b", "c"]
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 16)))
+    recordings, sets = [], []
+    for k in range(n_recordings):
+        n = data.draw(st.integers(1, 200))
+        x = rng.normal(0, 1, (n, 2)) * data.draw(st.sampled_from([1.0, 1e-6, 1e6]))
+        if data.draw(st.booleans()):
+            start = data.draw(st.integers(0, n - 1))
+            x[start:start + data.draw(st.integers(1, 50)), 0] = np.nan
+        if data.draw(st.booleans()):
+            x[:, 1] = 3.0
+        recordings.append(Recording(time=np.arange(n) / RATE, channels={"u": x[:, 0], "v": x[:, 1]}, rate=RATE,
+                                    source=f"r{k}"))
+        sets.append(set(data.draw(st.lists(st.sampled_from(classes), min_size=1, max_size=3))))
+    try:
+        learner = SetSupervisedLearner(rounds=1, seed=0).fit(recordings, sets)
+    except InputError:
+        return
+    for names, declared in zip(learner.window_labels_, sets):
+        assert set(names) <= declared
+    assert np.all(np.isfinite(learner.model_.dictionary))

@@ -333,7 +333,9 @@ class SetSupervisedLearner(BaseEstimator):
         fold = (data.recording + position // block) % 2
         log_p = np.empty((len(X), n_classes))
         for f in (0, 1):
-            train = fold != f
+            if not np.any(fold == f):
+                continue
+            train = fold != f if np.any(fold != f) else np.ones(len(X), dtype=bool)  # one fold only: no hold-out
             missing = np.setdiff1d(np.unique(labels), np.unique(labels[train]))
             train |= np.isin(labels, missing)
             rows = _balanced_sample(labels, train, n_classes, rng)
