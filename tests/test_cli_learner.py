@@ -49,6 +49,7 @@ def test_body_features_train_and_classify_from_class_sets(tmp_path):
     result = runner.invoke(app, ["classify", str(model), str(tmp_path / "test.csv"), "-o", str(out), "--centred"],
                            catch_exceptions=False)
     assert result.exit_code == 0, result.output
+    assert "model: body channels" in result.output and "mount:" not in result.output  # not a ride: no mount
     labels = pd.read_csv(out, keep_default_na=False)["label"].to_numpy()
     truth = pd.read_csv(tmp_path / "test.csv")["label"].to_numpy()
     away = np.ones(len(truth), bool)

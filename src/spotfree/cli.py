@@ -416,7 +416,7 @@ def classify(
     rec = _read_log(source, dictionary.rate)
     if dictionary.features == "ride" and not rec.has_imu and not set(dictionary.channels) <= set(rec.channels):
         rec.require_imu("the model's ride features")
-    estimate = _mount_choice(rec, mount)
+    estimate = _mount_choice(rec, mount) if dictionary.features == "ride" else None
     labels = classify_recording(dictionary, rec, method=method, centred=centred, smoothing=smooth, **vote)
     labels.write_csv(output)
     _report_repairs_and_gaps(rec)
@@ -424,6 +424,8 @@ def classify(
         _report_mount(estimate.describe(), estimate.warnings)
     window = f"{dictionary.window} samples = {dictionary.window / dictionary.rate:.2f} s"
     where = f"centred on it (offset {labels.meta['offset']} samples)" if centred else "ending at it"
+    out.print(f"model: {dictionary.features} channels {','.join(dictionary.channels)}, {dictionary.representation} "
+              "windows")
     out.print(f"wrote {output}: {int(labels.labelled().sum())} of {len(labels)} samples labelled by {method}; "
               f"windows: {labels.meta['alignment']}, each label from the window of {window} {where}"
               + (f"; majority vote over {smooth} samples" if smooth else "")
@@ -470,7 +472,7 @@ def _classify_several(model_paths: dict[str, str], source: str, output: Path, me
     if not rec.has_imu and any(m.features == "ride" and not set(m.channels) <= set(rec.channels)
                                for m in models.values()):
         rec.require_imu("the models' ride features")
-    estimate = _mount_choice(rec, mount)
+    estimate = _mount_choice(rec, mount) if any(m.features == "ride" for m in models.values()) else None
     table = classify_models(models, rec, method=method, centred=centred, smoothing=smooth,
                             **({"votes": stored} if stored else vote))
     write_labels(table, output)
