@@ -81,8 +81,8 @@ def test_a_ride_model_needs_ride_feature_channels(raw):
 
 
 def test_stream_equals_batch_for_a_model_of_the_general_learner(raw):
-    """A hankel model of :class:`~spotfree.learner.SetSupervisedLearner` runs live like any other; a summary model
-    is refused there with one line."""
+    """Models of :class:`~spotfree.learner.SetSupervisedLearner` run live and give the batch labels: a hankel model in
+    compiled code like any other, a summary model with its representation computed per window."""
     from spotfree.learner import SetSupervisedLearner
     from spotfree.ride_prior import RidePrior
 
@@ -94,5 +94,5 @@ def test_stream_equals_batch_for_a_model_of_the_general_learner(raw):
     np.testing.assert_array_equal(labels, classify_recording(learner.model_, raw).label)
     summary = SetSupervisedLearner(channels=("acc_long", "pitch_rate"), rounds=0).fit(
         rides, [{"cruising", "normal-braking", "sudden-braking"}] * len(rides)).model_
-    with pytest.raises(InputError, match="cannot run sample by sample"):
-        RideClassifier(summary)
+    labels = stream_labels(RideClassifier(summary), raw)
+    np.testing.assert_array_equal(labels, classify_recording(summary, raw).label)

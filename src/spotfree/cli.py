@@ -166,8 +166,7 @@ def train(
                                          "--features body, evidence for rides"),
     prior: Optional[str] = typer.Option(None, "--prior", help="ride: braking loses GPS speed (sets learner only)"),
     representation: str = typer.Option("summary", "--representation", help="sets learner: summary (level, spread "
-                                       "and band powers of each window) | hankel (the paper's raw windows; also "
-                                       "classified live)"),
+                                       "and band powers of each window) | hankel (the paper's raw windows)"),
     background: Optional[str] = typer.Option(None, "--background", help="the background class (default: the "
                                              "first class declared in every recording)"),
     name: list[str] = typer.Option([], "--name", help="CLUSTER=CLASS: override the name of a level-1 cluster"),

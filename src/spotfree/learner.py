@@ -7,7 +7,7 @@ Method (``docs/training.md`` has the derivation and the references):
    spans a gap), each channel divided by its training scale, and represented (:mod:`spotfree.representation`,
    default ``summary``: level, spread and band powers per channel); a ``summary`` is standardised over all
    training windows, a ``hankel`` window kept as the channel scales leave it (so that the streaming classifiers run
-   it as they run the paper's).
+   it in compiled code, as they run the paper's).
 2. **Groups.** The windows of all recordings are grouped by k-means into ``groups`` groups per declared class.
 3. **Naming by evidence.** A recording ``r`` is a bag of windows whose classes lie in its declared set ``S_r``.
    With ``n_rg`` windows of recording ``r`` in group ``g``, the groups are named by the set-constrained mixture

@@ -8,8 +8,8 @@ compiled call (:func:`ring_step`) stores the sample and, for every model whose w
 scale, divides the whole by its l2 norm for ``unit`` models, appends the affine row, and -- for CRC_RLS -- takes the
 class residuals and their argmin (:func:`crc_window`); for kernel CRC_RLS it first maps the window to its Nystroem
 features (:func:`kernel_features`). Windows and labels are those of
-:func:`~spotfree.classify.batch.classify_recording` (same scaling, same order, causal alignment); other classifiers
-get the gathered window in Python.
+:func:`~spotfree.classify.batch.classify_recording` (same scaling, same order, causal alignment); other classifiers,
+and models whose representation is not the raw window (``summary``), get the gathered window in Python.
 
 :func:`crc_window` and :func:`kernel_features` are the single-window kernels of the classifiers' ``predict_one``
 too; they live here because numba's disk cache only notices changes in the file of the function it caches, so a
@@ -200,9 +200,6 @@ class ModelRing:
             raise InputError(f"ModelRing needs one channel pick and one classifier per model, got {len(models)} "
                              f"models, {len(picks)} picks, {len(classifiers)} classifiers")
         for model, pick in zip(models, picks):
-            if model.representation != "hankel":
-                raise InputError(f"a model of the {model.representation} representation cannot run sample by sample "
-                                 "yet; classify its logs with 'spotfree classify'")
             if len(pick) != len(model.channels) or len(model.scale) != len(model.channels) or (
                     len(pick) and not 0 <= min(pick) <= max(pick) < width):
                 raise InputError(f"ModelRing: a model of channels {','.join(model.channels)} needs one scale and "
@@ -212,8 +209,9 @@ class ModelRing:
         operators, kernels, y = [], [], 0
         for row, model, pick, clf in zip(self.models_, models, picks, classifiers):
             affine = float(model.parameters.get("affine", 0.0))
-            kernel = type(clf) is KernelCRCClassifier
-            compiled = kernel or type(clf) is CRCClassifier
+            raw = model.representation == "hankel"  # other representations are computed in Python
+            kernel = raw and type(clf) is KernelCRCClassifier
+            compiled = kernel or (raw and type(clf) is CRCClassifier)
             d = len(pick) * model.window + (affine != 0)
             row["window"], row["step"], row["channels"], row["d"], row["y"] = model.window, model.step, len(pick), d, y
             row["affine"], row["unit"], row["compiled"] = affine, model.normalisation == "unit", compiled
@@ -237,7 +235,7 @@ class ModelRing:
         self._ring = np.zeros((width, 2 * max(m.window for m in models)))
         self._cursor = np.zeros(2, dtype=np.int64)
         self._names = [(*map(str, clf.classes_), UNKNOWN) for clf in classifiers]
-        self._predict = [_window_predictor(clf) for clf in classifiers]
+        self._predict = [_window_predictor(clf, model) for clf, model in zip(classifiers, models)]
         self._views = [self._windows[r["y"]:r["y"] + r["d"]] for r in self.models_]
         self._codes = self.models_["code"]
         self._votes = [MajorityVote(smoothing) for _ in models] if smoothing else None
@@ -285,10 +283,15 @@ class ModelRing:
         return labels
 
 
-def _window_predictor(classifier):
-    """A function from one window ``(d,)`` to its class name: the classifier's single-window path
+def _window_predictor(classifier, model: DictionaryModel):
+    """A function from one gathered window ``(d,)`` to its class name: the window in the model's representation
+    (:meth:`DictionaryModel.inputs`, for a model that is not ``hankel``), then the classifier's single-window path
     (``predict_one``) when it has one, else ``predict`` on a one-row matrix."""
     one = getattr(classifier, "predict_one", None)
+    if model.representation != "hankel":
+        if one is not None:
+            return lambda y: str(one(model.inputs(y[:, None])[0]))
+        return lambda y: str(classifier.predict(model.inputs(y[:, None]))[0])
     if one is not None:
         return lambda y: str(one(y))
     return lambda y: str(classifier.predict(y[None, :])[0])
