@@ -6,9 +6,10 @@ walking, turning, sitting down) in every recording, about 100 Hz, read here onto
 :func:`spotfree.io.resample.merge_streams` (body channels of :mod:`spotfree.signal.body`).
 
 Protocol (issue 31): the recordings of the first ``--train-subjects`` subjects are cut into clips of ``--clip``
-seconds (each length a run of its own), each declared only with the set of classes in it (the learner never sees a per-sample label); the whole
-recordings of the other subjects are the test. Scores per sample, centred labels: balanced accuracy (mean of the
-per-class recalls) leaving out the samples within 0.5 s of a true change ("away"), and the strict figure beside.
+seconds (each length a run of its own), each declared only with the set of classes in it (the learner never sees a
+per-sample label); the whole recordings of the other subjects are the test. Scores per sample, centred labels:
+balanced accuracy (mean of the per-class recalls) leaving out the samples within 0.5 s of a true change ("away"),
+and the strict figure beside.
 
 Methods in the same run:
 
@@ -146,7 +147,8 @@ def write(rows: list[dict], command: str) -> None:
              + " | ".join(f"{c} recall" for c in classes) + " | fit s | predict s |",
              "|---|---|---|---|---|---|" + "---|" * len(classes) + "---|---|"]
     for r in rows:
-        lines.append(f"| {r['device']} | {r['clip']:g} ({r['train_clips']}, {r['class_sets']}) | {r['method']} | {r['supervision']} | {100 * r['away']:.1f} % | "
+        lines.append(f"| {r['device']} | {r['clip']:g} ({r['train_clips']}, {r['class_sets']}) | {r['method']} | "
+                     f"{r['supervision']} | {100 * r['away']:.1f} % | "
                      f"{100 * r['strict']:.1f} % | " + " | ".join(f"{100 * r['recall'][c]:.1f} %" for c in classes)
                      + f" | {r['fit_s']:.1f} | {r['predict_s']:.1f} |")
     RESULTS.parent.mkdir(exist_ok=True)

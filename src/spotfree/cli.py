@@ -304,7 +304,8 @@ def _train_sets(output: Path, experiment: list[str], channels: Optional[str], wi
         sets.append(classes)
     learner = SetSupervisedLearner(
         channels=tuple(c.strip() for c in channels.split(",")) if channels else None, window=window, step=step,
-        representation=representation, max_columns=max_columns, prior=priors[prior]() if prior else None, seed=seed).fit(recordings, sets)
+        representation=representation, max_columns=max_columns, prior=priors[prior]() if prior else None,
+        seed=seed).fit(recordings, sets)
     model = learner.model_
     model.save(output)
     out.print(f"learner: sets ({model.representation} of {model.features} channels {','.join(model.channels)}; "

@@ -19,14 +19,14 @@ Method (``docs/training.md`` has the derivation and the references):
    ``q(c) ∝ theta_rc phi_cg`` over ``c in S_r`` (0 outside it).
 4. **Relabelling.** The windows of each recording are decoded into runs (:func:`decode_runs`): the class sequence
    inside ``S_r`` that maximises ``sum_i log q_i(z_i)`` minus ``smoothing * rate / step`` per change of class, in
-   which every declared class occurs (a class lasts longer than one window; every declared class finds its
-   windows). Then, for ``rounds`` rounds, a classifier (extremely randomised trees) is fitted on the same number of
-   windows of each class, cross-fitted so that no window is scored by a model that saw it (two folds of alternating
-   time blocks); its balanced posterior ``p(c | x)``, restricted to ``S_r``, is the new ``q`` and the windows are
-   decoded again. The balanced posterior, not the recording's class shares, decides: a class declared in one
-   recording only would otherwise keep whatever it first took there, where the likelihood alone cannot tell (a
-   class that is a copy of another plus its own windows explains the data as well). The rounds stop early when fewer
-   than 0.2 % of the windows change.
+   which every declared class occurs (a class lasts longer than one window; every declared class finds its windows).
+   Then, for ``rounds`` rounds, a classifier (extremely randomised trees, each class weighing alike) is fitted on at
+   most ``FIT_WINDOWS`` windows of each class, cross-fitted so that no window is scored by a model that saw it (two
+   folds of alternating time blocks); its balanced posterior ``p(c | x)``, restricted to ``S_r``, is the new ``q``
+   and the windows are decoded again. The balanced posterior, not the recording's class shares, decides: a class
+   declared in one recording only would otherwise keep whatever it first took there, where the likelihood alone
+   cannot tell (a class that is a copy of another plus its own windows explains the data as well). The rounds stop
+   early when fewer than 0.2 % of the windows change.
 5. **Dictionary.** Per class, the windows whose neighbours half a window before and after carry the same name (a
    window holds one state) and whose posterior margin is at or above the class's median, at most ``max_columns``
    of them spread evenly over time, become the dictionary's columns. The causal columns name the same kind of
@@ -34,19 +34,20 @@ Method (``docs/training.md`` has the derivation and the references):
    (:class:`~spotfree.classify.kcrc.KernelCRCClassifier`).
 
 Domain knowledge enters only through ``prior``: an object whose ``log_prior(recording, centres, classes)`` returns an
-``(m, C)`` array added to ``log q`` of the windows centred at sample indices ``centres`` in every step; the generic learner knows
-nothing of any domain.
+``(m, C)`` array added to ``log q`` of the windows centred at sample indices ``centres`` in every step; the generic
+learner knows nothing of any domain.
 
-The learner's cost is linear in the number of windows: k-means is fitted on at most ``FIT_WINDOWS`` windows, the
-classifier on at most ``FIT_WINDOWS`` per class, and every other step is a pass over the windows.
+The learner's cost is linear in the number of windows: k-means and the classifier are fitted on at most
+``FIT_WINDOWS`` windows per class, the naming works on group counts, and every other step is a pass over the
+windows.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
 import numba
+import numpy as np
 from scipy.ndimage import uniform_filter1d
 from sklearn.base import BaseEstimator
 from sklearn.cluster import MiniBatchKMeans
@@ -473,11 +474,13 @@ class appear; its back-pointers take 4 bytes each."""
 
 
 def decode_runs(log_q: np.ndarray, switch: float) -> np.ndarray:
-    """Best class index per row of ``log_q`` ``(m, k)``: the sequence maximising ``sum_i log_q[i, z_i] - switch *
-    #{i : z_i != z_{i-1}}`` among those in which every one of the ``k`` classes occurs (for ``k <=``
-    ``m k 2^k <=`` :data:`EXHAUSTIVE` and ``m >= k``; else without that condition). Dynamic programming over (class, classes seen so
-    far), ``O(m k^2 2^k)`` time and ``m k 2^k`` back-pointers (beyond :data:`EXHAUSTIVE` of them the condition is
-    dropped; :meth:`SetSupervisedLearner.fit` warns)."""
+    """Best class index per row of ``log_q`` ``(m, k)``: the sequence ``z`` maximising
+
+        sum_i log_q[i, z_i] - switch * #{i : z_i != z_{i-1}}
+
+    among those in which every one of the ``k`` classes occurs (when ``m k 2^k <=`` :data:`EXHAUSTIVE` and
+    ``m >= k``; else without that condition, which :meth:`SetSupervisedLearner.fit` warns about). Dynamic programming
+    over (class, classes seen so far): ``O(m k^2 2^k)`` time and ``m k 2^k`` back-pointers."""
     log_q = np.ascontiguousarray(np.where(np.isfinite(log_q), log_q, -1e9), dtype=float)
     m, k = log_q.shape
     every = m * k * 2 ** k <= EXHAUSTIVE and m >= k
