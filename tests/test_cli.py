@@ -134,7 +134,7 @@ def test_train_writes_a_model_its_summary_and_its_figure(tmp_path):
     normal, sudden = tmp_path / "normal.csv", tmp_path / "sudden.csv"
     for scenario, path in (("normal-braking", normal), ("sudden-braking", sudden)):
         assert runner.invoke(app, ["simulate", scenario, "-o", str(path), "--repeats", "1"]).exit_code == 0
-    declared = ["--experiment", f"{normal}@1=cruising,normal-braking",
+    declared = ["--recipe", "evidence", "--experiment", f"{normal}@1=cruising,normal-braking",
                 "--experiment", f"{sudden}@1=cruising,normal-braking,sudden-braking"]
     result = runner.invoke(app, ["train", "-o", str(tmp_path / "m.npz"), *declared])
     assert result.exit_code == 0, result.output
@@ -167,7 +167,8 @@ def test_train_single_manoeuvre_names_turning_groups_by_their_rides(tmp_path):
         assert runner.invoke(app, ["simulate", "lateral", "-o", str(path), "--repeats", "1", "--seed", "3",
                                    "--manoeuvres", kind]).exit_code == 0
         declared += ["--experiment", f"{path}={classes}"]
-    options = ["--channels", "yaw_rate,roll_rate", "--extra-clusters", "15", "--max-columns", "100"]
+    options = ["--recipe", "evidence", "--channels", "yaw_rate,roll_rate", "--extra-clusters", "15", "--max-columns",
+               "100"]
     result = runner.invoke(app, ["train", "-o", str(tmp_path / "lat.npz"), *declared, *options, "--single-manoeuvre"])
     assert result.exit_code == 0, result.output
     model = DictionaryModel.load(tmp_path / "lat.npz")
@@ -186,7 +187,7 @@ def test_train_refuses_an_option_out_of_range_and_keeps_the_model_there(tmp_path
     assert runner.invoke(app, ["simulate", "sudden-braking", "-o", str(ride), "--repeats", "1"]).exit_code == 0
     model = tmp_path / "m.npz"
     model.write_bytes(b"an older model")
-    result = runner.invoke(app, ["train", "-o", str(model), "--experiment",
+    result = runner.invoke(app, ["train", "-o", str(model), "--recipe", "evidence", "--experiment",
                                  f"{ride}=cruising,normal-braking,sudden-braking", option, value])
     assert result.exit_code == 2
     assert option in result.output and f"got {value}" in result.output

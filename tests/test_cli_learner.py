@@ -60,8 +60,10 @@ def test_body_features_train_and_classify_from_class_sets(tmp_path):
 
 
 @pytest.mark.parametrize("extra, message", [
-    (["--prior", "ride"], "--prior is for the sets learner"),
-    (["--recipe", "sets", "--prior", "lean"], "--prior 'lean' is unknown"),
+    (["--recipe", "evidence", "--prior", "ride"], "--prior is an option of --recipe sets"),
+    (["--nested", "none"], "--nested is an option of --recipe evidence"),
+    (["--no-recluster"], "--recluster is an option of --recipe evidence"),
+    (["--prior", "lean"], "--prior 'lean' is unknown"),
     (["--features", "wrist"], "--features 'wrist'"),
     (["--features", "body", "--recipe", "evidence"], "needs the sets learner"),
 ])

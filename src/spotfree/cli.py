@@ -152,6 +152,7 @@ def features(
 @app.command()
 @user_errors
 def train(
+    ctx: typer.Context,
     output: Path = typer.Option(..., "-o", "--output", help="model file to write (.npz)"),
     experiment: list[str] = typer.Option(..., "--experiment", help="PATH=CLASS[,CLASS...]: classes that occur in it"),
     channels: Optional[str] = typer.Option(None, "--channels", help="feature channels, comma-separated"),
@@ -161,9 +162,9 @@ def train(
     features: str = typer.Option("ride", "--features", help="what a raw IMU log becomes: ride (a phone on the "
                                  "handlebar: vehicle-frame ride features) | body (a phone in a pocket, a watch: device "
                                  "axes and magnitudes)"),
-    recipe: Optional[str] = typer.Option(None, "--recipe", help="sets (the general learner from class sets) | evidence "
-                                         "(the ride learner) | paper (the paper's recipe, literally); default: sets for "
-                                         "--features body, evidence for rides"),
+    recipe: str = typer.Option("sets", "--recipe", help="sets (the general learner from class sets) | evidence (the "
+                               "older ride learner, with the options below it) | paper (the paper's recipe, "
+                               "literally)"),
     prior: Optional[str] = typer.Option(None, "--prior", help="ride: braking loses GPS speed (sets learner only)"),
     representation: str = typer.Option("summary", "--representation", help="sets learner: summary (level, spread "
                                        "and band powers of each window) | hankel (the paper's raw windows)"),
@@ -230,15 +231,19 @@ def train(
 
     if features not in FEATURES:
         raise InputError(f"--features {features!r}: use one of {', '.join(FEATURES)}")
-    recipe = recipe or ("sets" if features == "body" else "evidence")
+    given = [p.opts[0] for p in ctx.command.params
+             if p.name and getattr(ctx.get_parameter_source(p.name), "name", "") == "COMMANDLINE"]
+    theirs = {"sets": {"--prior", "--representation"}, "evidence": set(EVIDENCE_OPTIONS)}
+    for other, options in theirs.items():
+        misplaced = [o for o in given if o in options and recipe != other]
+        if misplaced:
+            raise InputError(f"{misplaced[0]} is an option of --recipe {other}; add --recipe {other} or leave it out")
     if recipe == "sets":
         _train_sets(output, experiment, channels, window, step, orientation, features, prior, representation,
                     max_columns, seed)
         return
-    if prior is not None:
-        raise InputError(f"--prior is for the sets learner; add --recipe sets (the {recipe} recipe has its own rules)")
     if features != "ride":
-        raise InputError(f"--features {features} needs the sets learner: add --recipe sets or leave --recipe out")
+        raise InputError(f"--features {features} needs the sets learner: leave --recipe out or give --recipe sets")
 
     from spotfree.figures import training_figure
     from spotfree.pipeline import feature_recording
@@ -282,6 +287,13 @@ def train(
     for warning in result.warnings:
         err.print(f"[bold yellow]warning:[/] {warning}", markup=True)
     out.print(f"figure: {figure}")
+
+
+EVIDENCE_OPTIONS = ("--background", "--name", "--extra-clusters", "--affine", "--clustering", "--nested",
+                    "--inner-quantile", "--outer-quantile", "--inner-depth", "--inner-floor", "--background-lean",
+                    "--slowing", "--deepest-inner", "--outer-depth", "--upright", "--close-gaps", "--recluster",
+                    "--single-manoeuvre", "--votes", "--figure")
+"""Options of ``spotfree train`` that only the evidence recipe reads."""
 
 
 def _train_sets(output: Path, experiment: list[str], channels: Optional[str], window: int, step: int,
