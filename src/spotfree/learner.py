@@ -53,8 +53,7 @@ from sklearn.base import BaseEstimator
 from sklearn.cluster import MiniBatchKMeans
 from sklearn.ensemble import ExtraTreesClassifier
 
-from spotfree.classify.batch import classify_recording
-from spotfree.classify.kcrc import KernelCRCClassifier
+from spotfree.classify.batch import classify_recording, dictionary_classifier
 from spotfree.errors import InputError
 from spotfree.io.recording import GPS_CHANNELS, Recording
 from spotfree.model import DictionaryModel
@@ -135,6 +134,8 @@ class SetSupervisedLearner(BaseEstimator):
         Final name of every training window, per recording.
     window_ends_ : list of ndarray of int
         Last sample of every training window, per recording.
+    classifier_, causal_classifier_ : KernelCRCClassifier
+        Fitted on the dictionary's columns and on its causal columns (offline and live labels).
     history_ : list of float
         Share of windows whose name changed, per round.
     warnings_ : list of str
@@ -200,8 +201,8 @@ class SetSupervisedLearner(BaseEstimator):
         names = np.asarray(self.classes_, dtype=object)
         self.window_labels_ = [names[labels[data.rows(r)]].astype(str) for r in range(len(recordings))]
         self.window_ends_ = data.ends
-        self.classifier_ = KernelCRCClassifier(landmarks=self.model_.parameters["landmarks"]).fit(
-            self.model_.dictionary.T, names[self.model_.column_class].astype(str))
+        self.classifier_ = dictionary_classifier(self.model_)
+        self.causal_classifier_ = dictionary_classifier(self.model_, causal=True)
         return self
 
     def predict(self, recording: Recording, centred: bool = True, smoothing: int | None = None) -> np.ndarray:
@@ -210,8 +211,9 @@ class SetSupervisedLearner(BaseEstimator):
         samples."""
         if not hasattr(self, "model_"):
             raise InputError("the learner is not fitted; call fit(recordings, class_sets) first")
+        classifier = self.classifier_ if centred else self.causal_classifier_
         return classify_recording(self.model_, recording, centred=centred, smoothing=smoothing,
-                                  classifier=self.classifier_ if centred else None).label.astype(str)
+                                  classifier=classifier).label.astype(str)
 
     # ------------------------------------------------------------------ steps
     def _check_input(self, recordings, class_sets) -> tuple[list[Recording], list[set[str]]]:
@@ -244,12 +246,7 @@ class SetSupervisedLearner(BaseEstimator):
     def _windows(self, recordings: list[Recording], channels: tuple[str, ...], scaling: ChannelScaling) -> _Windows:
         rows, owner, ends, runs, start = [], [], [], [], 0
         for r, rec in enumerate(recordings):
-            try:
-                w = recording_windows(rec, channels, self.window, self.step, scaling)
-            except InputError:
-                raise InputError(f"{rec.source}: no gap-free stretch is as long as one window ({self.window} samples "
-                                 f"= {self.window / rec.rate:.2f} s); give a longer recording or a shorter --window") \
-                    from None
+            w = recording_windows(rec, channels, self.window, self.step, scaling)
             rows.append(represent(w.matrix, len(channels), self.representation))
             owner.append(np.full(len(w.ends), r))
             ends.append(w.ends)
@@ -281,7 +278,7 @@ class SetSupervisedLearner(BaseEstimator):
         return kmeans.predict(X)
 
     def _smoothed(self, log_q: np.ndarray, data: _Windows) -> np.ndarray:
-        span = int(round(self.smoothing * self.rate_ / self.step))
+        span = int(round(self._span))
         if span < 2:
             return log_q
         finite = np.where(np.isfinite(log_q), log_q, 0.0)
@@ -294,19 +291,22 @@ class SetSupervisedLearner(BaseEstimator):
         """Each recording's windows decoded into runs: the labels that maximise ``sum log q`` minus a switching
         cost per change of class, every declared class in at least one run (:func:`decode_runs`)."""
         labels = np.empty(len(log_q), dtype=int)
-        cost = self._switch_cost
         for r in range(len(allowed)):
             classes = np.flatnonzero(allowed[r])
-            rows = np.arange(len(log_q))[data.rows(r)]
-            labels[rows] = classes[decode_runs(log_q[np.ix_(rows, classes)], cost)]
-            warning = (f"recording {r + 1} declares {len(classes)} classes over {len(rows)} windows: too many to make "
-                       "each appear; split it into shorter recordings")
-            if len(rows) * len(classes) * 2 ** len(classes) > EXHAUSTIVE and warning not in self.warnings_:
-                self.warnings_.append(warning)
+            rows = data.rows(r)
+            labels[rows] = classes[decode_runs(log_q[rows][:, classes], self._span)]
+            n = rows.stop - rows.start
+            if n * len(classes) * 2 ** len(classes) > EXHAUSTIVE:
+                warning = (f"recording {r + 1} declares {len(classes)} classes over {n} windows: too many to make "
+                           "each appear; split it into shorter recordings")
+                if warning not in self.warnings_:
+                    self.warnings_.append(warning)
         return labels
 
     @property
-    def _switch_cost(self) -> float:
+    def _span(self) -> float:
+        """``smoothing`` in windows: the switching cost of :func:`decode_runs` and the length of the margins'
+        average."""
         return float(self.smoothing * self.rate_ / self.step)
 
     def _warn_inseparable(self, log_p: np.ndarray, labels: np.ndarray, mask: np.ndarray) -> None:
@@ -330,7 +330,7 @@ class SetSupervisedLearner(BaseEstimator):
         fold holds, saw only that class's windows of its own fold)."""
         n_classes = len(self.classes_)
         block = max(1, int(round(BLOCK_SECONDS * self.rate_ / self.step)))
-        position = np.concatenate([np.arange(len(e)) for e in data.ends])
+        position = np.arange(len(X)) - data.offsets[data.recording]
         fold = (data.recording + position // block) % 2
         log_p = np.empty((len(X), n_classes))
         for f in (0, 1):
@@ -382,7 +382,9 @@ class SetSupervisedLearner(BaseEstimator):
         return DictionaryModel(
             classes=list(self.classes_), channels=list(channels), rate=self.rate_, window=self.window,
             step=self.step, normalisation="scale", scale=scaling.scale, dictionary=X[columns].T,
-            column_class=column_class, causal_dictionary=X[causal_columns].T, causal_column_class=causal_class,
+            column_class=column_class,
+            causal_dictionary=X[causal_columns].T if len(causal_columns) else None,  # none: live uses the others
+            causal_column_class=causal_class if len(causal_columns) else None,
             representation=self.representation,
             feature_offset=offset if self.representation == "summary" else None,
             feature_scale=scale if self.representation == "summary" else None,

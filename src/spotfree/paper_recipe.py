@@ -16,8 +16,7 @@ from collections import Counter
 import numpy as np
 from sklearn.base import BaseEstimator
 
-from spotfree.classify.batch import classify_recording
-from spotfree.classify.crc import CRCClassifier
+from spotfree.classify.batch import classify_recording, dictionary_classifier
 from spotfree.cluster.osc import OrderedSubspaceClustering
 from spotfree.errors import InputError
 from spotfree.io.recording import Recording
@@ -81,7 +80,7 @@ class PaperRecipe(BaseEstimator):
             parameters={"learner": "paper recipe", "seed": self.seed},
             summary={"learner": "paper recipe",
                      "columns_per_class": {c: int(np.sum(names[keep] == c)) for c in self.classes_}})
-        self.classifier_ = CRCClassifier().fit(self.model_.dictionary.T, names[keep])
+        self.classifier_ = dictionary_classifier(self.model_, "crc")
         return self
 
     def predict(self, recording: Recording, centred: bool = True) -> np.ndarray:
