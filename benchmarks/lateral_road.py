@@ -24,7 +24,7 @@ from spotfree.sim.scenarios import CLASSES
 GRID = {
     "lateral": ([("yaw_rate", "roll_rate"), ("yaw_rate", "roll"), ("yaw_rate",), ("yaw_rate", "roll", "acc_y")],
                 (10, 20)),
-    "road": ([("rough_y", "rough_z"), ("vib_y", "vib_z"), ("rough_x", "rough_y", "rough_z"), ("rough_z",)], (6, 10)),
+    "road": ([("rough_y", "rough_z"), ("vib_y", "vib_z"), ("rough_x", "rough_y", "rough_z"), ("rough_z",)], (6, 10, 20)),
 }
 """Channel sets and windows (samples at 20 Hz) tried per model."""
 
@@ -51,7 +51,7 @@ def main() -> None:
         channel_sets, windows = GRID[name]
         for seed in args.dev_seeds:
             data = spec_split(spec, seed)
-            print(f"declared per training experiment: {[e.classes for e in data.training]}")
+            print(f"declared per training experiment: {[classes for _, classes in data.training]}")
             for channels in channel_sets:
                 for window in windows:
                     start = time.perf_counter()

@@ -1,7 +1,7 @@
 """Per-sample cost of running the braking, lateral and road models together on one stream (MultiModelStream).
 
-Models: trained spotting-free by :func:`spotfree.training.train` on development seed 100: braking (default
-configuration, experiment 1 of a normal-braking and of a sudden-braking ride), lateral and road
+Models: trained spotting-free on development seed 100: braking (:func:`spotfree.ride_prior.ride_learner`, experiment
+1 of a normal-braking and of a sudden-braking ride), lateral and road
 (:data:`spotfree.evaluation.lateral_road.MODELS`, each under its training protocol,
 :func:`~spotfree.evaluation.lateral_road.spec_split`); or
 loaded from ``--models DIR`` (``braking.npz``, ``lateral.npz``, ``road.npz``, written there when missing).
@@ -49,7 +49,7 @@ from spotfree.evaluation.ride_models import raw_samples, stream_cost
 from spotfree.model import DictionaryModel
 from spotfree.signal.features import FeatureStream, ride_features
 from spotfree.sim.scenarios import CLASSES, simulate_scenario
-from spotfree.training import TrainingConfig, TrainingExperiment, train
+from spotfree.ride_prior import ride_learner
 
 GOAL_US = 50.0
 """Median per raw sample, end to end, all three models (issue 7)."""
@@ -59,11 +59,14 @@ NAMES = ("braking", "lateral", "road")
 
 def trained_models() -> dict:
     """The three models of the module docstring."""
-    braking = [TrainingExperiment(ride_features(simulate_scenario(s, repeats=1, seed=SEED), derived=True),
-                                  list(CLASSES[s])) for s in ("normal-braking", "sudden-braking")]
-    models = {"braking": train(braking, TrainingConfig(seed=SEED)).model}
+    scenarios = ("normal-braking", "sudden-braking")
+    braking = ride_learner(seed=SEED).fit(
+        [ride_features(simulate_scenario(s, repeats=1, seed=SEED), derived=True) for s in scenarios],
+        [list(CLASSES[s]) for s in scenarios])
+    models = {"braking": braking.model_}
     for name, spec in MODELS.items():
-        models[name] = train(spec_split(spec, SEED).training, spec.config(SEED)).model
+        recordings, sets = zip(*spec_split(spec, SEED).training)
+        models[name] = spec.learner(SEED).fit(list(recordings), list(sets)).model_
     return models
 
 

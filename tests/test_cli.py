@@ -129,66 +129,55 @@ def test_serve_refuses_an_unknown_sync_mode_before_starting(tmp_path):
 
 def test_train_writes_a_model_its_summary_and_its_figure(tmp_path):
     from spotfree.model import DictionaryModel
-    from spotfree.training import TrainingConfig
 
     normal, sudden = tmp_path / "normal.csv", tmp_path / "sudden.csv"
     for scenario, path in (("normal-braking", normal), ("sudden-braking", sudden)):
         assert runner.invoke(app, ["simulate", scenario, "-o", str(path), "--repeats", "1"]).exit_code == 0
-    declared = ["--recipe", "evidence", "--experiment", f"{normal}@1=cruising,normal-braking",
-                "--experiment", f"{sudden}@1=cruising,normal-braking,sudden-braking"]
-    result = runner.invoke(app, ["train", "-o", str(tmp_path / "m.npz"), *declared])
+    declared = ["--experiment", f"{normal}@1=cruising,normal-braking",
+                "--experiment", f"{sudden}@1=cruising,normal-braking,sudden-braking",
+                "--channels", "acc_long,pitch_rate", "--representation", "hankel", "--prior", "ride"]
+    result = runner.invoke(app, ["train", "-o", str(tmp_path / "m.npz"), *declared, "--figure",
+                                 str(tmp_path / "m.png")])
     assert result.exit_code == 0, result.output
-    assert "how it was named" in result.output and "columns per class: cruising" in result.output
+    assert "learner: sets (hankel of ride channels acc_long,pitch_rate; prior: ride)" in result.output
+    assert "columns per class: cruising" in result.output
     assert (tmp_path / "m.png").stat().st_size > 0
     model = DictionaryModel.load(tmp_path / "m.npz")
-    assert model.parameters["max_columns"] == TrainingConfig().max_columns
-    assert {"cruising", "sudden-braking"} <= set(model.classes)
+    assert model.parameters["max_columns"] == 300 and model.parameters["prior"] == "RidePrior"
+    assert set(model.classes) == {"cruising", "normal-braking", "sudden-braking"}
 
     result = runner.invoke(app, ["train", "-o", str(tmp_path / "few.npz"), *declared, "--max-columns", "20"])
     assert result.exit_code == 0, result.output
     few = DictionaryModel.load(tmp_path / "few.npz")
     assert np.bincount(few.column_class).max() <= 20 < np.bincount(model.column_class).max()
-    refused = runner.invoke(app, ["train", "-o", str(tmp_path / "none.npz"), *declared, "--max-columns", "0"])
-    assert refused.exit_code == 2 and "--max-columns" in refused.output and not (tmp_path / "none.npz").exists()
-    assert model.parameters["nesting"] == [["sudden-braking", "normal-braking"]]
-    plain = runner.invoke(app, ["train", "-o", str(tmp_path / "plain.npz"), *declared, "--nested", "none"])
-    assert plain.exit_code == 0 and DictionaryModel.load(tmp_path / "plain.npz").parameters["nesting"] == []
-    refused = runner.invoke(app, ["train", "-o", str(tmp_path / "bad.npz"), *declared, "--nested", "sudden-braking"])
-    assert refused.exit_code == 2 and "--nested 'sudden-braking': write INNER=OUTER" in refused.output
-    assert not (tmp_path / "bad.npz").exists()
+    assert not (tmp_path / "few.png").exists()  # a figure only when asked for
 
 
-def test_train_single_manoeuvre_names_turning_groups_by_their_rides(tmp_path):
+def test_train_paper_recipe_is_the_baseline_and_takes_no_learner_option(tmp_path):
     from spotfree.model import DictionaryModel
 
-    declared = []
-    for kind, classes in (("gentle", "straight,gentle-turn"), ("sharp", "straight,sharp-turn"), ("none", "straight")):
-        path = tmp_path / f"{kind}.csv"
-        assert runner.invoke(app, ["simulate", "lateral", "-o", str(path), "--repeats", "1", "--seed", "3",
-                                   "--manoeuvres", kind]).exit_code == 0
-        declared += ["--experiment", f"{path}={classes}"]
-    options = ["--recipe", "evidence", "--channels", "yaw_rate,roll_rate", "--extra-clusters", "15", "--max-columns",
-               "100"]
-    result = runner.invoke(app, ["train", "-o", str(tmp_path / "lat.npz"), *declared, *options, "--single-manoeuvre"])
+    ride = tmp_path / "sb.csv"
+    assert runner.invoke(app, ["simulate", "sudden-braking", "-o", str(ride), "--repeats", "1"]).exit_code == 0
+    declared = ["--experiment", f"{ride}=cruising,normal-braking,sudden-braking", "--recipe", "paper"]
+    result = runner.invoke(app, ["train", "-o", str(tmp_path / "p.npz"), *declared])
     assert result.exit_code == 0, result.output
-    model = DictionaryModel.load(tmp_path / "lat.npz")
-    assert model.parameters["single_manoeuvre"] and set(model.classes) == {"straight", "gentle-turn", "sharp-turn"}
-    renamed = [c for c in model.summary["clusters"] if "declare only straight" in c["rule"]]
-    assert renamed and {c["name"] for c in renamed} == {"gentle-turn/sharp-turn"}
+    assert "learner: the paper's recipe" in result.output
+    assert DictionaryModel.load(tmp_path / "p.npz").parameters["learner"] == "paper recipe"
+    refused = runner.invoke(app, ["train", "-o", str(tmp_path / "q.npz"), *declared, "--prior", "ride"])
+    assert refused.exit_code == 2 and "--prior is an option of --recipe sets" in refused.output
+    assert not (tmp_path / "q.npz").exists()
 
 
-@pytest.mark.parametrize("option, value", [("--inner-quantile", "1.5"), ("--outer-quantile", "1.0"),
-                                           ("--inner-depth", "1.5"), ("--inner-floor", "-0.2"),
-                                           ("--background-lean", "-1"), ("--outer-depth", "0.5"), ("--slowing", "-0.1"),
-                                           ("--close-gaps", "-1"), ("--upright", "-0.5"),
-                                           ("--votes", "0")])
+@pytest.mark.parametrize("option, value", [("--window", "0"), ("--step", "0"), ("--max-columns", "0"),
+                                           ("--recipe", "evidence"), ("--representation", "raw"),
+                                           ("--prior", "speed"), ("--features", "vehicle")])
 def test_train_refuses_an_option_out_of_range_and_keeps_the_model_there(tmp_path, option, value):
     ride = tmp_path / "sb.csv"
     assert runner.invoke(app, ["simulate", "sudden-braking", "-o", str(ride), "--repeats", "1"]).exit_code == 0
     model = tmp_path / "m.npz"
     model.write_bytes(b"an older model")
-    result = runner.invoke(app, ["train", "-o", str(model), "--recipe", "evidence", "--experiment",
+    result = runner.invoke(app, ["train", "-o", str(model), "--experiment",
                                  f"{ride}=cruising,normal-braking,sudden-braking", option, value])
     assert result.exit_code == 2
-    assert option in result.output and f"got {value}" in result.output
+    assert option in result.output, result.output
     assert model.read_bytes() == b"an older model"

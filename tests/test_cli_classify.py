@@ -10,7 +10,7 @@ from spotfree.io import read_recording
 from spotfree.io.csvlog import write_csv
 from spotfree.pipeline import feature_recording
 from spotfree.sim.scenarios import simulate_scenario
-from spotfree.training import TrainingConfig, TrainingExperiment, train
+from spotfree.ride_prior import ride_learner
 
 runner = CliRunner()
 
@@ -19,12 +19,13 @@ runner = CliRunner()
 def folder(tmp_path_factory):
     """A model trained (no labels read) on the first 40 s of two simulated rides, and a two-ride log."""
     root = tmp_path_factory.mktemp("classify")
-    experiments = []
+    recordings, sets = [], []
     for scenario, seed, classes in (("normal-braking", 0, ["cruising", "normal-braking"]),
                                     ("sudden-braking", 1, ["cruising", "normal-braking", "sudden-braking"])):
         write_csv(simulate_scenario(scenario, repeats=1, seed=seed).take(slice(0, 800)), root / f"{scenario}.csv")
-        experiments.append(TrainingExperiment(feature_recording(str(root / f"{scenario}.csv")), classes))
-    train(experiments, TrainingConfig(seed=0)).model.save(root / "model.npz")
+        recordings.append(feature_recording(str(root / f"{scenario}.csv")))
+        sets.append(classes)
+    ride_learner(seed=0).fit(recordings, sets).model_.save(root / "model.npz")
     result = runner.invoke(app, ["simulate", "sudden-braking", "-o", str(root / "ride.csv"), "--repeats", "2",
                                  "--seed", "7"])
     assert result.exit_code == 0, result.output

@@ -60,12 +60,11 @@ def test_body_features_train_and_classify_from_class_sets(tmp_path):
 
 
 @pytest.mark.parametrize("extra, message", [
-    (["--recipe", "evidence", "--prior", "ride"], "--prior is an option of --recipe sets"),
-    (["--nested", "none"], "--nested is an option of --recipe evidence"),
-    (["--no-recluster"], "--recluster is an option of --recipe evidence"),
-    (["--prior", "lean"], "--prior 'lean' is unknown"),
+    (["--recipe", "paper", "--prior", "ride"], "--prior is an option of --recipe sets"),
+    (["--recipe", "paper", "--representation", "summary"], "--representation is an option of --recipe sets"),
+    (["--recipe", "evidence"], "--recipe 'evidence': use one of sets, paper"),
+    (["--prior", "lean"], "--prior 'lean': use one of ride"),
     (["--features", "wrist"], "--features 'wrist'"),
-    (["--features", "body", "--recipe", "evidence"], "needs the sets learner"),
 ])
 def test_misuse_of_the_learner_options_exits_2(tmp_path, extra, message):
     _imu_log(tmp_path / "walk.csv", [("still", 5), ("walking", 5)], 1)

@@ -6,7 +6,6 @@ import pytest
 from spotfree.evaluation.lateral_road import (KIND_RIDES, MODELS, Split, declared_classes, event_classes, score,
                                               segment_options, spec_split, split)
 from spotfree.evaluation.metrics import Score
-from spotfree.training import train
 
 
 def test_declarations_name_only_the_classes_present_background_first():
@@ -27,18 +26,19 @@ def test_split_holds_out_riders_and_declares_from_the_rides_not_from_labels(road
     assert data.test_experiments == [3]
     assert set(np.unique(data.test.experiment)) == {3}
     assert len(data.training) == 4  # two road rides and two lateral rides
-    sources = [e.recording.source for e in data.training]
+    sources = [rec.source for rec, _ in data.training]
     assert sources == ["road seed 5 experiment 1", "road seed 5 experiment 2",
                        "lateral seed 5 experiment 1", "lateral seed 5 experiment 2"]
-    for e in data.training[:2]:
-        assert e.classes == declared_classes(e.recording.truth["label"], "road")
-    for e in data.training[2:]:
-        assert e.classes[0] == "smooth" and e.classes == event_classes(e.recording.truth["event"], "road")
+    for rec, classes in data.training[:2]:
+        assert classes == declared_classes(rec.truth["label"], "road")
+    for rec, classes in data.training[2:]:
+        assert classes[0] == "smooth" and classes == event_classes(rec.truth["event"], "road")
 
 
 def test_score_counts_every_labelled_sample_of_each_true_class(road_split):
     data = road_split
-    model = train(data.training, MODELS["road"].config(5)).model
+    recordings, sets = zip(*data.training)
+    model = MODELS["road"].learner(5).fit(list(recordings), list(sets)).model_
     per_class, overall = score(model, data.test, "road")
     truth = data.test.truth["label"]
     assert set(per_class) == {"smooth", "rough-asphalt", "cobblestone", "kerb"}
@@ -59,17 +59,16 @@ def test_one_kind_protocol_gives_each_training_rider_one_ride_per_manoeuvre_and_
     data = spec_split(MODELS["lateral"], seed=5, repeats=3, n_train=2)
     assert MODELS["lateral"].one_kind and data.test_experiments == [3]
     assert len(data.training) == 2 * len(KIND_RIDES["lateral"])
-    assert [e.recording.source for e in data.training[:2]] == ["lateral (gentle) seed 5 experiment 1",
-                                                               "lateral (gentle) seed 5 experiment 2"]
-    assert data.training[-1].recording.source == "lateral (straight) seed 5 experiment 2"
-    for e in data.training:
-        assert e.classes == declared_classes(e.recording.truth["label"], "lateral")
-        assert e.classes[0] == "straight" and len(e.classes) <= 2
-    assert [e.classes for e in data.training[-2:]] == [["straight"], ["straight"]]
-    assert MODELS["lateral"].config(5).single_manoeuvre
+    assert [rec.source for rec, _ in data.training[:2]] == ["lateral (gentle) seed 5 experiment 1",
+                                                            "lateral (gentle) seed 5 experiment 2"]
+    assert data.training[-1][0].source == "lateral (straight) seed 5 experiment 2"
+    for rec, classes in data.training:
+        assert classes == declared_classes(rec.truth["label"], "lateral")
+        assert classes[0] == "straight" and len(classes) <= 2
+    assert [classes for _, classes in data.training[-2:]] == [["straight"], ["straight"]]
 
 
 def test_one_kind_road_rides_hold_one_surface_event_each_or_none():
     data = spec_split(MODELS["road"], seed=5, repeats=3, n_train=1)
-    assert [e.classes for e in data.training] == [["smooth", "rough-asphalt"], ["smooth", "cobblestone"],
+    assert [classes for _, classes in data.training] == [["smooth", "rough-asphalt"], ["smooth", "cobblestone"],
                                                   ["smooth", "kerb"], ["smooth"]]

@@ -221,7 +221,7 @@ def test_roughness_is_the_vibration_over_the_root_of_the_held_speed(speed):
     held = 1.0 if speed is None else min(speed, ROUGH_SPEED[1])  # no fix: the speed stays near 0, held to 1 m/s
     np.testing.assert_allclose(rough * np.sqrt(held), vib, rtol=1e-3, atol=1e-9)
     np.testing.assert_allclose(streamed, feats.array(FEATURE_CHANNELS + DERIVED_CHANNELS), atol=1e-12)
-    if speed is not None:  # carried as it is, for training (spotfree.training._not_slowing)
+    if speed is not None:  # carried as it is, for the ride prior (spotfree.ride_prior.RidePrior)
         np.testing.assert_array_equal(feats.channels["speed"], rec.channels["speed"])
         assert tuple(feats.names) == FEATURE_CHANNELS + DERIVED_CHANNELS + ("speed",)
 

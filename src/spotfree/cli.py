@@ -156,170 +156,77 @@ def train(
     output: Path = typer.Option(..., "-o", "--output", help="model file to write (.npz)"),
     experiment: list[str] = typer.Option(..., "--experiment", help="PATH=CLASS[,CLASS...]: classes that occur in it"),
     channels: Optional[str] = typer.Option(None, "--channels", help="feature channels, comma-separated"),
-    window: int = typer.Option(20, "--window", help="window length, samples"),
-    step: int = typer.Option(1, "--step", help="classification stride, samples"),
+    window: int = typer.Option(20, "--window", min=1, help="window length, samples"),
+    step: int = typer.Option(1, "--step", min=1, help="stride of the windows, samples (training and classification)"),
     orientation: str = typer.Option("default", "--orientation", help="default | paper | vqf"),
     features: str = typer.Option("ride", "--features", help="what a raw IMU log becomes: ride (a phone on the "
                                  "handlebar: vehicle-frame ride features) | body (a phone in a pocket, a watch: device "
                                  "axes and magnitudes)"),
-    recipe: str = typer.Option("sets", "--recipe", help="sets (the general learner from class sets) | evidence (the "
-                               "older ride learner, with the options below it) | paper (the paper's recipe, "
-                               "literally)"),
+    recipe: str = typer.Option("sets", "--recipe", help="sets (the general learner from class sets) | paper (the "
+                               "paper's recipe, literally: a baseline)"),
     prior: Optional[str] = typer.Option(None, "--prior", help="ride: braking loses GPS speed (sets learner only)"),
     representation: str = typer.Option("summary", "--representation", help="sets learner: summary (level, spread "
                                        "and band powers of each window) | hankel (the paper's raw windows)"),
-    background: Optional[str] = typer.Option(None, "--background", help="the background class (default: the "
-                                             "first class declared in every recording)"),
-    name: list[str] = typer.Option([], "--name", help="CLUSTER=CLASS: override the name of a level-1 cluster"),
-    extra_clusters: int = typer.Option(7, "--extra-clusters", help="clusters beyond the declared classes"),
-    affine: float = typer.Option(6.0, "--affine", help="constant row appended to windows for clustering (0: none)"),
-    clustering: str = typer.Option("kmeans", "--clustering",
-                                   help="kmeans | osc (the paper's Ordered Subspace Clustering)"),
-    max_columns: int = typer.Option(600, "--max-columns", min=1, help="dictionary columns kept per class"),
-    nested: Optional[list[str]] = typer.Option(
-        None, "--nested", help="INNER=OUTER: a manoeuvre of class INNER passes through class OUTER (default: "
-        "sudden-braking=normal-braking); --nested none for no such pair"),
-    inner_quantile: float = typer.Option(
-        0.75, "--inner-quantile", help="keep the inner class's columns at or above this quantile of their margins: a "
-        "purer dictionary, fewer of its windows found by centred labels (0: every confident column)"),
-    outer_quantile: float = typer.Option(
-        0.5, "--outer-quantile", help="the same for the outer class, whose windows include the rider's gentler "
-        "slow-downs (0: every confident column)"),
-    inner_depth: float = typer.Option(
-        0.8, "--inner-depth", help="the inner class takes columns only where the lean is at least this share of its "
-        "deepest in the run (0: off)"),
-    inner_floor: float = typer.Option(
-        0.9, "--inner-floor", help="the inner class takes columns only where the lean is at least this share of the "
-        "deepest lean named that class in the recording (0: off)"),
-    background_lean: float = typer.Option(
-        0.6, "--background-lean", help="the background takes no column from a window leaning towards the hardest "
-        "stop by more than this many times the recording's usual depth: the gentlest braking (0: off)"),
-    slowing: float = typer.Option(
-        0.4, "--slowing", help="where a recording has GPS speed, a braking class (of a --nested pair) takes no column "
-        "from a window around which the speed falls more slowly than this, m/s^2, nor the background from one where it "
-        "falls at least this fast; nesting names the outer class only after a group that loses speed this fast, and "
-        "does not give such a braking group to the background (0: off)"),
-    deepest_inner: bool = typer.Option(
-        True, "--deepest-inner/--no-deepest-inner", help="in a recording declaring the inner class, the windows at "
-        "its deepest lean take that class when deeper than any lean of the recordings without it"),
-    outer_depth: float = typer.Option(
-        3.0, "--outer-depth", help="a background group leaning this many times the usual depth towards the hardest "
-        "stop, in the recordings made for the outer class, takes that class when evidence gave it none (0: off)"),
-    upright: float = typer.Option(
-        0.5, "--upright", help="a group named a nested class (braking) whose median lean towards the hardest stop, in "
-        "the recordings made for that class, is below this many times the usual depth goes to the background (0: off)"),
-    close_gaps: int = typer.Option(
-        5, "--close-gaps", help="a run of at most this many training windows named the background inside a "
-        "manoeuvre's run takes the manoeuvre's name (0: none)"),
-    recluster: bool = typer.Option(
-        True, "--recluster/--no-recluster", help="a declared class that no group took is looked for again among the "
-        "background's windows, clustered anew"),
-    single_manoeuvre: bool = typer.Option(
-        False, "--single-manoeuvre", help="a group absent from the recordings that declare only the background takes, "
-        "in a recording declaring one manoeuvre, that manoeuvre (for one recording per manoeuvre and some without)"),
-    votes: int = typer.Option(
-        1, "--votes", help="cluster and name with this many seeds (SEED, SEED+1, ...); each window takes its most "
-        "frequent name (5 is steadier for braking; with --name only the first clustering is made)"),
+    max_columns: int = typer.Option(300, "--max-columns", min=1, help="dictionary columns kept per class"),
     seed: int = typer.Option(0, "--seed"),
-    figure: Optional[Path] = typer.Option(None, "--figure", help="diagnostic figure (default: MODEL.png)"),
+    figure: Optional[Path] = typer.Option(None, "--figure", help="also draw the training recordings coloured by "
+                                          "the names the learner gave their windows (.png)"),
 ) -> None:
     """Build a dictionary of pure class representatives from whole recordings, without spotting."""
-    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
-    from rich.table import Table
-
     from spotfree.pipeline import FEATURES
 
     if features not in FEATURES:
         raise InputError(f"--features {features!r}: use one of {', '.join(FEATURES)}")
+    from spotfree.representation import REPRESENTATIONS
+
+    for option, value, choices in (("--recipe", recipe, ("sets", "paper")),
+                                   ("--representation", representation, REPRESENTATIONS),
+                                   ("--prior", prior, (None, "ride"))):
+        if value not in choices:
+            raise InputError(f"{option} {value!r}: use one of {', '.join(c for c in choices if c)}")
     given = [p.opts[0] for p in ctx.command.params
              if p.name and getattr(ctx.get_parameter_source(p.name), "name", "") == "COMMANDLINE"]
-    theirs = {"sets": {"--prior", "--representation"}, "evidence": set(EVIDENCE_OPTIONS)}
-    for other, options in theirs.items():
-        misplaced = [o for o in given if o in options and recipe != other]
-        if misplaced:
-            raise InputError(f"{misplaced[0]} is an option of --recipe {other}; add --recipe {other} or leave it out")
-    if recipe == "sets":
-        _train_sets(output, experiment, channels, window, step, orientation, features, prior, representation,
-                    max_columns, seed)
-        return
-    if features != "ride":
-        raise InputError(f"--features {features} needs the sets learner: leave --recipe out or give --recipe sets")
-
-    from spotfree.figures import training_figure
-    from spotfree.pipeline import feature_recording
-    from spotfree.training import DEFAULT_CHANNELS, NESTING, TrainingConfig, TrainingExperiment
-    from spotfree.training import train as train_dictionary
-
-    config = TrainingConfig(
-        channels=tuple(c.strip() for c in channels.split(",")) if channels else DEFAULT_CHANNELS,
-        window=window, step=step, recipe=recipe, background=background, overrides=_parse_names(name),
-        extra_clusters=extra_clusters, affine=affine, clustering=clustering, max_columns=max_columns, seed=seed,
-        nesting=NESTING if nested is None else _parse_nesting(nested), inner_quantile=inner_quantile,
-        outer_quantile=outer_quantile, inner_depth=inner_depth, inner_floor=inner_floor,
-        background_lean=background_lean, slowing=slowing, deepest_inner=deepest_inner,
-        outer_depth=outer_depth, upright=upright, single_manoeuvre=single_manoeuvre,
-        close_gaps=close_gaps, recluster=recluster, votes=votes,
-    )
-    with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=err,
-                  transient=True) as bar:
-        task = bar.add_task("reading recordings")
-        experiments = []
-        for spec in experiment:
-            path, classes = _parse_experiment(spec)
-            bar.update(task, description=f"features of {path}")
-            experiments.append(TrainingExperiment(feature_recording(path, orientation=orientation), classes))
-        result = train_dictionary(experiments, config, progress=lambda m: bar.update(task, description=m))
-    result.model.save(output)
-    figure = figure or output.with_suffix(".png")
-    training_figure(result, experiments, figure)
-    table = Table(title=f"{output}: {result.model.dictionary.shape[1]} columns, window {window} samples")
-    for column in ("cluster", "windows per recording", "name", "confidence", "how it was named"):
-        table.add_column(column)
-    for n in result.names:
-        table.add_row(str(n.cluster), " ".join(map(str, n.counts)), n.name, f"{n.confidence:.2f}", n.rule)
-    out.print(table)
-    out.print("columns per class: " + ", ".join(f"{c} {k}" for c, k in
-                                                result.model.summary["columns_per_class"].items()))
-    aligned = result.model.summary.get("aligned")
-    if aligned:
-        out.print(f"names moved to the timing of {aligned['channel']}: "
-                  + ", ".join(f"{s:.2f} s" for s in aligned["seconds"]) + " earlier (per recording)")
-    for warning in result.warnings:
-        err.print(f"[bold yellow]warning:[/] {warning}", markup=True)
-    out.print(f"figure: {figure}")
+    misplaced = [o for o in given if o in ("--prior", "--representation", "--figure") and recipe != "sets"]
+    if misplaced:
+        raise InputError(f"{misplaced[0]} is an option of --recipe sets; leave it out with --recipe {recipe}")
+    _train(output, experiment, channels, window, step, orientation, features, recipe, prior, representation,
+           max_columns, seed, figure)
 
 
-EVIDENCE_OPTIONS = ("--background", "--name", "--extra-clusters", "--affine", "--clustering", "--nested",
-                    "--inner-quantile", "--outer-quantile", "--inner-depth", "--inner-floor", "--background-lean",
-                    "--slowing", "--deepest-inner", "--outer-depth", "--upright", "--close-gaps", "--recluster",
-                    "--single-manoeuvre", "--votes", "--figure")
-"""Options of ``spotfree train`` that only the evidence recipe reads."""
+def _train(output: Path, experiment: list[str], channels: Optional[str], window: int, step: int, orientation: str,
+           features: str, recipe: str, prior: Optional[str], representation: str, max_columns: int, seed: int,
+           figure: Optional[Path]) -> None:
+    """``spotfree train``: :class:`~spotfree.learner.SetSupervisedLearner` (``recipe`` sets) or
+    :class:`~spotfree.paper_recipe.PaperRecipe` (``recipe`` paper) on the declared sets."""
+    from collections import Counter
 
-
-def _train_sets(output: Path, experiment: list[str], channels: Optional[str], window: int, step: int,
-                orientation: str, features: str, prior: Optional[str], representation: str, max_columns: int,
-                seed: int) -> None:
-    """``spotfree train --recipe sets``: :class:`~spotfree.learner.SetSupervisedLearner` on the declared sets."""
     from rich.table import Table
 
     from spotfree.learner import SetSupervisedLearner
+    from spotfree.paper_recipe import PaperRecipe
     from spotfree.pipeline import feature_recording
     from spotfree.ride_prior import RidePrior
 
-    priors = {"ride": RidePrior}
-    if prior is not None and prior not in priors:
-        raise InputError(f"--prior {prior!r} is unknown; use one of {', '.join(priors)}")
     recordings, sets = [], []
     for spec in experiment:
         path, classes = _parse_experiment(spec)
         recordings.append(feature_recording(path, orientation=orientation, features=features))
         sets.append(classes)
-    learner = SetSupervisedLearner(
-        channels=tuple(c.strip() for c in channels.split(",")) if channels else None, window=window, step=step,
-        representation=representation, max_columns=max_columns, prior=priors[prior]() if prior else None,
-        seed=seed).fit(recordings, sets)
+    chosen = tuple(c.strip() for c in channels.split(",")) if channels else None
+    if recipe == "paper":
+        learner = PaperRecipe(channels=chosen, window=window, step=step, max_columns=max_columns, seed=seed)
+    else:
+        learner = SetSupervisedLearner(channels=chosen, window=window, step=step, representation=representation,
+                                       max_columns=max_columns, prior=RidePrior() if prior == "ride" else None,
+                                       seed=seed)
+    learner.fit(recordings, sets)
     model = learner.model_
     model.save(output)
+    if recipe == "paper":
+        out.print(f"learner: the paper's recipe (hankel of {model.features} channels {','.join(model.channels)})")
+        counts = Counter(model.classes[k] for k in model.column_class)
+        out.print("columns per class: " + ", ".join(f"{c} {counts[c]}" for c in model.classes))
+        return
     out.print(f"learner: sets ({model.representation} of {model.features} channels {','.join(model.channels)}; "
               f"prior: {prior or 'none'})")
     table = Table(title=f"{output}: {model.dictionary.shape[1]} columns, window {window} samples")
@@ -333,6 +240,11 @@ def _train_sets(output: Path, experiment: list[str], channels: Optional[str], wi
     out.print("windows renamed per round: " + (", ".join(f"{100 * h:.1f} %" for h in learner.history_) or "none"))
     for warning in learner.warnings_:
         err.print(f"[bold yellow]warning:[/] {warning}", markup=True)
+    if figure is not None:
+        from spotfree.figures import training_figure
+
+        training_figure(learner, recordings, figure)
+        out.print(f"figure: {figure}")
 
 
 def _parse_experiment(spec: str) -> tuple[str, list[str]]:
@@ -341,29 +253,6 @@ def _parse_experiment(spec: str) -> tuple[str, list[str]]:
     if not sep or not path or not names:
         raise InputError(f"--experiment '{spec}': write PATH=CLASS[,CLASS...], e.g. ride.csv@1=cruising,sudden-braking")
     return path, names
-
-
-def _parse_nesting(specs: list[str]) -> tuple[tuple[str, str], ...]:
-    if [s.strip().lower() for s in specs] == ["none"]:
-        return ()
-    pairs = []
-    for spec in specs:
-        inner, sep, outer = (part.strip() for part in spec.partition("="))
-        if not sep or not inner or not outer or inner == outer:
-            raise InputError(f"--nested '{spec}': write INNER=OUTER with two class names, e.g. "
-                             "sudden-braking=normal-braking, or --nested none")
-        pairs.append((inner, outer))
-    return tuple(pairs)
-
-
-def _parse_names(specs: list[str]) -> dict[int, str]:
-    overrides = {}
-    for spec in specs:
-        cluster, sep, name = spec.partition("=")
-        if not sep or not cluster.strip().isdigit() or not name.strip():
-            raise InputError(f"--name '{spec}': write CLUSTER=CLASS with the cluster number of the summary, e.g. 3=cruising")
-        overrides[int(cluster)] = name.strip()
-    return overrides
 
 
 @app.command()

@@ -21,13 +21,13 @@ import numpy as np
 
 from spotfree.errors import InputError
 from spotfree.evaluation.figures import results_figure
+from spotfree.evaluation.metrics import naming_scores
 from spotfree.evaluation.measure import HEADLINE, check_peers, crc_runs, make_peers, method_runs, peer_runs
 from spotfree.evaluation.protocol import SCENARIOS, Protocol, simulate, train_dictionary
 from spotfree.evaluation.report import Evaluation, render
 from spotfree.evaluation.ride_models import evaluate_ride_models
 from spotfree.figures import training_figure
 from spotfree.sim.scenarios import CLASSES
-from spotfree.training import dictionary_purity
 
 Progress = Callable[[str], None]
 
@@ -44,7 +44,7 @@ def evaluate(output: str | Path, seed: int = 0, quick: bool = False, progress: P
     data = simulate(protocol)
     say("training the dictionary (no labels)")
     trained = train_dictionary(data, protocol)
-    model = trained.result.model
+    model = trained.learner.model_
     say("classifying the tests with CRC_RLS (causal and centred windows)")
     crc = crc_runs(model, data)
     say("classifying the tests with kernel CRC_RLS (causal and centred windows)")
@@ -58,7 +58,9 @@ def evaluate(output: str | Path, seed: int = 0, quick: bool = False, progress: P
     seconds = time.perf_counter() - start
     figures = {f"results: {name}": f"results-{name}.png" for name in SCENARIOS}
     ev = Evaluation(
-        protocol=protocol, data=data, trained=trained, purity=dictionary_purity(trained.result, trained.experiments),
+        protocol=protocol, data=data, trained=trained, naming=naming_scores(
+            trained.learner.window_labels_, trained.learner.window_ends_,
+            [r.truth["label"] for r in trained.recordings], model.window, model.classes),
         crc=crc, kcrc=kcrc, methods=methods, peers=peers, ride_models=ride_models, seconds=seconds,
         command=f"spotfree evaluate -o {output} --seed {seed}" + (" --quick" if quick else ""),
         machine=machine_summary(), date=datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"), figures=figures,
@@ -69,7 +71,7 @@ def evaluate(output: str | Path, seed: int = 0, quick: bool = False, progress: P
     staging.chmod(0o755)
     classes = list(dict.fromkeys([c for name in SCENARIOS for c in CLASSES[name]] + list(model.classes)))
     try:
-        training_figure(trained.result, trained.experiments, staging / "training.png")
+        training_figure(trained.learner, trained.recordings, staging / "training.png")
         for name, path in zip(SCENARIOS, figures.values()):
             results_figure(data[name].test, crc[HEADLINE].runs[name].labels, classes, staging / path,
                            f"{name} tests, CRC_RLS ({HEADLINE} windows)")

@@ -19,7 +19,7 @@ from sklearn.base import BaseEstimator
 from spotfree.classify.batch import classify_recording, dictionary_classifier
 from spotfree.cluster.osc import OrderedSubspaceClustering
 from spotfree.errors import InputError
-from spotfree.io.recording import Recording
+from spotfree.io.recording import GPS_CHANNELS, Recording
 from spotfree.model import DictionaryModel
 from spotfree.windows import ChannelScaling, recording_windows
 
@@ -31,7 +31,7 @@ class PaperRecipe(BaseEstimator):
     Parameters
     ----------
     channels : tuple of str or None
-        Channels windowed; None: every channel of the first recording.
+        Channels windowed; None: every channel of the first recording but the sparse GPS ones.
     window, step : int
         Window length and stride, samples.
     max_columns : int
@@ -52,7 +52,8 @@ class PaperRecipe(BaseEstimator):
         recordings, sets = list(recordings), [set(s) for s in class_sets]
         if not recordings or len(sets) != len(recordings) or not all(sets):
             raise InputError("give one recording per class set, each declaring at least one class")
-        channels = tuple(self.channels) if self.channels else tuple(recordings[0].names)
+        channels = (tuple(self.channels) if self.channels else
+                    tuple(c for c in recordings[0].names if c not in GPS_CHANNELS))
         frequency = Counter(c for s in sets for c in s)
         self.classes_ = sorted(frequency)
         scaling = ChannelScaling(channels).fit(recordings)

@@ -12,12 +12,21 @@ braking, one that keeps or gains it more likely not:
 
 The prior engages only for the classes it names (``braking``) and only in recordings that carry a ``speed`` channel:
 for any other data it is zero.
+
+:func:`ride_learner` is the ride models' learner: the generic learner on the paper's block-Hankel windows of the
+longitudinal acceleration and the pitch rate, asking for this prior.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
+from spotfree.learner import SetSupervisedLearner
+
+RIDE_CHANNELS = ("acc_long", "pitch_rate")
+"""Ride features the braking models window: the longitudinal acceleration and the pitch rate (the lean's rate)."""
 SPAN = 1.5
 """Half-width (s) of the stretch of GPS fixes the speed trend is fitted over (three fixes of a 1 Hz receiver)."""
 
@@ -37,6 +46,7 @@ def speed_trend(speed: np.ndarray, rate: float, at: np.ndarray, span: float = SP
         return np.where((n >= 2) & (denominator > 1e-9), (n * s_tv - s_t * s_v) / denominator, np.nan)
 
 
+@dataclass(frozen=True)
 class RidePrior:
     """Braking loses speed (module docstring).
 
@@ -50,11 +60,9 @@ class RidePrior:
         Log-prior bonus of the classes that agree with the speed's trend.
     """
 
-    def __init__(self, braking: tuple[str, ...] = ("normal-braking", "sudden-braking"), slowing: float = 0.4,
-                 weight: float = 2.0):
-        self.braking = tuple(braking)
-        self.slowing = slowing
-        self.weight = weight
+    braking: tuple[str, ...] = ("normal-braking", "sudden-braking")
+    slowing: float = 0.4
+    weight: float = 2.0
 
     def log_prior(self, recording, centres: np.ndarray, classes: list[str]) -> np.ndarray:
         """``(len(centres), len(classes))`` log-prior of the windows centred at sample indices ``centres`` of
@@ -70,3 +78,10 @@ class RidePrior:
         out[slowing[:, None] & named[None, :]] = self.weight
         out[(known & ~slowing)[:, None] & ~named[None, :]] = self.weight
         return out
+
+
+def ride_learner(**params) -> SetSupervisedLearner:
+    """The learner of the braking models: :class:`~spotfree.learner.SetSupervisedLearner` on :data:`RIDE_CHANNELS`
+    in the ``hankel`` representation with :class:`RidePrior`; ``params`` override any of its parameters."""
+    return SetSupervisedLearner(**{"channels": RIDE_CHANNELS, "representation": "hankel", "prior": RidePrior(),
+                                   **params})

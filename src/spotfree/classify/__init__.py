@@ -19,9 +19,8 @@ METHODS = {"crc": CRCClassifier, "kcrc": KernelCRCClassifier, "src": SRCClassifi
            "bsrc": BlockSparseClassifier, "nearest": NearestColumnsClassifier}
 
 DEFAULT_METHOD = "kcrc"
-"""The method used when none is named: kernel CRC_RLS. It labels the braking tests of the evaluation better than
-CRC_RLS on every seed (far fewer sudden-braking labels in normal braking) at the same cost per window
-(``benchmarks/evaluation_seeds.py``, ``benchmarks/stream_speed.py``; BENCHMARKS.md)."""
+"""The method used when none is named: kernel CRC_RLS, amplitude-aware at about the cost per window of CRC_RLS
+(``spotfree evaluate`` compares them; ``benchmarks/stream_speed.py`` times them)."""
 
 
 def make_classifier(method: str, **params):

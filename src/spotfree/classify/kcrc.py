@@ -21,13 +21,8 @@ class, in proportion to its atoms (at least one), by farthest-point sampling of 
 no more; deterministic, so every process labels alike);
 ``gamma = gamma_scale / median_{j<l} ||a_j - a_l||^2``, so the kernel does not depend on the windows' units.
 
-Measured against CRC_RLS on the simulated braking tests (``benchmarks/evaluation_seeds.py``, BENCHMARKS.md): far
-fewer sudden-braking labels inside normal-braking rides, because a normal stop no longer matches a scaled-down
-sudden stop. The number of landmarks is a model's (``parameters["landmarks"]``, set by training; 32 for models
-without it): for the braking model 64, on causal labels of the evaluation's protocol (development seeds 10-14 /
-evaluation seeds 0-4) 91.69 / 92.80 % with 32, 92.21 / 93.45 % with 48, 92.36 / 93.62 % with 64, 92.45 / 93.29 %
-with 96; centred labels 93.48 / 92.43 % with 32 and 92.98 / 92.36 % with 64. A window costs about three times as
-much with 64 as with 32.
+Compared with CRC_RLS, a normal stop no longer matches a scaled-down sudden stop. The number of landmarks is a
+model's (``parameters["landmarks"]``, set by training; 32 for models without it).
 """
 
 from __future__ import annotations

@@ -8,8 +8,6 @@ atoms of that class,
     r_i(y) = (1 / k_i) sum_{j in N_k(y, A_i)} ||y - a_j||_2,    k_i = min(k, n_i),
 
 and the label is ``argmin_i r_i`` like the other residual classifiers (rejection, ``predict_one`` included).
-Measured on a development seed (``benchmarks/dictionary_rules.py``, BENCHMARKS.md): on one pure dictionary, CRC_RLS
-gave 434 sudden-braking labels in the normal-braking tests and this rule with ``k = 5`` gave 7.
 
 Distances come from ``||y||^2 + ||a||^2 - 2 y.a`` (one matrix product per chunk of windows); one window is
 classified by a compiled loop (a few microseconds for a few hundred atoms).

@@ -3,16 +3,12 @@
 Per model (:data:`MODELS`), one simulated file of its scenario and one of the other scenario (``repeats``
 experiments each, one seed; every experiment draws its own rider) are split: experiments ``1..n_train`` of both are
 trained on, experiments ``n_train + 1..repeats`` of the model's own scenario are the held-out tests. Training is
-:func:`spotfree.training.train` on the ride features, each training experiment declaring only the set of the model's
-classes that occur somewhere in it, as a rider who knows what the ride held would declare it (background first:
-``straight``, ``smooth``): in its own scenario the classes of its labels; in the other scenario the classes its
-confounders amount to (:data:`EVENT_CLASSES`: a road ride's gentle turns, a lateral ride's surface patches and
-kerbs). The other scenario's rides give each class recordings where it is the most specific declared class, which
-naming by evidence (:mod:`spotfree.naming`) needs: in the lateral file alone, gentle turns always come with sharp
-turns or slaloms. A spec with ``one_kind`` (both models now) trains instead, as the paper does, on one recording per
-manoeuvre: each training rider rides once per kind of manoeuvre or road event and once without any
-(:data:`KIND_RIDES`), and names with rule 6 of :mod:`spotfree.naming` (a group absent from the plain rides takes the
-one class of its ride). Tests are labelled causally by :func:`~spotfree.classify.batch.classify_recording` and
+the general learner (:class:`~spotfree.learner.SetSupervisedLearner`) on the ride features, each training experiment
+declaring only the set of the model's classes that occur somewhere in it, as a rider who knows what the ride held
+would declare it: in its own scenario the classes of its labels; in the other scenario the classes its confounders
+amount to (:data:`EVENT_CLASSES`: a road ride's gentle turns, a lateral ride's surface patches and kerbs). A spec
+with ``one_kind`` (both models now) trains instead, as the paper does, on one recording per manoeuvre: each training
+rider rides once per kind of manoeuvre or road event and once without any (:data:`KIND_RIDES`). Tests are labelled causally by :func:`~spotfree.classify.batch.classify_recording` and
 scored per true class (:func:`~spotfree.evaluation.metrics.class_accuracy`); then again after the offline segment
 vote (:mod:`spotfree.classify.segments`) at the spec's penalty, and the event vote where the spec asks for it. The
 spec's short classes (kerbs) are scored as detected events too (:func:`~spotfree.evaluation.metrics.event_detection`).
@@ -28,17 +24,16 @@ from spotfree.classify.batch import classify_recording, offline_votes
 from spotfree.classify.segments import kept_classes
 from spotfree.evaluation.metrics import EventScore, Score, class_accuracy, event_detection
 from spotfree.io.recording import Recording
+from spotfree.learner import SetSupervisedLearner
 from spotfree.model import DictionaryModel
 from spotfree.signal.features import ride_features
 from spotfree.sim.scenarios import CLASSES, simulate_scenario
-from spotfree.training import TrainingConfig, TrainingExperiment, train
 
 
 @dataclass(frozen=True)
 class ModelSpec:
-    """A model of one scenario's classes: feature channels, window (samples), training stride, and columns kept
-    per class (100: on development seeds 100 and 101, 600 columns, the braking model's default, gave the lateral
-    model 0.786 of the samples right against 0.802 and the road model 0.804 against 0.803); its offline votes
+    """A model of one scenario's classes: feature channels, window (samples); ``one_kind``: trained on rides of one
+    kind of manoeuvre each (:data:`KIND_RIDES`) rather than on mixed rides; its offline votes
     (:func:`segment_options`): segment penalty, classes kept, event vote and event edges ``(channel, level)``;
     ``detections``: short classes also scored as detected events
     (:func:`~spotfree.evaluation.metrics.event_detection`)."""
@@ -46,9 +41,6 @@ class ModelSpec:
     scenario: str
     channels: tuple[str, ...]
     window: int
-    train_step: int = 2
-    extra_clusters: int = 7
-    max_columns: int = 100
     one_kind: bool = False
     segments: float = 0.0
     keep: tuple[str, ...] = ()
@@ -61,39 +53,24 @@ class ModelSpec:
         """The scenario's background class (the first of :data:`~spotfree.sim.scenarios.CLASSES`)."""
         return CLASSES[self.scenario][0]
 
-    def config(self, seed: int, **changes) -> TrainingConfig:
-        """The :class:`~spotfree.training.TrainingConfig` of this spec (``changes`` override fields); names are not
-        aligned to the lean (``timing=None``): these classes are not defined by it."""
-        fields = dict(channels=self.channels, window=self.window, train_step=self.train_step,
-                      extra_clusters=self.extra_clusters, max_columns=self.max_columns,
-                      background=self.background, timing=None, single_manoeuvre=self.one_kind, seed=seed)
-        fields.update(changes)
-        return TrainingConfig(**fields)
+    def learner(self, seed: int, **params) -> SetSupervisedLearner:
+        """The learner of this spec, on its channels and window (``params`` override the learner's parameters)."""
+        return SetSupervisedLearner(**{"channels": self.channels, "window": self.window, "seed": seed, **params})
 
 
 MODELS = {
-    "lateral": ModelSpec("lateral", ("yaw_rate",), 20, extra_clusters=15, one_kind=True, segments=4.0,
+    "lateral": ModelSpec("lateral", ("yaw_rate",), 20, one_kind=True, segments=4.0,
                          events=True, edges=(("yaw_rate", 0.09),)),
-    "road": ModelSpec("road", ("rough_y", "rough_z"), 6, one_kind=True, segments=8.0, keep=("kerb",),
+    "road": ModelSpec("road", ("rough_y", "rough_z"), 10, one_kind=True, segments=8.0, keep=("kerb",),
                       detections=("kerb",)),
 }
-"""The chosen channels and windows (grid on development seeds: ``benchmarks/lateral_road.py``, BENCHMARKS.md). The
-lateral model trains on rides of one kind of manoeuvre with 15 extra groups, on the yaw rate alone (development
-seeds 100-106, causal kernel CRC_RLS: 0.923 of the samples right on average against 0.898 with the roll rate too;
-``benchmarks/training_protocols.py`` compares it with the mixed rides on seeds 0-7; BENCHMARKS.md). The road
-model trains on rides of one kind of road event too, which names kerbs, on the speed-normalised vibration
-``rough_y, rough_z`` over windows of 6 samples (development seeds 100-103: 0.900 of the samples right against 0.875
-on ``vib_y, vib_z`` over 10 samples, :data:`~spotfree.signal.features.VIB_TIME_CONSTANT`). Segment-vote
-penalties (``segments``; ``keep``: classes left as labelled), chosen on development seeds 100-103 over 0.5-32
-(BENCHMARKS.md): lateral 4 (0.972 of the samples right against 0.921 causal), road 8 with kerbs kept (0.963 against
-0.899; penalties 12-24 within 0.005 of it, 32 merged a rough patch into the smooth road on seed 100). The lateral
-model's turns are whole events (``events``: the event vote outside ``straight`` after the segment vote; test seeds
-0-7 and 100: sharp turns 0.880 of the samples right against 0.832, slaloms 0.982 against 0.926, no seed worse;
-BENCHMARKS.md). The road's surfaces are not: a rough patch can run into cobblestone. The lateral model's event
-edges (``edges``: where the yaw rate crosses 0.09 rad/s, the labels starting a turn at 0.10; chosen on development
-seeds 100-103 over 0.06-0.12) bring every lateral class to 0.986 or more on each of test seeds 0-7 and 100 (all
-samples 0.974 -> 0.993; BENCHMARKS.md). Kerbs, marked for the 0.35-0.6 s their strike alone moves the platform
-by more than 1 m/s^2, are also scored as strikes detected within 0.5 s (``detections``)."""
+"""Per model: the channels and window it windows; the offline votes it asks for (``segments``: the segment vote's
+penalty, ``keep``: classes the votes leave as labelled, ``events``: the event vote outside the background after the
+segment vote, ``edges``: where an event's start and end move to, by channel and level in its units); ``detections``:
+short classes also scored as detected events. The lateral model reads the yaw rate, the road model the
+speed-normalised vibration (:data:`~spotfree.signal.features.VIB_TIME_CONSTANT`) over windows of 0.5 s; kerbs, which
+move the platform for the few tenths of a second of their strike, are scored as strikes detected within 0.5 s.
+``benchmarks/lateral_road.py`` measures the choices."""
 
 
 KIND_RIDES = {"lateral": (("gentle",), ("sharp",), ("slalom",), ()),
@@ -115,7 +92,7 @@ a confounding turn is 0.15-0.35 rad/s (below :data:`~spotfree.sim.scenarios.SHAR
 class Split:
     """One scenario file as ride features: the training experiments with their declared classes, and the tests."""
 
-    training: list[TrainingExperiment]
+    training: list[tuple[Recording, list[str]]]
     test: Recording
     test_experiments: list[int]
 
@@ -176,7 +153,7 @@ def split(scenario: str, seed: int, repeats: int = 7, n_train: int = 4, rate: fl
         for k in range(1, n_train + 1):
             rec = source.select_experiment(k)
             rec.source = f"{source.meta['scenario']}{kinds} seed {seed} experiment {k}"
-            training.append(TrainingExperiment(rec, declare(rec)))
+            training.append((rec, declare(rec)))
     tests = list(range(n_train + 1, repeats + 1))
     test = feats.take(np.isin(feats.experiment, tests))
     test.source = f"{scenario} seed {seed} experiments {tests[0]}-{tests[-1]}"
@@ -208,15 +185,18 @@ def segment_options(spec: ModelSpec, model: DictionaryModel) -> dict:
             "events": (spec.background,) if spec.events else (), "edges": dict(spec.edges) if spec.events else {}}
 
 
-def train_and_score(spec: ModelSpec, data: Split, seed: int, **changes) -> ModelScore:
-    """Train ``spec`` on ``data.training`` and score it on ``data.test``."""
-    result = train(data.training, spec.config(seed, **changes))
-    causal = classify_recording(result.model, data.test)
+def train_and_score(spec: ModelSpec, data: Split, seed: int, **params) -> ModelScore:
+    """Train ``spec`` on ``data.training`` (``params`` override the learner's parameters) and score it on
+    ``data.test``."""
+    recordings, sets = zip(*data.training)
+    learner = spec.learner(seed, **params).fit(list(recordings), list(sets))
+    model = learner.model_
+    causal = classify_recording(model, data.test)
     per_class, overall = score_labels(causal.label, data.test, spec.scenario)
-    scored = ModelScore(result.model, per_class, overall, result.warnings,
+    scored = ModelScore(model, per_class, overall, list(learner.warnings_),
                         detected=detections(spec, causal.label, data.test))
     if spec.segments:
-        voted = offline_votes(result.model, data.test, causal, **segment_options(spec, result.model)).label
+        voted = offline_votes(model, data.test, causal, **segment_options(spec, model)).label
         scored.segmented, scored.segmented_overall = score_labels(voted, data.test, spec.scenario)
         scored.segmented_detected = detections(spec, voted, data.test)
     return scored

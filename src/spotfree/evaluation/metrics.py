@@ -160,3 +160,17 @@ def label_count(predicted, name: str) -> Score:
     predicted = np.asarray(predicted).astype(str)
     labelled = predicted != ""
     return Score(int(np.sum(predicted == name)), int(labelled.sum()))
+
+
+def naming_scores(window_labels: list[np.ndarray], window_ends: list[np.ndarray], truths: list[np.ndarray],
+                  window: int, classes) -> dict[str, tuple[Score, Score]]:
+    """How spotting-free training named its windows: per class, ``(precision, recall)`` of the window names against
+    the hidden truth at each window's centre sample (``end - window // 2``), over every training recording
+    (``window_labels[r]`` and ``window_ends[r]`` of the recording whose per-sample truth is ``truths[r]``).
+    Precision: windows named the class that are truly it, of those named it; recall: of those truly it."""
+    named = np.concatenate([np.asarray(n).astype(str) for n in window_labels])
+    truth = np.concatenate([np.asarray(t).astype(str)[np.asarray(e) - window // 2]
+                            for t, e in zip(truths, window_ends)])
+    hit = named == truth
+    return {c: (Score(int(np.sum(hit & (named == c))), int(np.sum(named == c))),
+                Score(int(np.sum(hit & (truth == c))), int(np.sum(truth == c)))) for c in classes}

@@ -17,9 +17,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from spotfree.io.recording import Recording
+from spotfree.learner import SetSupervisedLearner
+from spotfree.ride_prior import ride_learner
 from spotfree.signal.features import ride_features
 from spotfree.sim.scenarios import CLASSES, simulate_scenario
-from spotfree.training import TrainingConfig, TrainingExperiment, TrainingResult, train
 
 SCENARIOS = ("normal-braking", "sudden-braking", "cruising")
 """The tested scenarios, in report order."""
@@ -68,10 +69,12 @@ class ScenarioData:
 
 @dataclass
 class Trained:
-    """The training run: its result, the experiments it read (for purity and the figure) and its wall time (s)."""
+    """The training run: the fitted learner, the recordings it read with their declared classes (for the naming's
+    scores and the figure) and its wall time (s)."""
 
-    result: TrainingResult
-    experiments: list[TrainingExperiment]
+    learner: SetSupervisedLearner
+    recordings: list[Recording]
+    class_sets: list[list[str]]
     seconds: float
 
 
@@ -92,14 +95,14 @@ def simulate(protocol: Protocol) -> dict[str, ScenarioData]:
     return data
 
 
-def train_dictionary(data: dict[str, ScenarioData], protocol: Protocol, changes: dict | None = None) -> Trained:
-    """Spotting-free training (:func:`spotfree.training.train`, default configuration with ``changes`` to its
-    fields, clustering seeded with the protocol's seed) on the training experiments, each declared with its
-    scenario's classes."""
-    experiments = [TrainingExperiment(data[s].training, list(CLASSES[s])) for s in TRAINED_ON]
+def train_dictionary(data: dict[str, ScenarioData], protocol: Protocol) -> Trained:
+    """Spotting-free training (:func:`~spotfree.ride_prior.ride_learner`, seeded with the protocol's seed) on the
+    training experiments, each declared with its scenario's classes."""
+    recordings = [data[s].training for s in TRAINED_ON]
+    sets = [list(CLASSES[s]) for s in TRAINED_ON]
     start = time.perf_counter()
-    result = train(experiments, TrainingConfig(**{**(changes or {}), "seed": protocol.seed}))
-    return Trained(result, experiments, time.perf_counter() - start)
+    learner = ride_learner(seed=protocol.seed).fit(recordings, sets)
+    return Trained(learner, recordings, sets, time.perf_counter() - start)
 
 
 def _rename(rec: Recording, source: str) -> Recording:

@@ -50,7 +50,7 @@ class Evaluation:
     protocol: Protocol
     data: dict[str, ScenarioData]
     trained: Trained
-    purity: dict[str, float]
+    naming: dict[str, tuple[Score, Score]]
     crc: dict[str, MethodRuns]
     kcrc: dict[str, MethodRuns]
     methods: dict[str, MethodRuns]
@@ -135,7 +135,7 @@ def _protocol(ev: Evaluation) -> str:
         trained = f"experiment {TRAIN_EXPERIMENT}" if name in TRAINED_ON else "none"
         rows.append([name, str(p.repeats), trained, ", ".join(map(str, d.experiments)), str(len(d.test)),
                      f"{np.mean(lengths):.0f}", ", ".join(CLASSES[name])])
-    model = ev.trained.result.model
+    model = ev.trained.learner.model_
     offset = model.window // 2
     table = _table(["scenario", "experiments", "trained on", "tested", "test samples", "mean ride (samples)",
                     "classes in the truth"], rows)
@@ -164,27 +164,25 @@ label; with centred windows the first {model.window - 1 - offset} and the last {
 
 
 def _training(ev: Evaluation) -> str:
-    result = ev.trained.result
-    model = result.model
+    learner = ev.trained.learner
+    model = learner.model_
     columns = model.summary.get("columns_per_class", {})
-    rows = [[c, str(columns.get(c, 0)), _fraction(ev.purity.get(c))] for c in model.classes]
-    declared = sorted({c for s in TRAINED_ON for c in CLASSES[s]})
-    rows += [[c, "0", "-"] for c in declared if c not in model.classes]
-    warnings = "\n" + "".join(f"\n- warning: {w}" for w in result.warnings) if result.warnings else ""
+    rows = [[c, str(columns.get(c, 0)), _pct(precision), _pct(recall)] for c, (precision, recall) in ev.naming.items()]
+    warnings = "\n" + "".join(f"\n- warning: {w}" for w in learner.warnings_) if learner.warnings_ else ""
     return f"""## Training
 
-`spotfree.training.train` with its default configuration (channels `{",".join(model.channels)}`, window
-{model.window} samples, recipe `{model.parameters.get("recipe")}`), seed {ev.protocol.seed}:
-{model.dictionary.shape[1]} dictionary columns in {ev.trained.seconds:.1f} s. Purity: the share of a class's columns
-whose window centre has that class in the hidden ground truth (the paper aims at pure class representatives; it
-quotes no number).
+`spotfree.ride_prior.ride_learner` (the general learner on `{model.representation}` windows of
+`{",".join(model.channels)}`, {model.window} samples, with the ride prior), seed {ev.protocol.seed}:
+{model.dictionary.shape[1]} dictionary columns in {ev.trained.seconds:.1f} s. Naming: how the learner named the
+training windows against the hidden ground truth at each window's centre (precision: the windows it named the class
+that are that class; recall: the class's windows it named so). Training never reads the truth.
 
-{_table(["class", "columns", "purity"], rows)}{warnings}
+{_table(["class", "columns", "naming precision %", "naming recall %"], rows)}{warnings}
 
 ![training](training.png)
 
-Each row is a training experiment: its `{model.channels[0]}` channel coloured by first-level cluster, by nested
-cluster, and by the name of the windows kept in the dictionary (grey: dropped)."""
+Each row is a training experiment: its `{model.channels[0]}` channel, each window's centre coloured by the name the
+learner gave it."""
 
 
 def _accuracy(ev: Evaluation) -> str:
@@ -238,7 +236,7 @@ Per cent of the labelled samples of a true class labelled as that class (its rec
 
 
 def _confusions(ev: Evaluation) -> str:
-    model_classes = list(ev.trained.result.model.classes)
+    model_classes = list(ev.trained.learner.model_.classes)
     parts = ["## Confusion matrices (causal windows, all labelled samples)\n\nRows: true class; columns: label."]
     for name in SCENARIOS:
         truth = ev.data[name].test.truth["label"]
@@ -438,10 +436,6 @@ def _notes(runs: dict[str, MethodRuns]) -> str:
 
 def _pct(score: Score) -> str:
     return "-" if not score.total else f"{100 * score.rate:.2f}"
-
-
-def _fraction(value: float | None) -> str:
-    return "-" if value is None else f"{value:.3f}"
 
 
 def _seconds(value: float) -> str:

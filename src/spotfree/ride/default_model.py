@@ -3,12 +3,10 @@
 Training set: the paper's protocol, as ``spotfree evaluate`` uses it, so the served model is the one its report
 measures: experiment :data:`TRAINING_EXPERIMENT` of the simulator's :data:`SCENARIOS` files (seven experiments,
 seed :data:`SEED`), ride features with the derived channels, each recording declaring its scenario's classes (no
-sample is labelled), :class:`~spotfree.training.TrainingConfig` defaults (600 / 65 / 44 columns of cruising / normal
-/ sudden braking). Pooling more rides from more riders named no sudden-braking group (measured with the defaults of
-2026-11-22: 3 rides of each of the three braking scenarios gave 100/100/0 columns). A few seconds; the file is
-written to ``$SPOTFREE_CACHE`` (default ``$XDG_CACHE_HOME/spotfree`` or ``~/.cache/spotfree``) under a name that
-carries the spotfree version, the training recipe and configuration and a digest of the training and naming code,
-so a change of any of them trains afresh.
+sample is labelled), learnt by :func:`~spotfree.ride_prior.ride_learner`. A few seconds; the file is written to
+``$SPOTFREE_CACHE`` (default ``$XDG_CACHE_HOME/spotfree`` or ``~/.cache/spotfree``) under a name that carries the
+spotfree version, the training recipe, the learner's parameters and a digest of the learner's code, so a change of
+any of them trains afresh.
 """
 
 from __future__ import annotations
@@ -45,31 +43,30 @@ def _recipe_key() -> str:
         release = version("spotfree")
     except PackageNotFoundError:
         release = "0"
-    from dataclasses import asdict
 
-    from spotfree.training import TrainingConfig
+    import spotfree.learner
+    import spotfree.representation
+    import spotfree.ride_prior
+    from spotfree.ride_prior import ride_learner
 
-    import spotfree.naming
-    import spotfree.training
-
-    code = hashlib.sha256(b"".join(Path(m.__file__).read_bytes() for m in (spotfree.training, spotfree.naming)))
+    code = hashlib.sha256(b"".join(Path(m.__file__).read_bytes()
+                                   for m in (spotfree.learner, spotfree.representation, spotfree.ride_prior)))
     recipe = {"scenarios": SCENARIOS, "repeats": REPEATS, "experiment": TRAINING_EXPERIMENT, "seed": SEED,
-              "version": release, "config": asdict(TrainingConfig()), "code": code.hexdigest()}
+              "version": release, "learner": repr(ride_learner(seed=SEED)), "code": code.hexdigest()}
     return hashlib.sha256(json.dumps(recipe, sort_keys=True).encode()).hexdigest()[:12]
 
 
 def train_default_model(progress: Callable[[str], None] | None = None) -> DictionaryModel:
     """Train the default model on simulated rides (see the module docstring)."""
+    from spotfree.ride_prior import ride_learner
     from spotfree.signal.features import ride_features
     from spotfree.sim.scenarios import CLASSES, simulate_scenario
-    from spotfree.training import TrainingExperiment, train
 
-    experiments = [
-        TrainingExperiment(ride_features(simulate_scenario(scenario, repeats=REPEATS, seed=SEED), derived=True)
-                           .select_experiment(TRAINING_EXPERIMENT), list(CLASSES[scenario]))
-        for scenario in SCENARIOS
-    ]
-    return train(experiments, progress=progress).model
+    recordings = [ride_features(simulate_scenario(scenario, repeats=REPEATS, seed=SEED), derived=True)
+                  .select_experiment(TRAINING_EXPERIMENT) for scenario in SCENARIOS]
+    if progress:
+        progress("learning the default model from class sets")
+    return ride_learner(seed=SEED).fit(recordings, [list(CLASSES[s]) for s in SCENARIOS]).model_
 
 
 def default_model(progress: Callable[[str], None] | None = None) -> DictionaryModel:

@@ -152,8 +152,8 @@ def ride_features(rec: Recording, orientation: str = "default", zero_phase: bool
                   derived: bool = False, mount: str | np.ndarray | None = None) -> Recording:
     """The six :data:`FEATURE_CHANNELS` of ``rec`` on its own grid (same experiment column, truth and gaps),
     followed by the :data:`DERIVED_CHANNELS` when ``derived``, and the log's GPS ``speed`` (m/s, NaN between fixes)
-    as it is when it has one (training reads it: :func:`spotfree.training.train`); ``meta`` says ``features="ride"`` and the
-    ``orientation``, so that a model trained on them knows how to make them from a raw log.
+    as it is when it has one (the ride prior reads it: :class:`spotfree.ride_prior.RidePrior`); ``meta`` says
+    ``features="ride"`` and the ``orientation``, so that a model trained on them knows how to make them from a raw log.
 
     ``mount``: the device-to-vehicle rotation, a ``(3, 3)`` matrix (``v_vehicle = mount @ v_device``) or a choice
     of :func:`~spotfree.signal.mount.estimate_mount` (``auto``, ``estimate``, ``flat``, ``upright``); None takes
