@@ -11,6 +11,7 @@ import pytest
 
 from spotfree.io.recording import Recording
 from spotfree.model import DictionaryModel
+from spotfree.representation import represent
 from spotfree.signal.features import ride_features
 from spotfree.sim.scenarios import simulate_scenario
 from spotfree.windows import ChannelScaling, recording_windows
@@ -36,19 +37,26 @@ def model(raw) -> DictionaryModel:
 
 
 def truth_model(raw: Recording, channels=CHANNELS, window: int = 20, step: int = 1, normalisation: str = "scale",
-                affine: float = 6.0, features: str = "ride", stride: int = 3) -> DictionaryModel:
+                affine: float = 6.0, features: str = "ride", stride: int = 3,
+                representation: str = "hankel") -> DictionaryModel:
     """A dictionary of every ``stride``-th window of ``raw``'s ride features, each named by the true label at its
-    centre."""
+    centre; a ``summary`` one standardised over its columns (and without the affine row)."""
     feats = ride_features(raw, derived=True)
     scaling = ChannelScaling(tuple(channels)).fit([feats])
     windows = recording_windows(feats, tuple(channels), window, stride, scaling, normalisation)
     names = feats.truth["label"][windows.ends - window // 2]
     classes = sorted(set(names))
+    columns, offset, scale, parameters = windows.matrix, None, None, {"affine": affine}
+    if representation == "summary":
+        rows = represent(windows.matrix, len(channels), "summary")
+        offset, scale, parameters = rows.mean(axis=0), rows.std(axis=0), {}
+        scale = np.where(scale > 1e-6 * scale.max(), scale, 1.0)
+        columns = ((rows - offset) / scale).T
     return DictionaryModel(
         classes=classes, channels=list(channels), rate=feats.rate, window=window, step=step,
-        normalisation=normalisation, scale=scaling.scale, dictionary=windows.matrix,
+        normalisation=normalisation, scale=scaling.scale, dictionary=columns,
         column_class=np.array([classes.index(n) for n in names]), features=features,
-        parameters={"affine": affine},
+        parameters=parameters, representation=representation, feature_offset=offset, feature_scale=scale,
     )
 
 

@@ -57,6 +57,25 @@ def test_stream_labels_equal_batch_causal_labels(models, ride):
         np.testing.assert_array_equal(streamed, table[name].to_numpy())
 
 
+def test_stream_labels_equal_batch_for_summary_models_of_different_windows(models, ride):
+    """Summary models run in the compiled step too; their windows of different lengths share the ring. (Their
+    dictionaries are drawn from the rides themselves: a window far from every column leaves kernel CRC_RLS's residuals
+    tied at 1, which the batch and the single-window arithmetic may break differently.)"""
+    rides = simulate_scenario("lateral", repeats=2, seed=11)
+    mixed = {"braking": models["braking"],
+             "lateral": truth_model(rides, channels=("yaw_rate",), window=30, representation="summary"),
+             "road": truth_model(rides, channels=("rough_y", "rough_z"), window=10, representation="summary")}
+    table = classify_models(mixed, ride)
+    stream = MultiModelStream(mixed)
+    assert stream._ring.models_["compiled"].all() and list(stream._ring.models_["summary"]) == [False, True, True]
+    acc, gyr, speed = ride.array(["ax", "ay", "az"]), ride.array(["gx", "gy", "gz"]), ride.channels["speed"]
+    got = [stream.update(a, w, t, s) for a, w, t, s in zip(acc, gyr, ride.time, speed)]
+    for k, name in enumerate(stream.names):
+        streamed = np.array(["" if labels[k] is None else labels[k] for labels in got])
+        np.testing.assert_array_equal(streamed, table[name].to_numpy())
+        assert len(set(streamed) - {""}) > 1  # the labels move: equality is not trivial
+
+
 def test_models_that_cannot_share_one_feature_pass_are_refused(models):
     other = dict(models, road=models["road"].__class__(**{**vars(models["road"]), "rate": 50.0}))
     with pytest.raises(InputError, match="cannot share one feature pass"):

@@ -82,7 +82,7 @@ def test_a_ride_model_needs_ride_feature_channels(raw):
 
 def test_stream_equals_batch_for_a_model_of_the_general_learner(raw):
     """Models of :class:`~spotfree.learner.SetSupervisedLearner` run live and give the batch labels: a hankel model in
-    compiled code like any other, a summary model with its representation computed per window."""
+    compiled code like any other, a summary model too, with its representation computed in the compiled step."""
     from spotfree.learner import SetSupervisedLearner
     from spotfree.ride_prior import RidePrior
 
@@ -94,5 +94,7 @@ def test_stream_equals_batch_for_a_model_of_the_general_learner(raw):
     np.testing.assert_array_equal(labels, classify_recording(learner.model_, raw).label)
     summary = SetSupervisedLearner(channels=("acc_long", "pitch_rate"), rounds=0).fit(
         rides, [{"cruising", "normal-braking", "sudden-braking"}] * len(rides)).model_
-    labels = stream_labels(RideClassifier(summary), raw)
+    live = RideClassifier(summary)
+    assert live._ring.models_["summary"].all() and live._ring.models_["compiled"].all()
+    labels = stream_labels(live, raw)
     np.testing.assert_array_equal(labels, classify_recording(summary, raw).label)

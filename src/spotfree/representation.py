@@ -19,13 +19,17 @@ the vector the dictionary holds and the classifier compares:
     periodic motion is shifted in phase, and keep a level (a hard stop against a soft one) and a short peak (a
     kerb strike's ``max``).
 
-Both are computed for a whole matrix at once and for one window (streaming) by the same function.
+Both are computed for a whole matrix at once and for one window (streaming) by the same compiled kernel
+(:func:`~spotfree.classify.kernels.summary_features`, with the tables of :func:`summary_tables`).
 """
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
+from spotfree.classify.kernels import summary_matrix
 from spotfree.errors import InputError
 
 REPRESENTATIONS = ("summary", "hankel")
@@ -45,6 +49,22 @@ def band_edges(length: int, bands: int = BANDS) -> np.ndarray:
     return np.unique(edges)
 
 
+@lru_cache(maxsize=64)
+def summary_tables(length: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
+    """The tables of the ``summary`` representation of windows of ``length`` samples: the Hann taper ``(L,)``, the
+    cosines and sines ``(bins, L)`` of the spectral bins ``k = 1 .. L // 2`` (``cos(2 pi k t / L)``,
+    ``-sin(2 pi k t / L)``), the band of each bin ``(bins,)`` (:func:`band_edges`) and the number of bands. Read
+    only."""
+    edges = band_edges(length)
+    bins = np.arange(1, edges[-1]) if len(edges) > 1 else np.arange(0)
+    angle = 2 * np.pi * np.outer(bins, np.arange(length)) / length
+    band = np.searchsorted(edges, bins, side="right") - 1
+    tables = (np.hanning(length + 2)[1:-1], np.cos(angle), -np.sin(angle), band.astype(np.int64), len(edges) - 1)
+    for table in tables[:4]:
+        table.setflags(write=False)
+    return tables
+
+
 def represent(windows: np.ndarray, channels: int, representation: str) -> np.ndarray:
     """Representation of every column of ``windows`` ``(channels * L, m)``, as rows: ``(m, p)``.
 
@@ -61,14 +81,10 @@ def represent(windows: np.ndarray, channels: int, representation: str) -> np.nda
     if channels < 1 or d % channels:
         raise InputError(f"windows of {d} values do not split into {channels} channels")
     length = d // channels
-    x = windows.T.reshape(m, channels, length)
-    mean = x.mean(axis=2)
-    spectrum = np.abs(np.fft.rfft((x - mean[..., None]) * np.hanning(length + 2)[1:-1], axis=2)) ** 2 / length
-    edges = band_edges(length)
-    power = (np.add.reduceat(spectrum, edges[:-1], axis=2) if len(edges) > 1 else np.zeros((m, channels, 0)))
-    parts = [mean, x.std(axis=2), x.min(axis=2), x.max(axis=2)]
-    features = np.concatenate([np.stack(parts, axis=2), np.log1p(power)], axis=2)
-    return np.ascontiguousarray(features.reshape(m, -1))
+    taper, cos, sin, band, bands = summary_tables(length)
+    out = np.empty((m, channels * (4 + bands)))
+    summary_matrix(np.ascontiguousarray(windows.T), channels, taper, cos, sin, band, bands, out)
+    return out
 
 
 def representation_size(channels: int, length: int, representation: str) -> int:

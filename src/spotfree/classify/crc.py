@@ -13,7 +13,7 @@ Batch: the ``C`` operators stacked, ``E = [E_1; ...; E_C]`` ``(C d, d)``, turn a
 product ``Z = Y E^T`` (``2 C d^2`` flops per window, BLAS), then the norm of each ``d``-block of each row of ``Z``
 is taken. Chunks keep ``Z`` in cache; threads take whole chunks, each with a single-threaded BLAS (on a shared
 machine this was 4x faster than one multithreaded BLAS call per chunk, BENCHMARKS.md). Streaming (:meth:`CRCClassifier.predict_one`): one compiled
-kernel (:func:`~spotfree.classify.ring.crc_window`) computes the ``C`` norms of ``E y`` and the argmin for a single
+kernel (:func:`~spotfree.classify.kernels.crc_window`) computes the ``C`` norms of ``E y`` and the argmin for a single
 window, without numpy's per-call overhead.
 """
 
@@ -28,7 +28,7 @@ from sklearn.utils.validation import check_is_fitted
 from threadpoolctl import ThreadpoolController
 
 from spotfree.classify.base import UNKNOWN, ResidualClassifier
-from spotfree.classify.ring import crc_window
+from spotfree.classify.kernels import crc_window
 from spotfree.errors import InputError
 
 DTYPES = ("float64", "float32")

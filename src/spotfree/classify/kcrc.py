@@ -33,7 +33,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from spotfree.classify.base import UNKNOWN, ResidualClassifier
 from spotfree.classify.crc import CRCClassifier
-from spotfree.classify.ring import crc_window, kernel_features, kernel_residual
+from spotfree.classify.kernels import crc_window, kernel_features, kernel_residual
 from spotfree.errors import InputError
 
 
@@ -87,10 +87,28 @@ class KernelCRCClassifier(ResidualClassifier):
         """``phi`` of every row of ``X``, ``(n, m)``."""
         return _kernel(X, self.landmarks_, self.gamma_) @ self.normalisation_.T
 
-    def _residuals(self, X: np.ndarray) -> np.ndarray:
+    def _parts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The residuals of CRC_RLS on the features ``(n, C)`` and the squared part of ``phi(y)`` outside the
+        landmarks' span ``(n,)``: ``1 - ||phi||^2``, since ``||phi(y)||^2 = k(y, y) = 1`` in all."""
         phi = self._features(X)
-        outside = np.maximum(1.0 - np.einsum("ij,ij->i", phi, phi), 0.0)  # ||phi(y)||^2 = k(y, y) = 1 in all
-        return np.sqrt(self.crc_._residuals(phi) ** 2 + outside[:, None])
+        return self.crc_._residuals(phi), np.maximum(1.0 - np.einsum("ij,ij->i", phi, phi), 0.0)
+
+    def _residuals(self, X: np.ndarray) -> np.ndarray:
+        inside, outside = self._parts(X)
+        return np.sqrt(inside ** 2 + outside[:, None])
+
+    def predict(self, X) -> np.ndarray:
+        """Class of each window (row of ``X``), :data:`UNKNOWN` where rejected. The class is the argmin of the
+        residuals inside the landmarks' span (the part outside is the same for every class), so that a window far
+        from every landmark, whose ``r_i`` all round to 1, is ranked as :meth:`predict_one` and the streaming step
+        rank it."""
+        X = self._check_windows(X)
+        inside, outside = self._parts(X)
+        labels = self.classes_[np.argmin(inside, axis=1)]
+        if self.reject is None:
+            return labels
+        rejected = np.sqrt(inside.min(axis=1) ** 2 + outside) > self.reject
+        return np.where(rejected, UNKNOWN, labels.astype(object))
 
     def _window_norms(self, X: np.ndarray) -> np.ndarray:
         return np.ones(len(X))

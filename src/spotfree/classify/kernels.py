@@ -1,0 +1,224 @@
+"""Compiled kernels of classification and streaming: CRC_RLS and kernel CRC_RLS on one window, the ``summary``
+representation of a window, and the per-sample step of :class:`~spotfree.classify.ring.ModelRing`.
+
+:func:`ring_step` stores one feature sample in the ring buffer (columns ``p`` and ``p + L_max`` hold the newest
+sample, so the last ``L`` samples of any model are contiguous) and, for every model whose window is due (the segment
+holds ``n >= L`` samples and ``(n - L) % step == 0``), gathers its window channel by channel, divides each channel by
+its scale, divides the whole by its l2 norm for ``unit`` models, appends the affine row, represents it
+(:func:`summary_features`, for ``summary`` models) and -- for CRC_RLS -- takes the class residuals and their argmin
+(:func:`crc_window`); for kernel CRC_RLS it first maps the window to its Nystroem features (:func:`kernel_features`).
+
+They share one module because numba's disk cache only notices changes in the file of the function it caches, so a
+compiled call chain stays inside one file. The module imports nothing of spotfree, so the classifiers and the
+representations use its kernels without an import circle.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+# Reassociation lets the compiler vectorise the sums; no finite-math flags, so NaN checks stay.
+_FAST = {"reassoc", "contract", "nsz", "arcp"}
+
+MODEL = np.dtype([
+    ("window", "i8"), ("step", "i8"), ("first", "i8"), ("channels", "i8"), ("d", "i8"), ("y", "i8"),
+    ("affine", "f8"), ("unit", "?"), ("compiled", "?"), ("classes", "i8"), ("operator", "i8"), ("reject", "f8"),
+    ("kernel", "?"), ("landmarks", "i8"), ("m", "i8"), ("features", "i8"), ("phi", "i8"), ("gamma", "f8"),
+    ("code", "i8"), ("summary", "?"), ("bins", "i8"), ("bands", "i8"), ("tables", "i8"), ("z", "i8"), ("p", "i8"),
+])
+"""One row per model of :func:`ring_step`'s table: window ``L`` and ``step`` (samples); ``first``, ``channels``: its
+slice of the flat ``picks`` / ``scales``; ``d`` and ``y``: its window length (``channels L`` plus the affine row when
+``affine != 0``) and offset in the flat ``windows``; ``unit``: l2-normalised columns; ``compiled``: CRC_RLS in the
+kernel, with ``classes``, its operator's offset in the flat ``operators`` and the ``reject`` threshold (inf: off);
+``kernel``: kernel CRC_RLS, its ``m`` landmarks (``m d``) and then its normalisation (``features m``) at offset
+``landmarks`` of the flat ``kernels``, ``gamma``, and ``phi`` the offset of its features in ``windows``.
+``summary``: the window is represented by :func:`summary_features` (``bins`` spectral bins in ``bands`` bands) into
+the ``p`` values at offset ``z`` of ``windows``, with its tables (:func:`spotfree.representation.summary_tables`: taper
+``L``, cosines and sines ``bins L``, band of each bin ``bins``) and then its standardisation (offset ``p``, scale
+``p``) at offset ``tables`` of ``kernels``; the classifier then reads those ``p`` values.
+``code`` is the result of the last sample (:data:`NOT_DUE`, :data:`IN_PYTHON`, :data:`NOT_FINITE`, or the class index,
+``classes`` meaning rejected)."""
+NOT_DUE, IN_PYTHON, NOT_FINITE = -1, -2, -3
+
+
+@numba.njit(cache=True, nogil=True, fastmath=_FAST)
+def crc_window(operator, n_classes, y):  # pragma: no cover - compiled
+    """Best class of ``y`` under the stacked operator ``(C d, d)`` and ``min_i r_i / ||y||``; ``-1`` if not finite."""
+    d = y.shape[0]
+    norm2 = 0.0
+    for j in range(d):
+        norm2 += y[j] * y[j]
+    if not np.isfinite(norm2):
+        return -1, np.nan
+    best, best_r2 = 0, np.inf
+    for c in range(n_classes):
+        r2 = 0.0
+        for i in range(c * d, (c + 1) * d):
+            row = operator[i]
+            e = 0.0
+            for j in range(d):
+                e += row[j] * y[j]
+            r2 += e * e
+        if r2 < best_r2:
+            best, best_r2 = c, r2
+    ratio = np.sqrt(best_r2 / norm2) if norm2 > 0 else np.inf
+    return best, ratio
+
+
+@numba.njit(cache=True, nogil=True, fastmath=_FAST)
+def kernel_features(landmarks, normalisation, gamma, y, phi):  # pragma: no cover - compiled
+    """``phi = normalisation exp(-gamma ||y - l_a||^2)_a`` (Nystroem features of ``y``); returns ``||phi||^2``, or
+    -1 if ``y`` is not finite."""
+    m, d = landmarks.shape
+    for j in range(d):
+        if not np.isfinite(y[j]):
+            return -1.0
+    k = np.empty(m)
+    for a in range(m):
+        s = 0.0
+        for j in range(d):
+            e = y[j] - landmarks[a, j]
+            s += e * e
+        k[a] = np.exp(-gamma * s)
+    norm2 = 0.0
+    for r in range(normalisation.shape[0]):
+        s = 0.0
+        for a in range(m):
+            s += normalisation[r, a] * k[a]
+        phi[r] = s
+        norm2 += s * s
+    return norm2
+
+
+@numba.njit(cache=True, nogil=True)
+def kernel_residual(ratio, norm2):  # pragma: no cover - compiled
+    """Kernel CRC_RLS's ``min_i r_i`` from CRC_RLS's ``min_i r_i / ||phi||`` on the features and ``||phi||^2``: the
+    feature vector's part outside the landmarks' span (``1 - ||phi||^2``) added (``spotfree.classify.kcrc``)."""
+    return np.sqrt(max(ratio * ratio * norm2 + 1.0 - norm2, 0.0))
+
+
+@numba.njit(cache=True, nogil=True)  # no reassociation: the same bits in batch and in the ring step
+def summary_features(x, channels, taper, cos, sin, band, bands, out):  # pragma: no cover - compiled
+    """The ``summary`` representation of one window ``x`` ``(channels L,)`` (channels stacked, each in time order)
+    into ``out`` ``(channels (4 + bands),)``: per channel its mean, standard deviation, minimum, maximum and
+    ``log(1 + sum_{k in band b} |X_k|^2 / L)`` per band, ``X_k`` the spectral bin ``k`` of the tapered, mean-removed
+    channel from the rows ``cos``, ``sin`` ``(bins, L)`` of the tables, ``band`` ``(bins,)`` each bin's band
+    (:func:`spotfree.representation.summary_tables`)."""
+    length = x.shape[0] // channels
+    width = 4 + bands
+    v = np.empty(length)
+    for c in range(channels):
+        first = c * length
+        total, low, high = 0.0, np.inf, -np.inf
+        for t in range(length):
+            s = x[first + t]
+            total += s
+            low = min(low, s)
+            high = max(high, s)
+        mean = total / length
+        var = 0.0
+        for t in range(length):
+            e = x[first + t] - mean
+            var += e * e
+            v[t] = e * taper[t]
+        o = c * width
+        out[o], out[o + 1], out[o + 2], out[o + 3] = mean, np.sqrt(var / length), low, high
+        for b in range(bands):
+            out[o + 4 + b] = 0.0
+        for k in range(cos.shape[0]):
+            re, im = 0.0, 0.0
+            for t in range(length):
+                re += cos[k, t] * v[t]
+                im += sin[k, t] * v[t]
+            out[o + 4 + int(band[k])] += (re * re + im * im) / length
+        for b in range(bands):
+            out[o + 4 + b] = np.log1p(out[o + 4 + b])
+
+
+@numba.njit(cache=True, nogil=True)
+def summary_matrix(windows, channels, taper, cos, sin, band, bands, out):  # pragma: no cover - compiled
+    """:func:`summary_features` of every row of ``windows`` ``(m, channels L)`` into the rows of ``out``."""
+    for i in range(windows.shape[0]):
+        summary_features(windows[i], channels, taper, cos, sin, band, bands, out[i])
+
+
+@numba.njit(cache=True, nogil=True)
+def ring_step(ring, cursor, models, picks, scales, operators, kernels, windows, values):  # pragma: no cover - compiled
+    """Store ``values`` ``(F,)`` in ``ring`` ``(F, 2 L_max)`` and set every model's ``code`` (see :data:`MODEL`);
+    ``cursor`` is ``[position, samples in the segment]``, advanced here."""
+    length = ring.shape[1] // 2
+    p = cursor[0]
+    for i in range(values.shape[0]):
+        ring[i, p] = values[i]
+        ring[i, p + length] = values[i]
+    n = cursor[1] + 1
+    cursor[0] = (p + 1) % length
+    cursor[1] = n
+    for m in range(models.shape[0]):
+        model = models[m]
+        window = model.window
+        if n < window or (n - window) % model.step != 0:
+            model.code = NOT_DUE
+            continue
+        y = windows[model.y:model.y + model.d]
+        k, norm2 = 0, 0.0
+        for i in range(model.channels):
+            row, scale = ring[picks[model.first + i]], scales[model.first + i]
+            for j in range(p + length - window + 1, p + length + 1):
+                y[k] = row[j] / scale
+                norm2 += y[k] * y[k]
+                k += 1
+        if model.unit and norm2 > 0:
+            norm = np.sqrt(norm2)
+            for k in range(model.channels * window):
+                y[k] /= norm
+        if model.affine != 0:
+            y[model.d - 1] = model.affine
+        if not model.compiled:
+            model.code = IN_PYTHON
+            continue
+        d = model.d
+        if model.summary:
+            t, bins, q = model.tables, model.bins, model.p
+            taper = kernels[t:t + window]
+            cos = kernels[t + window:t + window + bins * window].reshape(bins, window)
+            sin = kernels[t + window + bins * window:t + window + 2 * bins * window].reshape(bins, window)
+            t += window + 2 * bins * window
+            z = windows[model.z:model.z + q]
+            summary_features(y, model.channels, taper, cos, sin, kernels[t:t + bins], model.bands, z)
+            t += bins
+            for i in range(q):
+                z[i] = (z[i] - kernels[t + i]) / kernels[t + q + i]
+            y, d = z, q
+        if model.kernel:
+            size = model.m * d
+            landmarks = kernels[model.landmarks:model.landmarks + size].reshape(model.m, d)
+            normalisation = kernels[model.landmarks + size:model.landmarks + size + model.features * model.m]
+            phi = windows[model.phi:model.phi + model.features]
+            norm2 = kernel_features(landmarks, normalisation.reshape(model.features, model.m), model.gamma, y, phi)
+            if norm2 < 0:
+                model.code = NOT_FINITE
+                continue
+            y, d = phi, model.features
+        size = model.classes * d * d
+        operator = operators[model.operator:model.operator + size].reshape(model.classes * d, d)
+        best, ratio = crc_window(operator, model.classes, y)
+        if model.kernel:
+            ratio = kernel_residual(ratio, norm2)
+        if best < 0:
+            model.code = NOT_FINITE
+        elif ratio > model.reject:
+            model.code = model.classes
+        else:
+            model.code = best
+
+
+@numba.njit(cache=True, nogil=True)
+def ring_block(ring, cursor, models, picks, scales, operators, kernels, windows, values, codes):  # pragma: no cover
+    """:func:`ring_step` for every row of ``values`` ``(n, F)``; ``codes`` ``(n, models)`` receives each model's
+    ``code`` after each row."""
+    for k in range(values.shape[0]):
+        ring_step(ring, cursor, models, picks, scales, operators, kernels, windows, values[k])
+        for m in range(models.shape[0]):
+            codes[k, m] = models[m].code
