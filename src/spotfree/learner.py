@@ -73,6 +73,10 @@ from which the summary warns."""
 LANDMARKS = 128
 """Nystroem landmarks of the kernel CRC_RLS that labels with the dictionary
 (:class:`~spotfree.classify.kcrc.KernelCRCClassifier`; a window costs about ``m d + 2 C m^2`` operations)."""
+AFFINE = 6.0
+"""Constant row appended to a ``hankel`` window and to every column when classifying (``parameters["affine"]``): a
+window is then represented by an affine combination of columns, which CRC_RLS needs once a class holds as many columns
+as a window has values (every class then spans every window); the kernel's distances do not change."""
 LEAF = 8
 """Fewest windows in a leaf of the relabelling trees: a posterior averages several windows, so that a few wrong
 names among the training windows do not decide a leaf."""
@@ -390,7 +394,8 @@ class SetSupervisedLearner(BaseEstimator):
             feature_scale=scale if self.representation == "summary" else None,
             features=recordings[0].meta.get("features", "channels"),
             orientation=recordings[0].meta.get("orientation", "default"),
-            parameters={"groups": self.groups, "rounds": self.rounds, "smoothing": self.smoothing,
+            parameters={"affine": AFFINE if self.representation == "hankel" else 0.0, "groups": self.groups,
+                        "rounds": self.rounds, "smoothing": self.smoothing,
                         "max_columns": self.max_columns, "seed": self.seed, "landmarks": LANDMARKS,
                         "prior": type(self.prior).__name__ if self.prior is not None else None},
             summary=summary,
