@@ -23,6 +23,7 @@ from spotfree.classify.kcrc import KernelCRCClassifier
 from spotfree.classify.stream import MAX_GAP, RideClassifier, segment_runs, starts_segment
 from spotfree.errors import InputError
 from spotfree.model import DictionaryModel
+from spotfree.representation import summary_tables
 from spotfree.ride.records import FEATURE_COLUMNS, SAMPLE_COLUMNS
 from spotfree.signal.butterworth import butter_lowpass
 from spotfree.signal.complementary import pi_complementary_design
@@ -110,7 +111,10 @@ def pipeline_spec(model: DictionaryModel, classifier=None) -> dict:
     (Butterworth sections), ``lean`` (``b``, ``a``, ``c``), ``speed_aided`` (noise densities), ``operator``
     (the ``(C d, d)`` residual operators, flat, row-major), ``reject`` (None when off), ``kernel`` (None for
     CRC_RLS; for kernel CRC_RLS ``gamma``, the ``m`` ``landmarks`` ``(m, d)`` and the ``normalisation``
-    ``(f, m)``, flat, row-major, and then ``operator`` acts on the ``f`` features).
+    ``(f, m)``, flat, row-major, and then ``operator`` acts on the ``f`` features), ``summary`` (None for a
+    ``hankel`` model; for a ``summary`` one the tables of :func:`~spotfree.representation.summary_tables`: ``taper``,
+    ``cos`` and ``sin`` ``(bins, L)`` flat, ``band``, ``bands``, and the standardisation ``offset``, ``scale``; the
+    classifier then acts on the represented window).
     """
     if model.features != "ride":
         raise InputError("the page pipeline needs a model of ride features")
@@ -136,6 +140,12 @@ def pipeline_spec(model: DictionaryModel, classifier=None) -> dict:
         attitude = {"kind": "paper", "a": design.a.tolist(), "b_rate": design.b_rate.tolist(),
                     "b_acc": design.b_acc.tolist(),
                     "zi": scipy.signal.lfilter_zi(design.b_acc, design.a).tolist()}
+    summary = None
+    if model.representation == "summary":
+        taper, cos, sin, band, bands = summary_tables(model.window)
+        summary = {"taper": taper.tolist(), "cos": cos.reshape(-1).tolist(), "sin": sin.reshape(-1).tolist(),
+                   "band": band.tolist(), "bands": int(bands), "offset": model.feature_offset.tolist(),
+                   "scale": model.feature_scale.tolist()}
     b, a, c = lean_coefficients(model.rate)
     return {
         "classes": [str(name) for name in clf.classes_],
@@ -158,4 +168,5 @@ def pipeline_spec(model: DictionaryModel, classifier=None) -> dict:
         "operator": operators.reshape(-1).tolist(),
         "reject": clf.reject,
         "kernel": kernel,
+        "summary": summary,
     }

@@ -1,8 +1,8 @@
 // The server's streaming pipeline in the browser (spotfree.ride.live.pipeline_spec gives the numbers):
 // device-to-vehicle axes, attitude filter (GravityPI or the paper's PI filter), gravity-free level
 // accelerations through a 3rd-order Butterworth, lean, speed-aided longitudinal acceleration, the model's
-// channels scaled into a ring buffer, and CRC_RLS on each due window: r_i = ||E_i y||, label = argmin_i r_i (kernel
-// CRC_RLS: the same on the window's Nystroem features).
+// channels scaled into a ring buffer, each due window represented (summary models), and CRC_RLS on it:
+// r_i = ||E_i y||, label = argmin_i r_i (kernel CRC_RLS: the same on the window's Nystroem features).
 // Same operations in the same order as spotfree.signal.* and spotfree.classify.stream, so labels are equal.
 // Units: m/s^2, rad/s, s; device frame of Android (x right, y up, z out of the screen).
 "use strict";
@@ -276,9 +276,41 @@
           const norm = Math.sqrt(norm2);
           for (k = 0; k < this.d; k++) this.y[k] /= norm;
         }
-        this.label = this.classify(this.y);
+        this.label = this.classify(s.summary ? this.summarise(this.y) : this.y);
       }
       return this.label;
+    }
+    summarise(y) {
+      // summary representation (spotfree.representation): per channel mean, std, min, max and the log power of the
+      // tapered, mean-removed window in each band, log(1 + sum_{k in band} |X_k|^2 / L); then standardised
+      const S = this.spec.summary, c = this.spec.channels.length, L = this.spec.window, bins = S.band.length;
+      const width = 4 + S.bands, z = new Float64Array(c * width), v = new Float64Array(L);
+      for (let i = 0; i < c; i++) {
+        let total = 0.0, low = Infinity, high = -Infinity;
+        for (let t = 0; t < L; t++) {
+          const x = y[i * L + t];
+          total += x;
+          low = Math.min(low, x);
+          high = Math.max(high, x);
+        }
+        const mean = total / L;
+        let variance = 0.0;
+        for (let t = 0; t < L; t++) {
+          const e = y[i * L + t] - mean;
+          variance += e * e;
+          v[t] = e * S.taper[t];
+        }
+        const o = i * width;
+        z[o] = mean; z[o + 1] = Math.sqrt(variance / L); z[o + 2] = low; z[o + 3] = high;
+        for (let k = 0; k < bins; k++) {
+          let re = 0.0, im = 0.0;
+          for (let t = 0; t < L; t++) { re += S.cos[k * L + t] * v[t]; im += S.sin[k * L + t] * v[t]; }
+          z[o + 4 + S.band[k]] += (re * re + im * im) / L;
+        }
+        for (let b = 0; b < S.bands; b++) z[o + 4 + b] = Math.log1p(z[o + 4 + b]);
+      }
+      for (let j = 0; j < z.length; j++) z[j] = (z[j] - S.offset[j]) / S.scale[j];
+      return z;
     }
     kernelFeatures(y) {
       // kernel CRC_RLS: phi = N exp(-gamma ||y - l_a||^2)_a (Nystroem features on the model's landmarks)
