@@ -29,7 +29,7 @@ from spotfree.signal.butterworth import butter_lowpass
 from spotfree.signal.complementary import pi_complementary_design
 from spotfree.signal.features import LONG_CUTOFF, FeatureStream, lean_coefficients
 from spotfree.signal.frame import GRAVITY, MOUNT
-from spotfree.signal.orientation import RIDE_FEATURE_GAINS, GravityPI
+from spotfree.signal.orientation import GravityPI
 from spotfree.signal.speed_aided import SpeedAidedParameters
 
 PAGE_ORIENTATIONS = ("default", "paper")
@@ -131,7 +131,7 @@ def pipeline_spec(model: DictionaryModel, classifier=None) -> dict:
     if operators is None:
         raise InputError("the page pipeline needs a CRC_RLS or kernel CRC_RLS classifier (residual operators)")
     if model.orientation == "default":
-        pi = GravityPI(model.rate, **RIDE_FEATURE_GAINS)
+        pi = GravityPI(model.rate)
         attitude = {"kind": "default", **{k: getattr(pi, k) for k in (
             "kp", "ki", "acc_scale", "rate_scale", "max_error", "rest_gyr", "rest_acc", "rest_time", "rest_gain",
             "rest_tau", "g", "acc_tau", "motion_tau")}}

@@ -57,7 +57,7 @@ from spotfree.io.recording import ACC_CHANNELS, GYRO_CHANNELS, Recording
 from spotfree.signal.butterworth import butter_lowpass, lowpass, sections_and_zi
 from spotfree.signal.frame import GRAVITY, MOUNT, gravity_free_level
 from spotfree.signal.mount import estimate_mount
-from spotfree.signal.orientation import RIDE_FEATURE_GAINS, GravityPI, PaperAttitude, ride_attitude_filter
+from spotfree.signal.orientation import GravityPI, PaperAttitude, attitude_filter
 from spotfree.signal.recursions import (FEATURE_PARAMETERS, FEATURE_STATE, ride_features_block,
                                        ride_features_update)
 from spotfree.signal.speed_aided import speed_aided_acceleration, speed_aided_parameters
@@ -166,7 +166,7 @@ def ride_features(rec: Recording, orientation: str = "default", zero_phase: bool
         estimate = estimate_mount(rec, mount)
         mount, mount_note, mount_warnings = estimate.used, estimate.describe(), estimate.warnings
     mount = np.asarray(mount, dtype=float)
-    attitude = ride_attitude_filter(orientation, rec.rate)
+    attitude = attitude_filter(orientation, rec.rate)
     sos = butter_lowpass(rec.rate)
     acc_all = rec.array(ACC_CHANNELS) @ mount.T
     gyr_all = rec.array(GYRO_CHANNELS) @ mount.T
@@ -212,7 +212,7 @@ def _feature_parameters(rate: float, orientation: str) -> np.ndarray:
     p["attitude"] = _ATTITUDE_KINDS.get(orientation, 2)
     p["mount"] = MOUNT
     p["g"] = GRAVITY
-    p["gravity"] = GravityPI(rate, **RIDE_FEATURE_GAINS).parameters_
+    p["gravity"] = GravityPI(rate).parameters_
     p["paper"] = PaperAttitude(rate).parameters_
     p["sections"], p["zi"] = sections_and_zi(butter_lowpass(rate))
     p["long_sections"], p["long_zi"] = sections_and_zi(butter_lowpass(rate, LONG_CUTOFF))
@@ -237,7 +237,7 @@ class FeatureStream:
         self.orientation = orientation
         self.derived = derived
         self.mount = np.asarray(mount, dtype=float)
-        self._attitude = ride_attitude_filter(orientation, rate) if orientation not in _ATTITUDE_KINDS else None
+        self._attitude = attitude_filter(orientation, rate) if orientation not in _ATTITUDE_KINDS else None
         self.parameters_ = feature_parameters(rate, orientation)
         self.parameters_[0]["mount"] = self.mount
         self.state_ = np.zeros(1, FEATURE_STATE)

@@ -243,20 +243,6 @@ def _quaternion_roll_pitch(w, x, y, z):
     return np.arctan2(uy, uz), np.arctan2(-ux, np.hypot(uy, uz))
 
 
-RIDE_FEATURE_GAINS = {"kp": 0.3, "ki": 0.001, "acc_scale": 10.0, "rate_scale": 8.0, "max_error": 0.1, "acc_tau": 0.0,
-                      "motion_tau": 0.0}
-"""GravityPI gains of the ride features' ``default`` orientation: the default before the accelerometer low-pass
-(tuned on all four BROAD trials, none held out). The learner's rules and its seed-by-seed figures were measured on
-features made with them; moving the ride features to :class:`GravityPI`'s own defaults (chosen by leave-trials-out)
-changes those figures and is to be done together with re-measuring them."""
-
-
-def ride_attitude_filter(orientation: str, rate: float):
-    """The attitude filter of the ride features: :data:`RIDE_FEATURE_GAINS` for ``default``, else
-    :func:`attitude_filter`."""
-    return GravityPI(rate, **RIDE_FEATURE_GAINS) if orientation == "default" else attitude_filter(orientation, rate)
-
-
 def attitude_filter(orientation: str, rate: float):
     """A fresh backend named ``orientation`` (one of :data:`ORIENTATIONS`) for samples at ``rate`` Hz."""
     if orientation == "default":
