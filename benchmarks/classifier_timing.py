@@ -36,10 +36,10 @@ from threadpoolctl import threadpool_info, threadpool_limits
 from spotfree.classify import make_classifier
 from spotfree.signal.features import ride_features
 from spotfree.sim.scenarios import simulate_scenario
-from spotfree.ride_prior import RIDE_CHANNELS
+from spotfree.presets import PRESETS
 from spotfree.windows import ChannelScaling, recording_windows, with_affine_row
 
-CHANNELS, WINDOW, AFFINE = RIDE_CHANNELS, 20, 6.0
+CHANNELS, WINDOW, AFFINE = PRESETS["braking"]["channels"], PRESETS["braking"]["window"], 6.0
 """The ride models' channels, window (samples) and the paper's affine row (as the CRC / SRC / B_SRC comparison of
 ``spotfree evaluate`` stacks it)."""
 CLASSES = ("cruising", "normal-braking", "sudden-braking")

@@ -1,6 +1,6 @@
 """Per-sample cost of running the braking, lateral and road models together on one stream (MultiModelStream).
 
-Models: trained spotting-free on development seed 100: braking (:func:`spotfree.ride_prior.ride_learner`, experiment
+Models: trained spotting-free on development seed 100: braking (the ``braking`` preset, experiment
 1 of a normal-braking and of a sudden-braking ride), lateral and road
 (:data:`spotfree.evaluation.lateral_road.MODELS`, each under its training protocol,
 :func:`~spotfree.evaluation.lateral_road.spec_split`); or
@@ -49,7 +49,7 @@ from spotfree.evaluation.ride_models import raw_samples, stream_cost
 from spotfree.model import DictionaryModel
 from spotfree.signal.features import FeatureStream, ride_features
 from spotfree.sim.scenarios import CLASSES, simulate_scenario
-from spotfree.ride_prior import ride_learner
+from spotfree.presets import preset_learner
 
 GOAL_US = 50.0
 """Median per raw sample, end to end, all three models (issue 7)."""
@@ -60,7 +60,7 @@ NAMES = ("braking", "lateral", "road")
 def trained_models() -> dict:
     """The three models of the module docstring."""
     scenarios = ("normal-braking", "sudden-braking")
-    braking = ride_learner(seed=SEED).fit(
+    braking = preset_learner("braking", seed=SEED).fit(
         [ride_features(simulate_scenario(s, repeats=1, seed=SEED), derived=True) for s in scenarios],
         [list(CLASSES[s]) for s in scenarios])
     models = {"braking": braking.model_}

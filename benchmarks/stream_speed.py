@@ -1,6 +1,6 @@
 """Per-sample latency of streaming ride classification (``RideClassifier.update``), beside its parts and peers.
 
-Model: trained by :func:`spotfree.ride_prior.ride_learner` (channels acc_long, pitch_rate; hankel windows of 20
+Model: trained by the ``braking`` preset (channels acc_long, pitch_rate; hankel windows of 20
 samples, so d = 40) on the first 25 s of a simulated normal-braking ride (seed 0) and of a sudden-braking ride
 (seed 1), read from CSV like ``spotfree train`` does. Test data: two simulated sudden-braking rides (seed 7), raw
 device-frame IMU at 20 Hz with GPS speed on the fixes.
@@ -48,7 +48,7 @@ from spotfree.io.csvlog import write_csv
 from spotfree.pipeline import feature_recording
 from spotfree.signal.features import FeatureStream
 from spotfree.sim.scenarios import simulate_scenario
-from spotfree.ride_prior import ride_learner
+from spotfree.presets import preset_learner
 from spotfree.windows import ChannelScaling, recording_windows, with_affine_row
 
 GOAL_US = 50.0
@@ -65,7 +65,7 @@ def trained_model():
             write_csv(simulate_scenario(scenario, repeats=1, seed=seed).take(slice(0, 500)), path)
             recordings.append(feature_recording(str(path)))
             sets.append(classes)
-    return ride_learner(seed=0).fit(recordings, sets).model_
+    return preset_learner("braking", seed=0).fit(recordings, sets).model_
 
 
 def samples(rec):

@@ -134,8 +134,7 @@ def test_train_writes_a_model_its_summary_and_its_figure(tmp_path):
     for scenario, path in (("normal-braking", normal), ("sudden-braking", sudden)):
         assert runner.invoke(app, ["simulate", scenario, "-o", str(path), "--repeats", "1"]).exit_code == 0
     declared = ["--experiment", f"{normal}@1=cruising,normal-braking",
-                "--experiment", f"{sudden}@1=cruising,normal-braking,sudden-braking",
-                "--channels", "acc_long,pitch_rate", "--representation", "hankel", "--prior", "ride"]
+                "--experiment", f"{sudden}@1=cruising,normal-braking,sudden-braking", "--preset", "braking"]
     result = runner.invoke(app, ["train", "-o", str(tmp_path / "m.npz"), *declared, "--figure",
                                  str(tmp_path / "m.png")])
     assert result.exit_code == 0, result.output
@@ -151,6 +150,11 @@ def test_train_writes_a_model_its_summary_and_its_figure(tmp_path):
     few = DictionaryModel.load(tmp_path / "few.npz")
     assert np.bincount(few.column_class).max() <= 20 < np.bincount(model.column_class).max()
     assert not (tmp_path / "few.png").exists()  # a figure only when asked for
+    # an option given beside the preset overrides it
+    result = runner.invoke(app, ["train", "-o", str(tmp_path / "summary.npz"), *declared, "--representation",
+                                 "summary", "--window", "10"])
+    assert "learner: sets (summary of ride channels acc_long,pitch_rate; prior: ride)" in result.output
+    assert DictionaryModel.load(tmp_path / "summary.npz").window == 10
 
 
 def test_train_paper_recipe_is_the_baseline_and_takes_no_learner_option(tmp_path):
@@ -170,7 +174,7 @@ def test_train_paper_recipe_is_the_baseline_and_takes_no_learner_option(tmp_path
 
 @pytest.mark.parametrize("option, value", [("--window", "0"), ("--step", "0"), ("--max-columns", "0"),
                                            ("--recipe", "evidence"), ("--representation", "raw"),
-                                           ("--prior", "speed"), ("--features", "vehicle")])
+                                           ("--prior", "speed"), ("--features", "vehicle"), ("--preset", "turns")])
 def test_train_refuses_an_option_out_of_range_and_keeps_the_model_there(tmp_path, option, value):
     ride = tmp_path / "sb.csv"
     assert runner.invoke(app, ["simulate", "sudden-braking", "-o", str(ride), "--repeats", "1"]).exit_code == 0

@@ -10,7 +10,7 @@ from spotfree.io import read_recording
 from spotfree.io.csvlog import write_csv
 from spotfree.pipeline import feature_recording
 from spotfree.sim.scenarios import simulate_scenario
-from spotfree.ride_prior import ride_learner
+from spotfree.presets import preset_learner
 
 runner = CliRunner()
 
@@ -25,7 +25,7 @@ def folder(tmp_path_factory):
         write_csv(simulate_scenario(scenario, repeats=1, seed=seed).take(slice(0, 800)), root / f"{scenario}.csv")
         recordings.append(feature_recording(str(root / f"{scenario}.csv")))
         sets.append(classes)
-    ride_learner(seed=0).fit(recordings, sets).model_.save(root / "model.npz")
+    preset_learner("braking", seed=0).fit(recordings, sets).model_.save(root / "model.npz")
     result = runner.invoke(app, ["simulate", "sudden-braking", "-o", str(root / "ride.csv"), "--repeats", "2",
                                  "--seed", "7"])
     assert result.exit_code == 0, result.output

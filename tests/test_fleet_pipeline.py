@@ -184,11 +184,11 @@ def test_the_default_model_has_one_digest_whether_just_trained_or_read_from_the_
     from spotfree.ride import default_model as module
     from spotfree.signal.features import ride_features
     from spotfree.sim.scenarios import CLASSES, simulate_scenario
-    from spotfree.ride_prior import ride_learner
+    from spotfree.presets import preset_learner
 
     def quick(progress=None):  # two short rides instead of the seven-ride files: the same kind of model, sooner
         scenarios = ("normal-braking", "sudden-braking")
-        return ride_learner().fit([ride_features(simulate_scenario(s, repeats=1), derived=True) for s in scenarios],
+        return preset_learner("braking").fit([ride_features(simulate_scenario(s, repeats=1), derived=True) for s in scenarios],
                                   [list(CLASSES[s]) for s in scenarios]).model_
 
     monkeypatch.setenv("SPOTFREE_CACHE", str(tmp_path))

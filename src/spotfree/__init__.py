@@ -23,13 +23,13 @@ _LAZY = {
     "RideStore": "spotfree.ride.store",
     "SRCClassifier": "spotfree.classify.src",
     "SetSupervisedLearner": "spotfree.learner",
+    "preset_learner": "spotfree.presets",
     "SparseSubspaceClustering": "spotfree.cluster.osc",
     "classify_recording": "spotfree.classify.batch",
     "decision_latency": "spotfree.classify.latency",
     "make_classifier": "spotfree.classify",
     "read_recording": "spotfree.io",
     "ride_features": "spotfree.signal.features",
-    "ride_learner": "spotfree.ride_prior",
     "simulate_scenario": "spotfree.sim.scenarios",
 }
 

@@ -162,6 +162,9 @@ def train(
     features: str = typer.Option("ride", "--features", help="what a raw IMU log becomes: ride (a phone on the "
                                  "handlebar: vehicle-frame ride features) | body (a phone in a pocket, a watch: device "
                                  "axes and magnitudes)"),
+    preset: Optional[str] = typer.Option(None, "--preset", help="braking | lateral | road: the channels, window, "
+                                         "representation and prior of spotfree's ride model of that name (any of "
+                                         "them given here overrides it)"),
     recipe: str = typer.Option("sets", "--recipe", help="sets (the general learner from class sets) | paper (the "
                                "paper's recipe, literally: a baseline)"),
     prior: Optional[str] = typer.Option(None, "--prior", help="ride: braking loses GPS speed (sets learner only)"),
@@ -177,18 +180,25 @@ def train(
 
     if features not in FEATURES:
         raise InputError(f"--features {features!r}: use one of {', '.join(FEATURES)}")
+    from spotfree.presets import PRESETS, PRIORS
     from spotfree.representation import REPRESENTATIONS
 
     for option, value, choices in (("--recipe", recipe, ("sets", "paper")),
                                    ("--representation", representation, REPRESENTATIONS),
-                                   ("--prior", prior, (None, "ride"))):
+                                   ("--prior", prior, (None, *PRIORS)), ("--preset", preset, (None, *PRESETS))):
         if value not in choices:
             raise InputError(f"{option} {value!r}: use one of {', '.join(c for c in choices if c)}")
     given = [p.opts[0] for p in ctx.command.params
              if p.name and getattr(ctx.get_parameter_source(p.name), "name", "") == "COMMANDLINE"]
-    misplaced = [o for o in given if o in ("--prior", "--representation", "--figure") and recipe != "sets"]
+    misplaced = [o for o in given if o in ("--prior", "--representation", "--figure", "--preset") and recipe != "sets"]
     if misplaced:
         raise InputError(f"{misplaced[0]} is an option of --recipe sets; leave it out with --recipe {recipe}")
+    if preset is not None:
+        settings = PRESETS[preset]
+        channels = channels if "--channels" in given else ",".join(settings["channels"])
+        window = window if "--window" in given else settings["window"]
+        representation = representation if "--representation" in given else settings["representation"]
+        prior = prior if "--prior" in given else settings["prior"]
     _train(output, experiment, channels, window, step, orientation, features, recipe, prior, representation,
            max_columns, seed, figure)
 
@@ -205,7 +215,7 @@ def _train(output: Path, experiment: list[str], channels: Optional[str], window:
     from spotfree.learner import SetSupervisedLearner
     from spotfree.paper_recipe import PaperRecipe
     from spotfree.pipeline import feature_recording
-    from spotfree.ride_prior import RidePrior
+    from spotfree.presets import prior_named
 
     recordings, sets = [], []
     for spec in experiment:
@@ -217,7 +227,7 @@ def _train(output: Path, experiment: list[str], channels: Optional[str], window:
         learner = PaperRecipe(channels=chosen, window=window, step=step, max_columns=max_columns, seed=seed)
     else:
         learner = SetSupervisedLearner(channels=chosen, window=window, step=step, representation=representation,
-                                       max_columns=max_columns, prior=RidePrior() if prior == "ride" else None,
+                                       max_columns=max_columns, prior=prior_named(prior),
                                        seed=seed)
     learner.fit(recordings, sets)
     model = learner.model_

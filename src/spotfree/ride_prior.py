@@ -12,9 +12,6 @@ braking, one that keeps or gains it more likely not:
 
 The prior engages only for the classes it names (``braking``) and only in recordings that carry a ``speed`` channel:
 for any other data it is zero.
-
-:func:`ride_learner` is the ride models' learner: the generic learner on the paper's block-Hankel windows of the
-longitudinal acceleration and the pitch rate, asking for this prior.
 """
 
 from __future__ import annotations
@@ -23,10 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from spotfree.learner import SetSupervisedLearner
 
-RIDE_CHANNELS = ("acc_long", "pitch_rate")
-"""Ride features the braking models window: the longitudinal acceleration and the pitch rate (the lean's rate)."""
 SPAN = 1.5
 """Half-width (s) of the stretch of GPS fixes the speed trend is fitted over (three fixes of a 1 Hz receiver)."""
 
@@ -79,9 +73,3 @@ class RidePrior:
         out[(known & ~slowing)[:, None] & ~named[None, :]] = self.weight
         return out
 
-
-def ride_learner(**params) -> SetSupervisedLearner:
-    """The learner of the braking models: :class:`~spotfree.learner.SetSupervisedLearner` on :data:`RIDE_CHANNELS`
-    in the ``hankel`` representation with :class:`RidePrior`; ``params`` override any of its parameters."""
-    return SetSupervisedLearner(**{"channels": RIDE_CHANNELS, "representation": "hankel", "prior": RidePrior(),
-                                   **params})

@@ -25,6 +25,7 @@ from spotfree.classify.segments import kept_classes
 from spotfree.evaluation.metrics import EventScore, Score, class_accuracy, event_detection
 from spotfree.io.recording import Recording
 from spotfree.learner import SetSupervisedLearner
+from spotfree.presets import PRESETS, preset_learner
 from spotfree.model import DictionaryModel
 from spotfree.signal.features import ride_features
 from spotfree.sim.scenarios import CLASSES, simulate_scenario
@@ -32,15 +33,13 @@ from spotfree.sim.scenarios import CLASSES, simulate_scenario
 
 @dataclass(frozen=True)
 class ModelSpec:
-    """A model of one scenario's classes: feature channels, window (samples); ``one_kind``: trained on rides of one
-    kind of manoeuvre each (:data:`KIND_RIDES`) rather than on mixed rides; its offline votes
-    (:func:`segment_options`): segment penalty, classes kept, event vote and event edges ``(channel, level)``;
-    ``detections``: short classes also scored as detected events
+    """A model of one scenario's classes, learnt by the preset of the same name (:mod:`spotfree.presets`);
+    ``one_kind``: trained on rides of one kind of manoeuvre each (:data:`KIND_RIDES`) rather than on mixed rides; its
+    offline votes (:func:`segment_options`): segment penalty, classes kept, event vote and event edges
+    ``(channel, level)``; ``detections``: short classes also scored as detected events
     (:func:`~spotfree.evaluation.metrics.event_detection`)."""
 
     scenario: str
-    channels: tuple[str, ...]
-    window: int
     one_kind: bool = False
     segments: float = 0.0
     keep: tuple[str, ...] = ()
@@ -53,23 +52,32 @@ class ModelSpec:
         """The scenario's background class (the first of :data:`~spotfree.sim.scenarios.CLASSES`)."""
         return CLASSES[self.scenario][0]
 
+    @property
+    def channels(self) -> tuple[str, ...]:
+        """The channels of the scenario's preset."""
+        return PRESETS[self.scenario]["channels"]
+
+    @property
+    def window(self) -> int:
+        """The window (samples) of the scenario's preset."""
+        return PRESETS[self.scenario]["window"]
+
     def learner(self, seed: int, **params) -> SetSupervisedLearner:
-        """The learner of this spec, on its channels and window (``params`` override the learner's parameters)."""
-        return SetSupervisedLearner(**{"channels": self.channels, "window": self.window, "seed": seed, **params})
+        """The learner of the scenario's preset (``params`` override the learner's parameters)."""
+        return preset_learner(self.scenario, seed=seed, **params)
 
 
 MODELS = {
-    "lateral": ModelSpec("lateral", ("yaw_rate",), 20, one_kind=True, segments=4.0,
+    "lateral": ModelSpec("lateral", one_kind=True, segments=4.0,
                          events=True, edges=(("yaw_rate", 0.09),)),
-    "road": ModelSpec("road", ("rough_y", "rough_z"), 10, one_kind=True, segments=8.0, keep=("kerb",),
+    "road": ModelSpec("road", one_kind=True, segments=8.0, keep=("kerb",),
                       detections=("kerb",)),
 }
-"""Per model: the channels and window it windows; the offline votes it asks for (``segments``: the segment vote's
+"""Per model: the offline votes it asks for (``segments``: the segment vote's
 penalty, ``keep``: classes the votes leave as labelled, ``events``: the event vote outside the background after the
 segment vote, ``edges``: where an event's start and end move to, by channel and level in its units); ``detections``:
-short classes also scored as detected events. The lateral model reads the yaw rate, the road model the
-speed-normalised vibration (:data:`~spotfree.signal.features.VIB_TIME_CONSTANT`) over windows of 0.5 s; kerbs, which
-move the platform for the few tenths of a second of their strike, are scored as strikes detected within 0.5 s.
+short classes also scored as detected events: kerbs, which move the platform for the few tenths of a second of
+their strike, are scored as strikes detected within 0.5 s.
 ``benchmarks/lateral_road.py`` measures the choices."""
 
 

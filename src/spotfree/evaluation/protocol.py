@@ -18,7 +18,7 @@ import numpy as np
 
 from spotfree.io.recording import Recording
 from spotfree.learner import SetSupervisedLearner
-from spotfree.ride_prior import ride_learner
+from spotfree.presets import preset_learner
 from spotfree.signal.features import ride_features
 from spotfree.sim.scenarios import CLASSES, simulate_scenario
 
@@ -96,12 +96,12 @@ def simulate(protocol: Protocol) -> dict[str, ScenarioData]:
 
 
 def train_dictionary(data: dict[str, ScenarioData], protocol: Protocol) -> Trained:
-    """Spotting-free training (:func:`~spotfree.ride_prior.ride_learner`, seeded with the protocol's seed) on the
+    """Spotting-free training (the ``braking`` preset, :func:`~spotfree.presets.preset_learner`, seeded with the protocol's seed) on the
     training experiments, each declared with its scenario's classes."""
     recordings = [data[s].training for s in TRAINED_ON]
     sets = [list(CLASSES[s]) for s in TRAINED_ON]
     start = time.perf_counter()
-    learner = ride_learner(seed=protocol.seed).fit(recordings, sets)
+    learner = preset_learner("braking", seed=protocol.seed).fit(recordings, sets)
     return Trained(learner, recordings, sets, time.perf_counter() - start)
 
 

@@ -171,7 +171,7 @@ def _training(ev: Evaluation) -> str:
     warnings = "\n" + "".join(f"\n- warning: {w}" for w in learner.warnings_) if learner.warnings_ else ""
     return f"""## Training
 
-`spotfree.ride_prior.ride_learner` (the general learner on `{model.representation}` windows of
+The `braking` preset (`spotfree train --preset braking`: the general learner on `{model.representation}` windows of
 `{",".join(model.channels)}`, {model.window} samples, with the ride prior), seed {ev.protocol.seed}:
 {model.dictionary.shape[1]} dictionary columns in {ev.trained.seconds:.1f} s. Naming: how the learner named the
 training windows against the hidden ground truth at each window's centre (precision: the windows it named the class

@@ -3,7 +3,7 @@
 Training set: the paper's protocol, as ``spotfree evaluate`` uses it, so the served model is the one its report
 measures: experiment :data:`TRAINING_EXPERIMENT` of the simulator's :data:`SCENARIOS` files (seven experiments,
 seed :data:`SEED`), ride features with the derived channels, each recording declaring its scenario's classes (no
-sample is labelled), learnt by :func:`~spotfree.ride_prior.ride_learner`. A few seconds; the file is written to
+sample is labelled), learnt by the ``braking`` preset (:func:`~spotfree.presets.preset_learner`). A few seconds; the file is written to
 ``$SPOTFREE_CACHE`` (default ``$XDG_CACHE_HOME/spotfree`` or ``~/.cache/spotfree``) under a name that carries the
 spotfree version, the training recipe, the learner's parameters and a digest of the learner's code, so a change of
 any of them trains afresh.
@@ -46,19 +46,21 @@ def _recipe_key() -> str:
 
     import spotfree.learner
     import spotfree.representation
+    import spotfree.presets
     import spotfree.ride_prior
-    from spotfree.ride_prior import ride_learner
+    from spotfree.presets import preset_learner
 
     code = hashlib.sha256(b"".join(Path(m.__file__).read_bytes()
-                                   for m in (spotfree.learner, spotfree.representation, spotfree.ride_prior)))
+                                   for m in (spotfree.learner, spotfree.representation, spotfree.ride_prior,
+                                             spotfree.presets)))
     recipe = {"scenarios": SCENARIOS, "repeats": REPEATS, "experiment": TRAINING_EXPERIMENT, "seed": SEED,
-              "version": release, "learner": repr(ride_learner(seed=SEED)), "code": code.hexdigest()}
+              "version": release, "learner": repr(preset_learner("braking", seed=SEED)), "code": code.hexdigest()}
     return hashlib.sha256(json.dumps(recipe, sort_keys=True).encode()).hexdigest()[:12]
 
 
 def train_default_model(progress: Callable[[str], None] | None = None) -> DictionaryModel:
     """Train the default model on simulated rides (see the module docstring)."""
-    from spotfree.ride_prior import ride_learner
+    from spotfree.presets import preset_learner
     from spotfree.signal.features import ride_features
     from spotfree.sim.scenarios import CLASSES, simulate_scenario
 
@@ -66,7 +68,7 @@ def train_default_model(progress: Callable[[str], None] | None = None) -> Dictio
                   .select_experiment(TRAINING_EXPERIMENT) for scenario in SCENARIOS]
     if progress:
         progress("learning the default model from class sets")
-    return ride_learner(seed=SEED).fit(recordings, [list(CLASSES[s]) for s in SCENARIOS]).model_
+    return preset_learner("braking", seed=SEED).fit(recordings, [list(CLASSES[s]) for s in SCENARIOS]).model_
 
 
 def default_model(progress: Callable[[str], None] | None = None) -> DictionaryModel:

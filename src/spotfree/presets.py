@@ -1,0 +1,53 @@
+"""Named learner settings of spotfree's ride models: the channels, window, representation and prior each model asks
+for, so that the same model can be trained again on one's own rides with one command
+(``spotfree train --preset NAME``) or in Python (:func:`preset_learner`).
+
+``braking``
+    Cruising, normal and sudden braking: the paper's block-Hankel windows (1 s at 20 Hz) of the speed-aided
+    longitudinal acceleration and the pitch rate, with the ride prior (:class:`~spotfree.ride_prior.RidePrior`:
+    braking loses GPS speed).
+``lateral``
+    Straight riding, gentle and sharp turns, slaloms: summary windows (1 s) of the yaw rate.
+``road``
+    Smooth road, rough asphalt, cobblestone, kerb strikes: summary windows (0.5 s) of the speed-normalised
+    vibration ``rough_y, rough_z``.
+
+A preset fixes only these four settings; every other parameter of
+:class:`~spotfree.learner.SetSupervisedLearner` keeps its default unless given.
+"""
+
+from __future__ import annotations
+
+from spotfree.errors import InputError
+from spotfree.learner import SetSupervisedLearner
+from spotfree.ride_prior import RidePrior
+
+PRIORS = {"ride": RidePrior}
+"""Domain priors a model may ask for by name (``spotfree train --prior NAME``)."""
+
+PRESETS = {
+    "braking": {"channels": ("acc_long", "pitch_rate"), "window": 20, "representation": "hankel", "prior": "ride"},
+    "lateral": {"channels": ("yaw_rate",), "window": 20, "representation": "summary", "prior": None},
+    "road": {"channels": ("rough_y", "rough_z"), "window": 10, "representation": "summary", "prior": None},
+}
+"""Per preset: channels, window (samples at 20 Hz), representation and prior name (module docstring)."""
+
+
+def prior_named(name: str | None):
+    """A fresh prior of :data:`PRIORS` by name; None for None."""
+    if name is None:
+        return None
+    if name not in PRIORS:
+        raise InputError(f"prior {name!r} is unknown; use one of {', '.join(PRIORS)}")
+    return PRIORS[name]()
+
+
+def preset_learner(name: str, **params) -> SetSupervisedLearner:
+    """The learner of preset ``name`` (:data:`PRESETS`); ``params`` override any parameter of
+    :class:`~spotfree.learner.SetSupervisedLearner`."""
+    if name not in PRESETS:
+        raise InputError(f"preset {name!r} is unknown; use one of {', '.join(PRESETS)}")
+    preset = PRESETS[name]
+    settings = {"channels": preset["channels"], "window": preset["window"],
+                "representation": preset["representation"], "prior": prior_named(preset["prior"])}
+    return SetSupervisedLearner(**{**settings, **params})
