@@ -17,7 +17,7 @@ from classifier_timing import machine
 from spotfree.hand.evaluation import evaluate_hand, hand_report, state_grid
 from spotfree.sim.hand import TRAINING_PEOPLE
 
-GRID = [(("speed", "turn", "flex"), 4), (("speed", "turn"), 4), (("speed", "turn"), 5), (("speed", "turn"), 6)]
+GRID = [(("speed", "turn", "flex"), 4), (("speed", "turn"), 3), (("speed", "turn"), 4), (("speed", "turn"), 5)]
 """Stage-1 settings compared by --grid: (channels, window in samples)."""
 
 
