@@ -377,13 +377,15 @@ def hand_report(ev: HandEvaluation) -> str:
               "From the observable onset: end to end, with each gesture of the truth taken to start and end where the "
               "palm moves at c of its movement's peak speed (c = 0: the simulator's truth, from rest to rest):", "",
               f"| c | gesture samples | offline postures | offline gestures | live postures | live gestures | "
-              f"offline postures, collar {COLLARS[-1]} | offline gestures, collar {COLLARS[-1]} |",
-              "|---:|---:|---:|---:|---:|---:|---:|---:|"]
+              f"offline postures, collar {COLLARS[-1]} | offline gestures, collar {COLLARS[-1]} | "
+              f"live postures, collar {COLLARS[-1]} | live gestures, collar {COLLARS[-1]} |",
+              "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for c, o in ev.onsets["offline"].items():
-        v, wide = ev.onsets["live"][c][0], o[COLLARS[-1]]
+        v, wide, live_wide = ev.onsets["live"][c][0], o[COLLARS[-1]], ev.onsets["live"][c][COLLARS[-1]]
         lines.append(f"| {100 * c:.0f} % | {o[0]['gestures']:,} | {pct(o[0]['end_posture'])} | "
                      f"{pct(o[0]['end_gesture'])} | {pct(v['end_posture'])} | {pct(v['end_gesture'])} | "
-                     f"{pct(wide['end_posture'])} | {pct(wide['end_gesture'])} |")
+                     f"{pct(wide['end_posture'])} | {pct(wide['end_gesture'])} | "
+                     f"{pct(live_wide['end_posture'])} | {pct(live_wide['end_gesture'])} |")
     lines.append("")
     lines += ["| mode | run | person | samples | labelled | stage 1 | stage 2 postures | stage 2 gestures "
               "| end to end postures | end to end gestures |",

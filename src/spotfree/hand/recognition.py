@@ -64,7 +64,7 @@ STAGE_PARAMETERS = {
     "posture": {"channels": ("pos_x", "pos_y", "pos_z", "normal_y", "normal_z", *DIRECTION), "window": 6,
                 "smoothing": 0.1},
     "gesture": {"channels": (*VELOCITY, *NORMAL, *DIRECTION, *NORMAL_RATE, *DIRECTION_RATE), "window": 6,
-                "smoothing": 0.1},
+                "smoothing": 0.1, "representation": "hankel"},
 }
 """Parameters of each stage's :class:`~spotfree.learner.SetSupervisedLearner` beyond its defaults (``seed`` is
 :attr:`HandTrainingConfig.seed`).
@@ -72,7 +72,9 @@ STAGE_PARAMETERS = {
 Windows, samples at 20 Hz: 0.2 s for the state (a causal window labels its last sample, so the live state lags a
 change by up to a window), 0.3 s (the shortest gesture of the simulator) for the labels. ``smoothing``, the
 switching cost of the learner's decoding in seconds, is 0.1 s in every stage, under the shortest gesture: a
-gesture alternates with postures of a few seconds, and a longer cost merges it into them.
+gesture alternates with postures of a few seconds, and a longer cost merges it into them. The gesture stage keeps
+its windows whole (``hankel``): a movement and its reverse pass through the same orientations in the opposite order,
+which the ``summary`` of a window (levels, spreads, band powers) does not keep.
 
 Channels: the state stage reads the motion channels ``speed`` and ``turn``, which do not depend on the posture held
 (``flex`` is left out: the extended flags flip on tracking noise in a held posture as often as during a movement);
