@@ -3,8 +3,9 @@
 Usage: python benchmarks/hand_eval.py [--train-people 8] [--test-people 6] [--seed 0]
        python benchmarks/hand_eval.py --grid     stage 1 alone for several channel sets and windows, scored on six
                                                  development people (seed 1, people 201..), not the test people
-Prints Markdown (accuracy per run, mode and stage, collars, where gestures are lost, confusion matrices, command
-latency, streaming speed; or the grid) for BENCHMARKS.md and docs/hand.md.
+Prints Markdown (accuracy per run, mode and stage, collars and observable onsets, gestures as events, where gestures
+are lost, confusion matrices, command latency, streaming speed; or the grid) for benchmarks/results/hand_eval.md and
+docs/hand.md.
 """
 
 from __future__ import annotations
