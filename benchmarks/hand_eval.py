@@ -3,8 +3,9 @@
 Usage: python benchmarks/hand_eval.py [--train-people 8] [--test-people 6] [--seed 0]
        python benchmarks/hand_eval.py --grid     stage 1 alone for several channel sets and windows, scored on six
                                                  development people (seed 1, people 201..), not the test people
-Prints Markdown (accuracy per run, mode and stage, collars, where gestures are lost, confusion matrices, command
-latency, streaming speed; or the grid) for BENCHMARKS.md and docs/hand.md.
+Prints Markdown (accuracy per run, mode and stage, collars and observable onsets, gestures as events, where gestures
+are lost, confusion matrices, command latency, streaming speed; or the grid) for benchmarks/results/hand_eval.md and
+docs/hand.md.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from classifier_timing import machine
 from spotfree.hand.evaluation import evaluate_hand, hand_report, state_grid
 from spotfree.sim.hand import TRAINING_PEOPLE
 
-GRID = [(("speed", "turn", "flex"), 4), (("speed", "turn"), 4), (("speed", "turn"), 5), (("speed", "turn"), 6)]
+GRID = [(("speed", "turn", "flex"), 4), (("speed", "turn"), 3), (("speed", "turn"), 4), (("speed", "turn"), 5)]
 """Stage-1 settings compared by --grid: (channels, window in samples)."""
 
 

@@ -65,3 +65,15 @@ def test_onset_scores_per_threshold_with_and_without_a_collar():
     assert scores[0.05][0]["end_gesture"] == 1.0 and scores[0.05][0]["end_posture"] == 1.0
     assert scores[0.10][0]["end_posture"] == 10 / 12  # called gesture before the onset and after the end
     assert scores[0.0][2]["end_gesture"] == 1.0 and scores[0.0][2]["samples"] == 18 - 8
+
+
+def test_gesture_events_match_one_recognised_run_per_true_gesture_near_its_onset():
+    from spotfree.hand.evaluation import gesture_events
+
+    truth = np.array(["straight"] * 10 + ["straight-to-left"] * 10 + ["left"] * 20 + ["left-to-straight"] * 10)
+    label = np.array(["straight"] * 12 + ["straight-to-left"] * 6 + ["left"] * 12  # one sample late: matched
+                     + ["straight-to-left"] * 2 + ["left"] * 16 + ["straight-to-stop"] * 2)  # two false runs
+    scores = gesture_events(label, truth, np.ones(len(truth), dtype=int), rate=20.0, tolerance=0.5)
+    assert (scores["events"], scores["detections"], scores["matched"]) == (2, 3, 1)
+    assert scores["precision"] == 1 / 3 and scores["recall"] == 1 / 2 and scores["f1"] == 2 / 5
+    assert gesture_events(label, truth, np.ones(len(truth), dtype=int), rate=20.0, tolerance=0.05)["matched"] == 0

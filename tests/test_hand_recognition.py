@@ -69,11 +69,11 @@ def test_held_out_person_postures_and_gestures(result, test_run):
     posture = ok & (state == "posture")
     gesture = ok & (state == "gesture")
     assert (labels.state[posture] == "posture").mean() > 0.9
-    assert (labels.state[gesture] == "gesture").mean() > 0.4
+    assert (labels.state[gesture] == "gesture").mean() > 0.8
     caught = posture & (labels.state == "posture")
     assert (labels.label[caught] == label[caught]).mean() > 0.93  # two training people; four: benchmarks/hand_eval.py
     caught = gesture & (labels.state == "gesture")
-    assert (labels.label[caught] == label[caught]).mean() > 0.6  # two training people; chance is 1/8
+    assert (labels.label[caught] == label[caught]).mean() > 0.8  # two training people; chance is 1/8
     assert not (labels.label[~ok] != "").any()
 
 
@@ -181,7 +181,7 @@ def test_command_latency_from_true_onsets():
 
 
 def test_dropping_the_hold_class_drops_its_causal_columns_too():
-    from spotfree.hand.recognition import HOLD, _without
+    from spotfree.hand.recognition import HOLD, without_class
     from spotfree.model import DictionaryModel
 
     classes = ["a-to-b", HOLD, "b-to-a"]
@@ -189,7 +189,7 @@ def test_dropping_the_hold_class_drops_its_causal_columns_too():
     model = DictionaryModel(classes=classes, channels=["x"], rate=20.0, window=2, step=1, normalisation="scale",
                             scale=np.ones(1), dictionary=columns, column_class=np.array([0, 1, 2, 2, 1, 0]),
                             causal_dictionary=columns[:, ::-1], causal_column_class=np.array([0, 1, 2, 2, 1, 0]))
-    out = _without(model, HOLD)
+    out = without_class(model, HOLD)
     assert out.classes == ["a-to-b", "b-to-a"]
     np.testing.assert_array_equal(out.dictionary, columns[:, [0, 2, 3, 5]])
     np.testing.assert_array_equal(out.causal_dictionary, columns[:, ::-1][:, [0, 2, 3, 5]])

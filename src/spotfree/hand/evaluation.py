@@ -19,6 +19,10 @@ the test protocol for each of people ``101 ..`` (never seen in training), per 20
   doi:10.3389/neuro.20.002.2009, on how onsets are usually detected; 2 % of the peak in the reach-to-grasp
   kinematics of doi:10.1186/s12984-021-00895-3), whereas the simulator's gesture starts when the
   movement does, at rest;
+* **gestures as events**: every gesture of the truth from its observable onset (:data:`EVENT_ONSET` of its peak
+  speed, :func:`onset_truth`) is one event, detected by one recognised run of the same gesture whose first sample
+  lies within :data:`EVENT_TOLERANCE` s of the event's; precision, recall and F1 over all gestures
+  (:func:`gesture_events`);
 * **where gestures are lost**: end-to-end gesture accuracy by the sample's place in its gesture (first, second,
   ... sample from the start and from the end), beside the measured palm speed there and in postures;
 * **commands**: latency from each true posture onset to its command (:func:`~spotfree.hand.commands.command_latencies`)
@@ -32,19 +36,18 @@ Ground truth is read here and only here.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
 
-from spotfree.classify.batch import classify_recording
 from spotfree.hand.commands import COMMANDS, command_latencies
 from spotfree.hand.features import FEATURES
 from spotfree.hand.log import frames_to_recording
-from spotfree.hand.recognition import STATES, HandLabels, HandModel, HandRecognizer, declared, features_of, \
-    recognise, session_tasks, train_hand
+from spotfree.hand.recognition import STAGE_PARAMETERS, STATES, HandLabels, HandModel, HandRecognizer, \
+    HandTrainingConfig, declared, features_of, recognise, session_tasks, train_hand
+from spotfree.learner import SetSupervisedLearner
 from spotfree.sim.hand import GESTURES, POSTURES, TRAINING_PEOPLE, simulate_hands
-from spotfree.training import TrainingConfig, TrainingExperiment, train
 
 PAPER = {"labels": 5850, "accuracy": 1.0, "runs": 6}
 """The paper's hand result (section V): 100 % of 5,850 labels over six test runs."""
@@ -61,6 +64,12 @@ COLLARS = (1, 2)
 ONSETS = (0.02, 0.05, 0.10)
 """Shares of a movement's peak speed at which the end-to-end figures are also scored (:func:`onset_truth`)."""
 
+EVENT_ONSET = 0.10
+"""Share of a movement's peak speed at which a gesture event starts (:func:`gesture_events`)."""
+
+EVENT_TOLERANCE = 0.5
+"""Seconds by which a recognised gesture's first sample may miss the true onset and still detect it."""
+
 PLACES = 4
 """Samples from each end of a gesture reported one by one in the table of where gestures are lost."""
 
@@ -75,6 +84,7 @@ class HandEvaluation:
     accuracy: dict[str, dict[str, float]]
     collars: dict[str, dict[int, dict[str, float]]]
     onsets: dict[str, dict[float, dict[int, dict[str, float]]]]
+    events: dict[str, dict[str, float]]
     places: pd.DataFrame
     confusion: dict[str, dict[str, pd.DataFrame]]
     latency: dict[str, float]
@@ -85,8 +95,10 @@ class HandEvaluation:
 
 
 def evaluate_hand(train_people: int = TRAINING_PEOPLE, test_people: int = 6, seed: int = 0, rounds: int = 3,
-                  progress=None) -> HandEvaluation:
-    """Train on simulated people ``1 .. train_people``, test on ``test_people`` held-out people (module docstring)."""
+                  config: HandTrainingConfig | None = None, progress=None) -> HandEvaluation:
+    """Train on simulated people ``1 .. train_people`` (``config``: the recogniser's training settings, the
+    defaults when None, its seed ``seed``), test on ``test_people`` held-out people (module docstring)."""
+    config = replace(config or HandTrainingConfig(), seed=seed)
     say = progress or (lambda message: None)
     clock = time.perf_counter()
     say(f"simulating the training protocol of {train_people} people")
@@ -95,7 +107,8 @@ def evaluate_hand(train_people: int = TRAINING_PEOPLE, test_people: int = 6, see
     test = frames_to_recording(simulate_hands(test_people, seed, rounds, first=TEST_FIRST))
     seconds = {"simulation": time.perf_counter() - clock}
     clock = time.perf_counter()
-    model = train_hand([(features_of(part), task) for part, task in session_tasks(training)], progress=say).model
+    model = train_hand([(features_of(part), task) for part, task in session_tasks(training)], config,
+                       progress=say).model
     seconds["training"] = time.perf_counter() - clock
     feats = features_of(test)
     labels = {}
@@ -127,6 +140,8 @@ def evaluate_hand(train_people: int = TRAINING_PEOPLE, test_people: int = 6, see
                                      ~_near_change(truth_state, experiment, c)) for c in COLLARS}
                  for mode, x in labels.items()},
         onsets={mode: _onset_scores(x, truth_state, truth_label, pace, experiment) for mode, x in labels.items()},
+        events={mode: gesture_events(x.label, onset_truth(truth_state, truth_label, pace, experiment, EVENT_ONSET)[1],
+                                     experiment, feats.rate) for mode, x in labels.items()},
         places=_places(labels, truth_state, truth_label, experiment, feats.channels["speed"]),
         confusion={mode: _confusions(x, truth_state, truth_label) for mode, x in labels.items()},
         latency={"onsets": int(len(latency)), "reached": float(len(reached) / max(1, len(latency))),
@@ -135,6 +150,8 @@ def evaluate_hand(train_people: int = TRAINING_PEOPLE, test_people: int = 6, see
         wrong_switches=wrong, streaming=streaming, seconds=seconds,
         settings={"train_people": train_people, "test_people": test_people, "seed": seed, "rounds": rounds,
                   "windows": {s: m.window for s, m in model.stages().items()},
+                  "learner": {s: {k: v for k, v in p.items() if k not in ("channels", "window")}
+                              for s, p in config.stages.items()},
                   "channels": {s: list(m.channels) for s, m in model.stages().items()}, "rate": model.state.rate},
     )
 
@@ -156,10 +173,11 @@ def state_grid(settings: list[tuple[tuple[str, ...], int]], train_people: int = 
     experiment = dev.experiment if dev.experiment is not None else np.ones(len(dev), dtype=int)
     rows = []
     for channels, window in settings:
-        model = train([TrainingExperiment(rec, declared(task, "state")) for rec, task in sessions],
-                      TrainingConfig(channels=tuple(channels), window=window, train_step=1, seed=seed)).model
+        learner = SetSupervisedLearner(**{**STAGE_PARAMETERS["state"], "channels": tuple(channels), "window": window,
+                                          "seed": seed})
+        learner.fit([rec for rec, _ in sessions], [declared(task, "state") for _, task in sessions])
         for centred in (True, False):
-            state = classify_recording(model, dev, centred=centred).label
+            state = learner.predict(dev, centred=centred)
             row = {"channels": ",".join(channels), "window": window, "windows": "centred" if centred else "causal"}
             for c in (0, *COLLARS):
                 keep = (state != "") & ~_near_change(truth, experiment, c)
@@ -193,6 +211,30 @@ def onset_truth(truth_state: np.ndarray, truth_label: np.ndarray, pace: np.ndarr
         state[start:start + first] = state[start + last:stop] = "posture"
         label[start:start + first], label[start + last:stop] = leaves, reaches
     return state.astype(str), label.astype(str)
+
+
+def gesture_events(label: np.ndarray, truth_label: np.ndarray, experiment: np.ndarray, rate: float,
+                   tolerance: float = EVENT_TOLERANCE) -> dict[str, float]:
+    """Gestures scored as detections: each true run of a gesture (in ``truth_label``) is matched to at most one
+    recognised run of the same gesture (in ``label``) that starts within ``tolerance`` s of it, nearest first; an
+    unmatched recognised run is a false detection. Returns ``events``, ``detections`` (recognised runs),
+    ``matched``, ``precision``, ``recall`` and ``f1``, over every gesture and experiment."""
+    reach = tolerance * rate
+    events = detections = matched = 0
+    for gesture in GESTURES:
+        true = _runs(truth_label == gesture, experiment)
+        found = _runs(label == gesture, experiment)
+        events, detections = events + len(true), detections + len(found)
+        free = {start: experiment[start] for start, _ in found}
+        for start, _ in true:
+            near = [f for f in free if experiment[f] == experiment[start] and abs(f - start) <= reach]
+            if near:
+                del free[min(near, key=lambda f: abs(f - start))]
+                matched += 1
+    precision = matched / detections if detections else float("nan")
+    recall = matched / events if events else float("nan")
+    return {"events": events, "detections": detections, "matched": matched, "precision": precision,
+            "recall": recall, "f1": 2 * matched / (events + detections) if events + detections else float("nan")}
 
 
 def _onset_scores(labels: HandLabels, truth_state, truth_label, pace, experiment) -> dict[float, dict[int, dict]]:
@@ -312,7 +354,8 @@ def hand_report(ev: HandEvaluation) -> str:
     lines = [
         f"Trained on the training protocol of {s['train_people']} simulated people (seed {s['seed']}, {s['rounds']} "
         f"round trips per posture); tested on {s['test_people']} held-out people, one run each, at {s['rate']:g} Hz. "
-        f"Windows (samples) {s['windows']}; channels {s['channels']}. Offline: centred windows and one gesture per "
+        f"Windows (samples) {s['windows']}; channels {s['channels']}; other learner parameters "
+        f"(`SetSupervisedLearner`, beyond its defaults) {s['learner']}. Offline: centred windows and one gesture per "
         f"gesture stretch; live: causal windows (what `HandRecognizer` gives sample by sample).",
         "",
         "| | paper | offline | live |",
@@ -334,13 +377,15 @@ def hand_report(ev: HandEvaluation) -> str:
               "From the observable onset: end to end, with each gesture of the truth taken to start and end where the "
               "palm moves at c of its movement's peak speed (c = 0: the simulator's truth, from rest to rest):", "",
               f"| c | gesture samples | offline postures | offline gestures | live postures | live gestures | "
-              f"offline postures, collar {COLLARS[-1]} | offline gestures, collar {COLLARS[-1]} |",
-              "|---:|---:|---:|---:|---:|---:|---:|---:|"]
+              f"offline postures, collar {COLLARS[-1]} | offline gestures, collar {COLLARS[-1]} | "
+              f"live postures, collar {COLLARS[-1]} | live gestures, collar {COLLARS[-1]} |",
+              "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for c, o in ev.onsets["offline"].items():
-        v, wide = ev.onsets["live"][c][0], o[COLLARS[-1]]
+        v, wide, live_wide = ev.onsets["live"][c][0], o[COLLARS[-1]], ev.onsets["live"][c][COLLARS[-1]]
         lines.append(f"| {100 * c:.0f} % | {o[0]['gestures']:,} | {pct(o[0]['end_posture'])} | "
                      f"{pct(o[0]['end_gesture'])} | {pct(v['end_posture'])} | {pct(v['end_gesture'])} | "
-                     f"{pct(wide['end_posture'])} | {pct(wide['end_gesture'])} |")
+                     f"{pct(wide['end_posture'])} | {pct(wide['end_gesture'])} | "
+                     f"{pct(live_wide['end_posture'])} | {pct(live_wide['end_gesture'])} |")
     lines.append("")
     lines += ["| mode | run | person | samples | labelled | stage 1 | stage 2 postures | stage 2 gestures "
               "| end to end postures | end to end gestures |",
@@ -354,6 +399,15 @@ def hand_report(ev: HandEvaluation) -> str:
     lines += ["", "Stage 1 per true state: " + "; ".join(
         f"{mode} postures {pct(ev.accuracy[mode]['stage1_posture'])}, gestures "
         f"{pct(ev.accuracy[mode]['stage1_gesture'])}" for mode in MODES) + ".", ""]
+    lines += [f"Gestures as events (a true gesture from {100 * EVENT_ONSET:.0f} % of its peak speed, detected by one "
+              f"recognised run of that gesture starting within {EVENT_TOLERANCE:g} s of it):", "",
+              "| mode | true gestures | recognised runs | matched | precision | recall | F1 |",
+              "|---|---:|---:|---:|---:|---:|---:|"]
+    for mode in MODES:
+        e = ev.events[mode]
+        lines.append(f"| {mode} | {e['events']} | {e['detections']} | {e['matched']} | {e['precision']:.3f} | "
+                     f"{e['recall']:.3f} | {e['f1']:.3f} |")
+    lines.append("")
     places = ev.places.copy()
     for mode in MODES:
         places[mode] = places[mode].map(pct)

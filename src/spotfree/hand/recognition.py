@@ -1,6 +1,7 @@
 """Two-stage hand recognition trained without spotting: posture or gesture, then which one.
 
-Three dictionaries of the framework (:func:`spotfree.training.train`, classified by CRC):
+Three dictionaries, each learnt from class sets by :class:`~spotfree.learner.SetSupervisedLearner` (its parameters
+per stage in :data:`STAGE_PARAMETERS`) and classified by its kernel CRC_RLS:
 
 1. **state** (``posture`` / ``gesture``) on the :mod:`~spotfree.hand.motion` channels ``speed turn``, which do not
    depend on the posture held;
@@ -18,12 +19,12 @@ session                 state                        posture               gestu
 ``round-X``             posture, gesture             straight, X           hold, straight-to-X, X-to-straight
 ======================  ===========================  ====================  ===========================================
 
-The state dictionary is trained first; it then cuts every session (centred windows, offline) into the stretches
-it calls posture and those it calls gesture, the latter widened by :data:`MARGIN` samples on both sides so that
-each holds a little of the postures around it (``hold``, the gesture stage's background). The posture dictionary
-is trained on the posture stretches and the gesture dictionary on the gesture stretches (the rest of a session is
-left NaN, so that no window spans a cut); the ``hold`` columns are then dropped from the gesture dictionary, so
-that it names one of the eight gestures. Ground truth is never read.
+The state stage is trained first; it then cuts every session (centred windows, offline) into the stretches it
+calls posture and those it calls gesture, the latter widened by :data:`MARGIN` samples on both sides so that each
+holds a little of the postures around it (``hold``, the gesture stage's background). The posture stage is trained
+on the posture stretches and the gesture stage on the gesture stretches (the rest of a session is left NaN, so
+that no window spans a cut); the ``hold`` class and its columns are then dropped from the gesture dictionary
+(:func:`without_class`), so that it names one of the eight gestures. Ground truth is never read.
 
 Recognition, per sample: the state label of the window that ends at it (live) or is centred on it (offline), and
 the label of the posture or the gesture dictionary accordingly; offline, each stretch of gesture samples then takes
@@ -49,64 +50,51 @@ from spotfree.hand.frames import DIRECTION, NORMAL, VELOCITY
 from spotfree.hand.motion import DIRECTION_RATE, MOTION, NORMAL_RATE, SOURCES, motion_channels, motion_step
 from spotfree.io.checks import true_runs, write_text
 from spotfree.io.recording import Recording
+from spotfree.learner import SetSupervisedLearner
 from spotfree.model import DictionaryModel
 from spotfree.sim.hand import GESTURES, POSTURES, TRAINING_TASKS
-from spotfree.training import TrainingConfig, TrainingExperiment, TrainingResult, train
 
 STAGES = ("state", "posture", "gesture")
 STATES = ("posture", "gesture")
 HOLD = "hold"
 """Background class of the gesture stage's training (the postures at the ends of a gesture stretch)."""
 
-CHANNELS = {
-    "state": ("speed", "turn"),
-    "posture": ("pos_x", "pos_y", "pos_z", "normal_y", "normal_z", *DIRECTION),
-    "gesture": (*VELOCITY, *NORMAL, *DIRECTION, *NORMAL_RATE, *DIRECTION_RATE),
+STAGE_PARAMETERS = {
+    "state": {"channels": ("speed", "turn"), "window": 4, "smoothing": 0.1},
+    "posture": {"channels": ("pos_x", "pos_y", "pos_z", "normal_y", "normal_z", *DIRECTION), "window": 6,
+                "smoothing": 0.1},
+    "gesture": {"channels": (*VELOCITY, *NORMAL, *DIRECTION, *NORMAL_RATE, *DIRECTION_RATE), "window": 6,
+                "smoothing": 0.1, "representation": "hankel"},
 }
-"""Feature channels of each stage. The posture stage leaves out ``normal_x`` (the palm's roll about the forearm):
-it varies little between postures, so its scale is small and a person's habitual roll weighs much (on the
-development people a straight hand rolled by about 10 degrees was called right in 219 samples; without it 99.9 %
-of the posture samples are named right). The state stage leaves ``flex`` out: the extended flags flip on tracking noise
-in a held posture as often as during a movement, so it adds noise (on six development people, seed 1, centred
-windows of 4: gestures 69.9 % with it, 75.8 % without; benchmarks/hand_eval.py --grid). The gesture stage adds the
-signed rates of the normal and the direction to the orientation: without them the windows of ``X-to-straight``
-lie nearer to those of ``straight-to-X`` (the same orientations in the opposite order) than to each other, and
-purification dropped every column of ``left-to-straight`` and ``stop-to-straight``."""
+"""Parameters of each stage's :class:`~spotfree.learner.SetSupervisedLearner` beyond its defaults (``seed`` is
+:attr:`HandTrainingConfig.seed`).
 
-WINDOWS = {"state": 5, "posture": 6, "gesture": 6}
-"""Window of each stage, samples at 20 Hz: 0.25 s for the state (a centred window sees two samples on each side;
-chosen on the development people, see docs/hand.md), 0.3 s (the shortest gesture of the simulator) for the
-labels."""
+Windows, samples at 20 Hz: 0.2 s for the state (a causal window labels its last sample, so the live state lags a
+change by up to a window), 0.3 s (the shortest gesture of the simulator) for the labels. ``smoothing``, the
+switching cost of the learner's decoding in seconds, is 0.1 s in every stage, under the shortest gesture: a
+gesture alternates with postures of a few seconds, and a longer cost merges it into them. The gesture stage keeps
+its windows whole (``hankel``): a movement and its reverse pass through the same orientations in the opposite order,
+which the ``summary`` of a window (levels, spreads, band powers) does not keep.
 
-OPTIONS = {"state": {"max_columns": 100, "causal_onsets": False, "landmarks": 32},
-           "posture": {"max_columns": 100, "landmarks": 32},
-           "gesture": {"margin": 1, "extra_clusters": 12, "max_columns": 100, "landmarks": 32}}
-"""Training parameters of each stage beyond the framework's defaults (:class:`~spotfree.training.TrainingConfig`).
-Every stage keeps 100 columns per class, the setting its channels and windows were chosen with: with the ride
-model's 600, the state stage trained on two people of seed 4 split their sessions otherwise, and the gesture stage
-then lost three gestures (on four people of seed 0 it gave 91.3 % of the samples right offline against 91.2 %).
-The gesture stage's stretches hold few windows of each gesture: a purification margin of half a window dropped most
-of the return gestures' windows (on the development people 91.1 % of the gesture samples named right, 93.3 % with
-a margin of 1), and with 7 extra clusters k-means gave the large rotations (to and from ``backward``) several
-groups while both returns from ``left`` and ``right`` shared one, which evidence then called ``hold``; with 12 every
-gesture keeps columns (two training people of seed 4, 3 round trips). The state stage's causal columns leave out
-the windows ending where purification dropped the centred one (``causal_onsets=False``): the first and last samples
-of a gesture move like a posture, and with them the live path called postures gesture (held-out people of seed 0:
-postures 97.76 % against 98.93 %, median command latency 0.25 s against 0.20 s; BENCHMARKS.md). Kernel CRC_RLS
-keeps 32 landmarks in every stage: with the ride model's 64, offline gestures fell from 77.41 % to 75.32 % (seed 0)."""
+Channels: the state stage reads the motion channels ``speed`` and ``turn``, which do not depend on the posture held
+(``flex`` is left out: the extended flags flip on tracking noise in a held posture as often as during a movement);
+the posture stage reads palm position, normal and direction, but not ``normal_x`` (the palm's roll about the
+forearm varies little between postures, so its small scale would let a person's habitual roll weigh much); the
+gesture stage adds to the orientation the palm velocity and the signed rates of the normal and the direction,
+which tell a movement ``X-to-straight`` from its reverse ``straight-to-X`` (the same orientations in the opposite
+order)."""
 
 MARGIN = 2
-"""Samples by which a gesture stretch is widened on each side for the gesture stage's training."""
+"""Samples by which a gesture stretch is widened on each side for the gesture stage's training (the ``hold``
+background it then holds)."""
 
 
 @dataclass
 class HandTrainingConfig:
-    """Windows, channels and training options per stage, the widening of gesture stretches, and the clustering
-    seed."""
+    """The learner's parameters per stage (:data:`STAGE_PARAMETERS`), the widening of gesture stretches (samples)
+    and the seed of every stage's learner."""
 
-    windows: dict[str, int] = field(default_factory=lambda: dict(WINDOWS))
-    channels: dict[str, tuple[str, ...]] = field(default_factory=lambda: dict(CHANNELS))
-    options: dict[str, dict] = field(default_factory=lambda: {k: dict(v) for k, v in OPTIONS.items()})
+    stages: dict[str, dict] = field(default_factory=lambda: {k: dict(v) for k, v in STAGE_PARAMETERS.items()})
     margin: int = MARGIN
     seed: int = 0
 
@@ -156,11 +144,12 @@ class HandModel:
 
 @dataclass
 class HandTrainingResult:
-    """The model and each stage's training result (names, evidence, kept windows)."""
+    """The model, each stage's fitted learner (window names, warnings) and what it was fitted on: per stage, the
+    feature recordings and the class set each declares."""
 
     model: HandModel
-    stages: dict[str, TrainingResult]
-    experiments: dict[str, list[TrainingExperiment]]
+    learners: dict[str, SetSupervisedLearner]
+    inputs: dict[str, tuple[list[Recording], list[list[str]]]]
 
 
 def _sibling(path: Path, stage: str) -> Path:
@@ -211,34 +200,37 @@ def train_hand(sessions: list[tuple[Recording, str]], config: HandTrainingConfig
     if missing:
         raise InputError(f"training sessions lack the task(s) {', '.join(missing)}; record the whole protocol")
 
-    def stage_config(stage: str) -> TrainingConfig:
-        return TrainingConfig(channels=tuple(config.channels[stage]), window=config.windows[stage], train_step=1,
-                              seed=config.seed, **config.options.get(stage, {}))
+    learners = {stage: SetSupervisedLearner(**{**config.stages[stage], "seed": config.seed}) for stage in STAGES}
+    inputs: dict[str, tuple[list[Recording], list[list[str]]]] = {}
 
-    say("state stage: posture or gesture")
-    experiments = {"state": [TrainingExperiment(rec, declared(task, "state")) for rec, task in sessions]}
-    results = {"state": train(experiments["state"], stage_config("state"))}
-    state = results["state"].model
-    experiments["posture"], experiments["gesture"] = [], []
+    def fit(stage: str, recordings: list[Recording], class_sets: list[list[str]]) -> None:
+        say(f"{stage} stage: {len(recordings)} sessions")
+        inputs[stage] = (recordings, class_sets)
+        for warning in learners[stage].fit(recordings, class_sets).warnings_:
+            say(f"{stage} stage: {warning}")
+
+    fit("state", [rec for rec, _ in sessions], [declared(task, "state") for _, task in sessions])
+    posture, gesture = ([], []), ([], [])
     for rec, task in sessions:
-        labels = classify_recording(state, rec, centred=True).label
-        gesture = _widen(labels == "gesture", config.margin) & (labels != "")
-        posture = (labels == "posture") & ~gesture
-        experiments["posture"].append(TrainingExperiment(_only(rec, posture), declared(task, "posture")))
-        if declared(task, "gesture") and _longest_run(gesture) >= config.windows["gesture"]:
-            experiments["gesture"].append(TrainingExperiment(_only(rec, gesture), declared(task, "gesture")))
-    for stage in STAGES[1:]:
-        say(f"{stage} stage: {len(experiments[stage])} sessions")
-        results[stage] = train(experiments[stage], stage_config(stage))
-    gesture = _without(results["gesture"].model, HOLD)
+        labels = learners["state"].predict(rec, centred=True)
+        moving = _widen(labels == "gesture", config.margin) & (labels != "")
+        posture[0].append(_only(rec, (labels == "posture") & ~moving))
+        posture[1].append(declared(task, "posture"))
+        if declared(task, "gesture") and _longest_run(moving) >= learners["gesture"].window:
+            gesture[0].append(_only(rec, moving))
+            gesture[1].append(declared(task, "gesture"))
+    fit("posture", *posture)
+    fit("gesture", *gesture)
+    model = HandModel(learners["state"].model_, learners["posture"].model_,
+                      without_class(learners["gesture"].model_, HOLD))
     for stage, classes in (("posture", POSTURES), ("gesture", GESTURES)):
-        model = results[stage].model if stage == "posture" else gesture
-        kept = {c for i, c in enumerate(model.classes) if (model.column_class == i).any()}
+        dictionary = getattr(model, stage)
+        kept = {c for i, c in enumerate(dictionary.classes) if (dictionary.column_class == i).any()}
         absent = sorted(set(classes) - kept)
         if absent:
             raise InputError(f"the {stage} stage kept no windows of {', '.join(absent)}; the training sessions are "
                              f"too short or too few (record the protocol for more people)")
-    return HandTrainingResult(HandModel(state, results["posture"].model, gesture), results, experiments)
+    return HandTrainingResult(model, learners, inputs)
 
 
 def _widen(mask: np.ndarray, margin: int) -> np.ndarray:
@@ -257,8 +249,9 @@ def _only(rec: Recording, keep: np.ndarray) -> Recording:
     return rec.with_channels({name: np.where(keep, values, np.nan) for name, values in rec.channels.items()})
 
 
-def _without(model: DictionaryModel, name: str) -> DictionaryModel:
-    """``model`` without class ``name`` and its columns (centre-named and causal)."""
+def without_class(model: DictionaryModel, name: str) -> DictionaryModel:
+    """``model`` without class ``name`` and its columns (centre-named and causal); the summary's column counts
+    follow."""
     if name not in model.classes:
         return model
     classes = [c for c in model.classes if c != name]
