@@ -160,12 +160,15 @@ def _start_server(folder: Path, model: Path, sync: str, workers: int, floor: boo
     command = ([sys.executable, str(Path(__file__).with_name("serve_floor.py")), "--port", str(port)] if floor else
                [sys.executable, "-m", "spotfree.cli", "serve", "--port", str(port), "--database",
                 str(folder / "rides.db"), "--model", str(model), "--sync", sync, "--workers", str(workers)])
-    server = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    # the server's messages go to a file: a pipe nobody reads fills up and stops the server when it writes
+    log = open(folder / "server.log", "w")
+    server = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=log, text=True)
+    log.close()
     url = f"http://127.0.0.1:{port}"
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline:
         if server.poll() is not None:
-            raise RuntimeError(f"spotfree serve exited: {server.stderr.read()}")
+            raise RuntimeError(f"spotfree serve exited: {(folder / 'server.log').read_text()}")
         try:
             httpx.get(url + "/api/model", timeout=2).raise_for_status()
             return server, url
@@ -356,6 +359,7 @@ def run(phones: int, seconds: float, batch: float, rows: np.ndarray, rate: float
                 server.wait(120)  # a server behind on its batches commits them all before it stops
             except subprocess.TimeoutExpired:
                 server.kill()
+                print((Path(folder) / "server.log").read_text()[-2000:], file=sys.stderr)
                 raise
         if floor:  # nothing is stored: count what was acknowledged
             stored = None
