@@ -30,12 +30,20 @@ not, and costs the same per sample (the CRC_RLS operator is ``(C d, d)`` whateve
 The largest N with p99 batch-to-ack under 100 ms (and nothing lost) is printed; the run stops at the first N whose
 p99 exceeds ten times that or that loses a sample.
 
+Two kinds of interference, each its own run (the issue's goal names both):
+
+* ``--hostile``: a separate process sends, once a second while the phones stream, a ``POST /push`` of
+  ``HOSTILE_BYTES`` (4 MB, a Sensor Logger message) with a made-up token, over a new connection each time, writing
+  the whole body as fast as the server takes it; the status of each answer and the time to it are reported;
+* ``--busy-core``: a separate process spins on one core (a pure Python loop) from before the phones connect until
+  they stop, as another job on the machine would.
+
 ``--floor`` runs the same phones against ``benchmarks/serve_floor.py``: the same web stack answering every batch
 at once and storing nothing, the part of the server's CPU that no work on the batch can remove ("rows stored" is
 then the acknowledged samples).
 
-    python benchmarks/serve_load.py [--phones 10,25,50,100,200,500] [--seconds 15] [--batch 0.25] [--clients 2]
-                                    [--workers 0] [--sync full] [--floor]
+    python benchmarks/serve_load.py [--phones 10,25,50,100,200,500] [--seconds 15] [--batch 1] [--clients 2]
+                                    [--workers 0] [--sync full] [--floor] [--hostile] [--busy-core]
 """
 
 from __future__ import annotations
@@ -72,6 +80,73 @@ from spotfree.ride.sources import recording_rows  # noqa: E402
 from spotfree.ride.store import RideStore  # noqa: E402
 
 LIMIT_MS = 100.0
+HOSTILE_BYTES = 4_000_000
+"""Bytes of the hostile client's ``/push`` body."""
+HOSTILE_PERIOD = 1.0
+"""Seconds between the hostile client's posts."""
+
+
+def _hostile_body() -> bytes:
+    """A Sensor Logger push of about HOSTILE_BYTES: accelerometer and gravity readings."""
+    reading = (b'{"name": "accelerometer", "time": 1700000000000000000, '
+               b'"values": {"x": 0.123456789, "y": 9.812345678, "z": 0.012345678}}, ')
+    count = HOSTILE_BYTES // len(reading)
+    return b'{"messageId": 1, "sessionId": "hostile", "deviceId": "x", "payload": [' + reading * (count - 1) \
+        + reading[:-2] + b"]}"
+
+
+def _hostile(url: str, stop, answers) -> None:
+    """The hostile client (a process of its own): every HOSTILE_PERIOD s, a new connection posts the 4 MB body
+    to ``/push`` with a made-up token; ``(status line, ms to it)`` of each answer onto ``answers`` at the end."""
+    host, port = url.removeprefix("http://").split(":")
+    body = _hostile_body()
+    head = (f"POST /push HTTP/1.1\r\nHost: {host}\r\nAuthorization: Bearer made-up-token\r\n"
+            f"Content-Type: application/json\r\nContent-Length: {len(body)}\r\n\r\n").encode()
+    out, next_time = [], time.monotonic()
+    while not stop.wait(max(0.0, next_time - time.monotonic())):
+        next_time += HOSTILE_PERIOD
+        start = time.perf_counter()
+        try:
+            with socket.create_connection((host, int(port)), timeout=10) as conn:
+                try:
+                    conn.sendall(head + body)
+                except OSError:  # the server answered and closed before taking the whole body
+                    pass
+                status = conn.recv(256).split(b"\r\n")[0].decode(errors="replace") or "closed"
+        except OSError as exc:
+            status = f"error {type(exc).__name__}"
+        out.append((status, 1000.0 * (time.perf_counter() - start)))
+    answers.put(out)
+
+
+def _spin(stop) -> None:
+    """Keep one core busy until ``stop`` is set (the busy-core job)."""
+    while not stop.is_set():
+        for _ in range(100_000):
+            pass
+
+
+class _Interference:
+    """The hostile client or the busy-core job in a process of its own, from ``start`` to ``stop`` (which returns
+    the hostile client's answers, empty for the busy core)."""
+
+    def __init__(self, kind: str | None, url: str):
+        context = multiprocessing.get_context("spawn")
+        self.kind, self._stop, self._answers = kind, context.Event(), context.Queue()
+        target, args = (_hostile, (url, self._stop, self._answers)) if kind == "hostile" else (_spin, (self._stop,))
+        self._process = context.Process(target=target, args=args, daemon=True) if kind else None
+
+    def start(self) -> None:
+        if self._process is not None:
+            self._process.start()
+
+    def stop(self) -> list[tuple[str, float]]:
+        if self._process is None:
+            return []
+        self._stop.set()
+        answers = self._answers.get(timeout=60) if self.kind == "hostile" else []
+        self._process.join(30)
+        return answers
 
 
 def _free_port() -> int:
@@ -85,12 +160,15 @@ def _start_server(folder: Path, model: Path, sync: str, workers: int, floor: boo
     command = ([sys.executable, str(Path(__file__).with_name("serve_floor.py")), "--port", str(port)] if floor else
                [sys.executable, "-m", "spotfree.cli", "serve", "--port", str(port), "--database",
                 str(folder / "rides.db"), "--model", str(model), "--sync", sync, "--workers", str(workers)])
-    server = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    # the server's messages go to a file: a pipe nobody reads fills up and stops the server when it writes
+    log = open(folder / "server.log", "w")
+    server = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=log, text=True)
+    log.close()
     url = f"http://127.0.0.1:{port}"
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline:
         if server.poll() is not None:
-            raise RuntimeError(f"spotfree serve exited: {server.stderr.read()}")
+            raise RuntimeError(f"spotfree serve exited: {(folder / 'server.log').read_text()}")
         try:
             httpx.get(url + "/api/model", timeout=2).raise_for_status()
             return server, url
@@ -100,10 +178,12 @@ def _start_server(folder: Path, model: Path, sync: str, workers: int, floor: boo
     raise RuntimeError("spotfree serve did not answer within 60 s")
 
 
-def _warning_samples(model: DictionaryModel, rows: np.ndarray) -> set[int]:
+def _warning_samples(model: DictionaryModel, rows: np.ndarray, classifier=None) -> set[int]:
     """Indices of the samples of ``rows`` (a ride from its start) at which the server's pipeline and assistant
-    raise a warning (:class:`~spotfree.ride.live.LiveRide`, :func:`~spotfree.ride.service.assistant_factory`)."""
-    live, assistant = LiveRide(model, dictionary_classifier(model, causal=True)), assistant_factory(model)()
+    raise a warning (:class:`~spotfree.ride.live.LiveRide`, :func:`~spotfree.ride.service.assistant_factory`);
+    ``classifier``: the model's causal classifier, when already fitted."""
+    classifier = dictionary_classifier(model, causal=True) if classifier is None else classifier
+    live, assistant = LiveRide(model, classifier), assistant_factory(model)()
     _, labels = live.update_block(rows)
     warned = assistant.update_block(rows[:, [SAMPLE_COLUMNS.index(c) for c in ("time", "lat", "lon", "speed")]]
                                     .tolist(), labels)
@@ -236,12 +316,12 @@ def _stream(url: str, server_pid: int, tokens: list[str], seconds: float, batch:
     rng = np.random.default_rng(0)
     span = int(seconds * rate)
     per_batch = round(batch * rate)
-    jobs = []
+    jobs, classifier = [], dictionary_classifier(model, causal=True)
     for token in tokens:
         offset = int(rng.integers(0, len(rows) - span))
         part = rows[offset:offset + span].copy()
         part[:, 0] -= part[0, 0]
-        jobs.append((token, part, batch_ends(span, per_batch, _warning_samples(model, part))))
+        jobs.append((token, part, batch_ends(span, per_batch, _warning_samples(model, part, classifier))))
     context = multiprocessing.get_context("spawn")
     barrier, results = context.Barrier(clients + 1), context.Queue()
     workers = [context.Process(target=_client, args=(url, jobs[c::clients], rate, batch, barrier, results))
@@ -261,16 +341,26 @@ def _stream(url: str, server_pid: int, tokens: list[str], seconds: float, batch:
 
 
 def run(phones: int, seconds: float, batch: float, rows: np.ndarray, rate: float, model: Path,
-        sync: str = "full", clients: int = 1, workers: int = 0, floor: bool = False) -> dict:
+        sync: str = "full", clients: int = 1, workers: int = 0, floor: bool = False,
+        interference: str | None = None) -> dict:
+    """One N: ``interference`` None, ``"hostile"`` or ``"busy"`` (see the module docstring)."""
     with tempfile.TemporaryDirectory() as folder:
         server, url = _start_server(Path(folder), model, sync, workers, floor)
+        other = _Interference(interference, url)
         try:
             tokens = asyncio.run(_devices(url, phones, rows, Path(folder)))
+            other.start()
             crowd, server_cpu, client_cpu, wall = _stream(url, server.pid, tokens, seconds, batch, rows, rate,
                                                           clients, DictionaryModel.load(model))
         finally:
+            hostile = other.stop()
             server.send_signal(signal.SIGINT)
-            server.wait(30)
+            try:
+                server.wait(120)  # a server behind on its batches commits them all before it stops
+            except subprocess.TimeoutExpired:
+                server.kill()
+                print((Path(folder) / "server.log").read_text()[-2000:], file=sys.stderr)
+                raise
         if floor:  # nothing is stored: count what was acknowledged
             stored = None
         else:
@@ -286,50 +376,73 @@ def run(phones: int, seconds: float, batch: float, rows: np.ndarray, rate: float
             "acked_samples": sum(p["acked"] for p in crowd),
             "stored": sum(p["acked"] for p in crowd) if stored is None else stored,
             "server_cores": server_cpu / wall, "client_cores": client_cpu / wall,
-            "server_ms": 1000.0 * server_cpu / max(len(ack), 1)}
+            "server_ms": 1000.0 * server_cpu / max(len(ack), 1), "hostile": hostile}
+
+
+_INTERFERENCE = {None: "no other client or job of ours",
+                 "hostile": f"a hostile client posts {HOSTILE_BYTES / 1e6:g} MB to /push with a made-up token every "
+                            f"{HOSTILE_PERIOD:g} s",
+                 "busy": "a process of ours keeps one core busy"}
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--phones", default="10,25,50,100,200,500")
     parser.add_argument("--seconds", type=float, default=15.0)
-    parser.add_argument("--batch", type=float, default=0.25, help="s of samples per batch (the page sends 0.25)")
+    parser.add_argument("--batch", type=float, default=1.0, help="s of samples per batch (the page sends 1)")
     parser.add_argument("--sync", default="full", choices=("full", "normal"), help="spotfree serve --sync")
     parser.add_argument("--clients", type=int, default=2, help="client processes the phones are spread over")
     parser.add_argument("--workers", type=int, default=0, help="spotfree serve --workers (ride worker processes)")
     parser.add_argument("--floor", action="store_true",
                         help="run the phones against benchmarks/serve_floor.py (the web stack alone) instead")
+    parser.add_argument("--hostile", action="store_true",
+                        help="a client posts a 4 MB /push with a made-up token every second meanwhile")
+    parser.add_argument("--busy-core", action="store_true", help="a process keeps one core busy meanwhile")
     args = parser.parse_args()
+    if args.hostile and args.busy_core:
+        parser.error("--hostile and --busy-core: give one of them (each is its own run)")
+    interference = "hostile" if args.hostile else "busy" if args.busy_core else None
     raw = rides(seed=1, repeats=2)
     rows = recording_rows(raw.select_experiment(2))
     rate = raw.rate
     print(f"# serve_load: {platform.node()} {platform.machine()}, {os.cpu_count()} cores, Python "
           f"{platform.python_version()}, {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC")
     print(f"# {args.seconds:g} s per N, {rate:g} Hz, batches of {args.batch:g} s, SQLite synchronous={args.sync.upper()}, "
-          f"{'the web stack alone (benchmarks/serve_floor.py)' if args.floor else f'spotfree serve --workers {args.workers}'}, phones in {args.clients} client process(es); latency in ms from sending a batch to its acknowledgement "
+          f"{'the web stack alone (benchmarks/serve_floor.py)' if args.floor else f'spotfree serve --workers {args.workers}'}, phones in {args.clients} client process(es); "
+          f"{_INTERFERENCE[interference]}; latency in ms from sending a batch to its acknowledgement "
           "(warn: from taking the sample that warns, whose batch is sent at once); "
           "server and client CPU in cores (CPU s per s of streaming); load avg: 1-minute, after the run")
     print("| phones | load avg | server CPU | server ms/batch | client CPU | batches sent | acked | refused | p50 | p99 | max | warnings "
           "| warn p50 | warn p99 | samples acked | rows stored |")
     print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
-    best = 0
+    best = best_warn = 0
     with tempfile.TemporaryDirectory() as folder:
         model = Path(folder) / "model.npz"
         truth_model(raw.select_experiment(1)).save(model)
         for phones in (int(n) for n in args.phones.split(",")):
             r = run(phones, args.seconds, args.batch, rows, rate, model, args.sync, args.clients, args.workers,
-                    args.floor)
+                    args.floor, interference)
             print(f"| {r['phones']} | {os.getloadavg()[0]:.1f} | {r['server_cores']:.2f} | {r['server_ms']:.2f} | {r['client_cores']:.2f} "
                   f"| {r['batches']} | {r['acked']} | {r['refused']} | {r['p50']:.1f} | {r['p99']:.1f} "
                   f"| {r['max']:.0f} | {r['warnings']} | {r['warn_p50']:.1f} | {r['warn_p99']:.1f} "
                   f"| {r['acked_samples']} | {r['stored']} |", flush=True)
+            if interference == "hostile":
+                statuses = {}
+                for status, _ in r["hostile"]:
+                    statuses[status] = statuses.get(status, 0) + 1
+                ms = np.array([m for _, m in r["hostile"]]) if r["hostile"] else np.array([math.nan])
+                print(f"#   hostile posts at N={phones}: {len(r['hostile'])}, answers "
+                      f"{', '.join(f'{n} x {s!r}' for s, n in statuses.items())}; ms to the answer p50 "
+                      f"{np.median(ms):.1f}, max {ms.max():.1f}", flush=True)
             whole = r["acked"] == r["batches"] and r["stored"] == r["acked_samples"]
             if whole and r["p99"] < LIMIT_MS:
                 best = phones
+            if whole and r["warn_p99"] < LIMIT_MS:
+                best_warn = phones
             if not whole or r["p99"] > 10 * LIMIT_MS:
                 break
     print(f"# largest N with p99 < {LIMIT_MS:g} ms, every batch acknowledged and every acknowledged sample stored: "
-          f"{best}")
+          f"{best}; with p99 sample-to-warning < {LIMIT_MS:g} ms: {best_warn}")
 
 
 if __name__ == "__main__":

@@ -14,7 +14,7 @@ from test_ride_service import _columns, model, raw  # noqa: F401 (fixtures)
 from spotfree.errors import InputError
 from spotfree.ride.live import LiveRide
 from spotfree.ride.pool import RideServicePool
-from spotfree.ride.service import BACKLOG_SECONDS, RateError, RideService
+from spotfree.ride.service import BACKLOG_SECONDS, IDLE_SECONDS, RateError, RideService
 from spotfree.ride.sources import recording_rows
 from spotfree.ride.store import AccessError, NotFoundError, RideStore
 
@@ -74,6 +74,26 @@ def test_pool_acknowledges_as_one_process_does(pool, model, raw, tmp_path):
     with pytest.raises(RateError) as refused:  # unless the 1200 samples above took over 5 s to send
         pool.ingest(token, second, _columns(rows[:400]) | {"time": list(backlog / model.rate + rows[:400, 0])})
     assert refused.value.retry_after > 0
+
+
+def test_a_worker_closes_its_idle_rides_while_serving(pool, raw):
+    rows = recording_rows(raw.select_experiment(2))[:200]
+    _, token = pool.register_device("phone")
+    idle, busy = pool.start_ride(token, "v", "r"), pool.start_ride(token, "v", "r")
+    homes = {ride: pool._home[ride] for ride in (idle, busy)}
+    for ride in (idle, busy):
+        pool.ingest(token, ride, _columns(rows))
+    started = pool.store.ride(idle).started
+    assert pool.close_idle_rides(now=started + rows[-1, 0] + IDLE_SECONDS / 2) == []
+    held = sum(w.rides for w in pool._workers)
+    closed = pool.close_idle_rides(now=started + rows[-1, 0] + IDLE_SECONDS + 1)
+    assert {idle, busy} <= set(closed)
+    assert pool.store.ride(idle).ended == pytest.approx(started + rows[-1, 0])
+    assert idle not in pool.open_rides() and busy not in pool.open_rides()
+    assert sum(w.rides for w in pool._workers) <= held - 2 and all(w.alive() for w in homes.values())
+    with pytest.raises(AccessError, match="not open"):  # the worker let go of its state too
+        pool.ingest(token, busy, _columns(rows[-1:] + 1))
+    assert len(pool.store.samples(busy)["time"]) == len(rows)
 
 
 def test_a_killed_worker_is_replaced_and_its_rides_go_on(model, raw, tmp_path):

@@ -10,6 +10,7 @@ import subprocess
 import sys
 import time
 
+import numpy as np
 import pytest
 
 from service_fixtures import columns, model, raw  # noqa: F401
@@ -25,6 +26,13 @@ def _labels(model, rows):
     return [live.update(r[0], r[1:4], r[4:7], r[9])[1] for r in rows]
 
 
+def _phone_ride(model, path):
+    """``(service, token, ride)``: a service over a new store at ``path``, a device and its open ride."""
+    service = RideService(model, RideStore(path, synchronous="normal"))
+    _, token = service.register_device("phone")
+    return service, token, service.start_ride(token, "v", "r")
+
+
 def _stream(service, token, ride, rows, start, stop):
     """Send rows[start:stop] in batches of 50; labels and warnings of the acknowledgements."""
     labels, warned = [], []
@@ -38,15 +46,11 @@ def _stream(service, token, ride, rows, start, stop):
 def test_an_open_ride_goes_on_after_a_restart_as_if_nothing_happened(tmp_path, model, raw):
     rows = recording_rows(raw.select_experiment(2))
     half = len(rows) // 2 // 50 * 50
-    reference = RideService(model, RideStore(tmp_path / "reference.db", synchronous="normal"))
-    _, own = reference.register_device("phone")
-    whole = reference.start_ride(own, "v", "r")
+    reference, own, whole = _phone_ride(model, tmp_path / "reference.db")
     want_labels, want_warnings = _stream(reference, own, whole, rows, 0, len(rows))
     reference.end_ride(own, whole)
 
-    first = RideService(model, RideStore(tmp_path / "rides.db", synchronous="normal"))
-    _, token = first.register_device("phone")
-    ride = first.start_ride(token, "v", "r")
+    first, token, ride = _phone_ride(model, tmp_path / "rides.db")
     labels, warned = _stream(first, token, ride, rows, 0, half)
     first.store.close()  # the process ends without ending the ride
     second = RideService(model, RideStore(tmp_path / "rides.db", synchronous="normal"))
@@ -80,6 +84,66 @@ def test_idle_rides_are_closed_with_their_open_episodes(tmp_path, model, raw):
     assert service.store.ride(idle).ended == pytest.approx(started + rows[-1, 0])
     with pytest.raises(AccessError, match="not open"):
         service.ingest(token, busy, columns(rows[-1:] + 1))
+    service.close()
+
+
+def test_a_destination_outlives_a_restart(tmp_path, model, raw):
+    rows = recording_rows(raw.select_experiment(2))[:400]
+    fixes = rows[~np.isnan(rows[:, 7])]
+    target = (float(fixes[-1, 7]) + 0.01, float(fixes[-1, 8]) + 0.01)  # about 1.4 km past the last fix
+    reference, own, whole = _phone_ride(model, tmp_path / "reference.db")
+    reference.set_destination(own, whole, *target)
+    _stream(reference, own, whole, rows, 0, 350)
+    want = reference.ingest(own, whole, columns(rows[350:]), check_rate=False)["state"]
+    assert want["remaining"] > 1000 and want["eta"] > 0  # the destination is what the figures count to
+
+    first, token, ride = _phone_ride(model, tmp_path / "rides.db")
+    first.set_destination(token, ride, *target)
+    _stream(first, token, ride, rows, 0, 350)
+    first.store.close()  # the process ends with the ride open
+    second = RideService(model, RideStore(tmp_path / "rides.db", synchronous="normal"))
+    assert second.store.destination(ride) == pytest.approx(target)
+    got = second.ingest(token, ride, columns(rows[350:]), check_rate=False)["state"]
+    assert got == pytest.approx(want, nan_ok=True)
+    _, other = second.register_device("other")
+    with pytest.raises(AccessError, match="another device"):
+        second.store.set_destination(other, ride, 0.0, 0.0)
+    assert second.store.destination(ride) == pytest.approx(target)  # the refused write changed nothing
+    second.close()
+    reference.close()
+
+
+def test_a_ride_that_cannot_go_on_is_continued_by_a_linked_ride(tmp_path, model, raw):
+    from fastapi.testclient import TestClient
+
+    from spotfree.ride.api import create_app
+    from spotfree.ride.store import ForbiddenError, NotFoundError
+
+    rows = recording_rows(raw.select_experiment(2))[:100]
+    service, token, first = _phone_ride(model, tmp_path / "rides.db")
+    _, other = service.register_device("other")
+    service.ingest(token, first, columns(rows[:50]))
+    service.end_ride(token, first)  # as when it was closed while the phone was away
+    with TestClient(create_app(service)) as client, client.websocket_connect("/ws/ride") as ws:
+        ws.send_json({"type": "resume", "token": token, "ride_id": first})
+        assert ws.receive_json()["status"] == 403
+        # what the phone page sends then: a new ride continuing the old one, with the samples it still holds
+        ws.send_json({"type": "start", "token": token, "vehicle": "v", "rider_id": "r", "continues_from": first})
+        second = ws.receive_json()["ride_id"]
+        ws.send_json({"type": "batch", "seq": 1, "samples": columns(rows[50:] - [rows[50, 0], *[0] * 9])})
+        assert ws.receive_json()["count"] == 50
+        ws.send_json({"type": "start", "token": other, "vehicle": "v", "rider_id": "r", "continues_from": first})
+        assert ws.receive_json()["status"] == 403  # another device's ride is not continued
+    assert service.store.ride(second).continues_from == first and service.store.ride(first).continues_from is None
+    third = service.start_ride(token, "v", "r", continues_from=second)
+    assert service.store.continuation(first) == service.store.continuation(third) == [first, second, third]
+    assert service.store.continuation(service.start_ride(token, "v", "r")) != [first, second, third]
+    before = len(service.store.rides())
+    with pytest.raises(NotFoundError, match="continues_from"):
+        service.start_ride(token, "v", "r", continues_from="no-such-ride")
+    with pytest.raises(ForbiddenError, match="another device"):
+        service.start_ride(other, "v", "r", continues_from=first)
+    assert len(service.store.rides()) == before  # a refused start opens nothing
     service.close()
 
 

@@ -257,3 +257,24 @@ def test_no_acknowledged_sample_is_lost_when_the_writer_is_killed(tmp_path, acks
     assert stored[-1] >= acknowledged[-1]
     np.testing.assert_array_equal(stored, np.arange(len(stored)))  # whole batches only, none torn
     assert len(stored) % 5 == 0 and len(labels["time"]) == len(stored)
+
+
+@pytest.mark.parametrize("labels, row", [(["cruising", "sudden\nbraking", "cruising"], 2),
+                                         (["cruising", None, ["cruising"]], 3),
+                                         (["cruising", "x" * 101, None], 2), (["", "cruising", None], 1)])
+def test_a_bad_label_is_refused_by_its_row(labels, row):
+    from spotfree.ride.validation import label_batch
+
+    with pytest.raises(InputError, match=f"'labels row {row}'"):
+        label_batch(labels, 3, "ride r", "labels")
+    assert label_batch(["cruising", None, "cruising"], 3, "ride r", "labels") == ["cruising", None, "cruising"]
+
+
+def test_the_median_time_step_is_numpys():
+    from spotfree.ride.validation import MIN_RATE, _median_step_ok
+
+    rng = np.random.default_rng(5)
+    for n in range(1, 40):
+        for _ in range(50):
+            t = np.cumsum(rng.exponential(1.0 / MIN_RATE, n))
+            assert _median_step_ok(t) == (n < 3 or float(np.median(np.diff(t))) <= 1.0 / MIN_RATE)

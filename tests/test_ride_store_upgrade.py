@@ -1,5 +1,6 @@
-"""A ride store of schema version 1 (a row per sample) opens as version 2 (a row per batch) and loses nothing;
-an upgrade that fails leaves the file as it was."""
+"""A ride store of schema version 1 (a row per sample) opens as today's version (a row per batch) and loses
+nothing, as does a store of version 2 (rides without continuation and destination); an upgrade that fails leaves
+the file as it was."""
 
 import sqlite3
 
@@ -93,7 +94,7 @@ def test_version_1_store_is_rewritten_into_blocks_and_loses_nothing(tmp_path):
     with sqlite3.connect(path) as db:
         names = {row[0] for row in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
         assert {"samples", "features", "labels"}.isdisjoint(names)
-        assert db.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone() == ("2",)
+        assert db.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone() == ("3",)
 
 
 def test_failed_upgrade_leaves_the_version_1_file_as_it_was(tmp_path, monkeypatch):
@@ -115,3 +116,26 @@ def test_failed_upgrade_leaves_the_version_1_file_as_it_was(tmp_path, monkeypatc
 
 def _batch(t: float) -> dict:
     return {"time": [t], "ax": [0.0], "ay": [0.0], "az": [9.81], "gx": [0.0], "gy": [0.0], "gz": [0.0]}
+
+
+def test_a_version_2_store_opens_with_continuation_and_destination(tmp_path):
+    path = tmp_path / "v2.db"
+    table = np.column_stack([np.arange(5) / 20.0, np.ones((5, len(SAMPLE_COLUMNS) - 1))])
+    with sqlite3.connect(path) as db:
+        for statement in (*VERSION_1[:3], *blocks.SCHEMA):  # version 2: version 1's rides table, rows in blocks
+            db.execute(statement)
+        db.execute("INSERT INTO meta VALUES ('schema_version', '2')")
+        db.execute("INSERT INTO devices VALUES ('dev', 'phone', ?, 1.7e9)", (token_hash("secret"),))
+        db.execute("INSERT INTO rides (ride_id, device_id, vehicle, rider_id, started) "
+                   "VALUES ('open', 'dev', 'segway', 'r7', 1.7e9)")
+        db.execute(blocks.INSERT_SAMPLES, blocks.sample_row("open", table, None, None))
+        assert "continues_from" not in [c[1] for c in db.execute("PRAGMA table_info(rides)")]
+    with RideStore(path) as store:
+        assert store.ride("open").continues_from is None and store.destination("open") is None
+        np.testing.assert_array_equal(store.samples("open")["time"], table[:, 0])
+        store.set_destination("secret", "open", 35.7, 139.7)
+        assert store.destination("open") == (35.7, 139.7)
+        later = store.start_ride("secret", "segway", "r7", continues_from="open")
+        assert store.continuation("open") == ["open", later]
+    with sqlite3.connect(path) as db:
+        assert db.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone() == ("3",)

@@ -10,10 +10,12 @@ Pages: ``/`` the phone page (streams DeviceMotion and Geolocation), ``/rider`` a
 
 * ``POST /api/devices`` ``{"name", "code"}`` (an enrolment code, no credential) -> ``{"device_id", "token"}``
   (the token is shown once);
-* ``POST /api/rides`` ``{"vehicle", "rider_id", "age_band"?, "gender"?, "skill"?}`` -> ``{"ride_id"}``;
+* ``POST /api/rides`` ``{"vehicle", "rider_id", "age_band"?, "gender"?, "skill"?, "continues_from"?}`` ->
+  ``{"ride_id"}`` (``continues_from``: the id of this device's earlier ride that this one continues);
 * ``POST /api/rides/{id}/samples`` ``{"samples": {column: [...]}}`` -> the acknowledgement;
 * ``POST /api/rides/{id}/destination`` ``{"lat", "lon"}``; ``POST /api/rides/{id}/end``;
-* ``WS /ws/ride``: ``{"type": "start", "token", "vehicle", "rider_id"}`` or ``{"type": "resume", "token",
+* ``WS /ws/ride``: ``{"type": "start", "token", "vehicle", "rider_id", ...}`` (the optional fields of
+  ``POST /api/rides`` too) or ``{"type": "resume", "token",
   "ride_id"}``, then ``{"type": "batch", "seq", "samples"}`` (answered ``{"type": "ack", "seq", ...}``),
   ``{"type": "destination", "lat", "lon"}``, ``{"type": "end"}``; a refused message is answered
   ``{"type": "error", "status", "message"}`` (``seq`` too for a batch, ``retry_after`` s for a 429) and changes
@@ -33,7 +35,8 @@ message ``{"type": "auth", "token"}`` sent within :data:`AUTH_SECONDS`) stream w
 Restarts: a ride open in the store goes on after the server restarts (or its worker dies): ``resume`` and every
 later call rebuild it from the stored samples (:mod:`spotfree.ride.service`). A ride that ended (or was closed
 after :data:`~spotfree.ride.service.IDLE_SECONDS` without samples) is refused with 403; the phone page then starts
-a new ride with the samples it still holds.
+a new ride with the samples it still holds, ``continues_from`` the old one (the store keeps the link). A
+destination set on a ride is kept in the store and outlives the restart too.
 
 Every HTTP answer carries the headers of :data:`SECURITY_HEADERS` and a Content-Security-Policy that lets a page
 load and connect only to this server and not be framed. A body with a credential must be ``application/json``
@@ -231,12 +234,14 @@ def _body_schema(properties: dict, required: tuple[str, ...] = ()) -> dict:
 
 
 _TEXT = {"type": "string", "maxLength": 100}
+_RIDE_META = ("age_band", "gender", "skill", "continues_from")
+"""Optional fields of a ride's start (HTTP and WebSocket): the rider's descriptors and the ride it continues."""
 _NUMBERS = {"type": "array", "items": {"type": ["number", "null"]}, "maxItems": 50}
 _BODIES = {
     "devices": _body_schema({"name": _TEXT, "code": _TEXT}, ("code",)),
     "enrolments": _body_schema({"uses": {"type": "integer"}, "ttl": {"type": "number"}}),
-    "rides": _body_schema({"vehicle": _TEXT, "rider_id": _TEXT, "age_band": _TEXT, "gender": _TEXT, "skill": _TEXT},
-                          ("vehicle", "rider_id")),
+    "rides": _body_schema({"vehicle": _TEXT, "rider_id": _TEXT, "age_band": _TEXT, "gender": _TEXT, "skill": _TEXT,
+                           "continues_from": _TEXT}, ("vehicle", "rider_id")),
     "samples": _body_schema({"samples": {"type": "object", "properties": {
         c: _NUMBERS for c in ("time", "ax", "ay", "az", "gx", "gy", "gz", "lat", "lon", "speed")}}}, ("samples",)),
     "destination": _body_schema({"lat": {"type": "number"}, "lon": {"type": "number"}}, ("lat", "lon")),
@@ -293,7 +298,7 @@ def create_app(service: RideService) -> FastAPI:
     async def start(request: Request):
         _, token = await _identify(service, request)
         body = await _body(request)
-        meta = {k: body.get(k) for k in ("age_band", "gender", "skill")}
+        meta = {k: body.get(k) for k in _RIDE_META}
         ride_id = await _call(service.start_ride, token, body.get("vehicle"), body.get("rider_id"), **meta)
         return {"ride_id": ride_id}
 
@@ -469,7 +474,7 @@ async def _ws_message(service: RideService, raw: str, token: str | None, ride_id
             seq = None
             raise InputError("field 'seq' must be a whole number (or left out)")
         if kind == "start":
-            meta = {k: message.get(k) for k in ("age_band", "gender", "skill")}
+            meta = {k: message.get(k) for k in _RIDE_META}
             new = await run_in_threadpool(service.start_ride, message.get("token"), message.get("vehicle"),
                                           message.get("rider_id"), **meta)
             return {"type": "started", "ride_id": new, "_token": message.get("token")}

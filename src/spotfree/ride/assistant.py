@@ -189,6 +189,8 @@ class RideAssistant:
         self._time = t
         warning, event = None, None
         for kind in self.dangerous:
+            if label != kind and self._run[kind] is None and self._episode[kind] is None:
+                continue  # nothing of this kind going on: _manoeuvre would change nothing
             warned, ended = self._manoeuvre(kind, t, label == kind)
             warning, event = warning or warned, event or ended
         if fix is not None:

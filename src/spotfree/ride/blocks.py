@@ -23,7 +23,7 @@ import orjson
 
 from spotfree.ride.records import FEATURE_COLUMNS, SAMPLE_COLUMNS
 
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 UPGRADE_BLOCK = 1000
 """Samples per block when a version-1 store is rewritten."""
 
@@ -37,7 +37,8 @@ SCHEMA = (
     f"token_hash TEXT NOT NULL UNIQUE, created {_REAL} NOT NULL)",
     "CREATE TABLE IF NOT EXISTS rides (ride_id TEXT PRIMARY KEY, "
     "device_id TEXT NOT NULL REFERENCES devices (device_id), vehicle TEXT NOT NULL, rider_id TEXT NOT NULL, "
-    f"started {_REAL} NOT NULL, ended {_REAL}, model TEXT, age_band TEXT, gender TEXT, skill TEXT)",
+    f"started {_REAL} NOT NULL, ended {_REAL}, model TEXT, age_band TEXT, gender TEXT, skill TEXT, "
+    f"continues_from TEXT REFERENCES rides (ride_id), dest_lat {_REAL}, dest_lon {_REAL})",
     "CREATE INDEX IF NOT EXISTS rides_by_device ON rides (device_id)",
     "CREATE TABLE IF NOT EXISTS feature_sets (set_id INTEGER PRIMARY KEY, columns TEXT NOT NULL UNIQUE)",
     "CREATE TABLE IF NOT EXISTS sample_blocks (ride_id TEXT NOT NULL REFERENCES rides (ride_id), "
@@ -151,6 +152,22 @@ def upgrade_from_v1(db) -> None:
                                                     [r[1] for r in part]))
     for table in ("samples", "features", "labels"):
         db.execute(f"DROP TABLE {table}")
+
+
+RIDE_COLUMNS_V3 = (("continues_from", "TEXT REFERENCES rides (ride_id)"), ("dest_lat", _REAL), ("dest_lon", _REAL))
+"""The ``rides`` columns that version 3 added: the ride this one continues (the same device's earlier ride, which
+could not go on) and the rider's destination (degrees, NULL until set)."""
+
+
+CONTINUATION_INDEX = "CREATE INDEX IF NOT EXISTS rides_by_continuation ON rides (continues_from)"
+"""Run after :data:`SCHEMA` and :func:`upgrade_to_v3` (the column is new in version 3)."""
+
+
+def upgrade_to_v3(db) -> None:
+    """Add the columns of :data:`RIDE_COLUMNS_V3` to the ``rides`` table of a version-1 or -2 store (NULL in every
+    existing ride), inside the transaction that opens it."""
+    for name, kind in RIDE_COLUMNS_V3:
+        db.execute(f"ALTER TABLE rides ADD COLUMN {name} {kind}")
 
 
 def _bytes(values: np.ndarray) -> bytes:

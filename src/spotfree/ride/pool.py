@@ -11,7 +11,9 @@ worker over a pipe, and the answer comes back once the worker has committed (an 
 store, as in one process). Python runs one thread at a time per process, so this is how the service uses more
 than one core.
 
-The server's process keeps its own store connection for device registration and for the views' reads.
+The server's process keeps its own store connection for device registration and for the views' reads. Rides
+left without samples for :data:`~spotfree.ride.service.IDLE_SECONDS` are closed while serving
+(:meth:`~spotfree.ride.service.RideService.keep_tidy`), each by the worker that holds it.
 """
 
 from __future__ import annotations
@@ -131,9 +133,26 @@ class RideServicePool(RideService):
         status = "ok" if all(w["alive"] for w in workers) else "degraded"
         return {"status": status, "open_rides": len(self.open_rides()), "workers": workers, "restarts": restarts}
 
-    def _held_elsewhere(self) -> set[str]:
+    def _close_stale(self, stale: list[tuple[str, float]]) -> dict[str, list[dict]]:
+        """Each worker closes the stale rides it holds (their state is there); the rides no worker holds are
+        closed in this process. A worker that stopped meanwhile leaves its rides to the next round."""
         with self._lock:
-            return set(self._home)
+            by_worker: dict[_Worker | None, list[tuple[str, float]]] = {}
+            for ride_id, last in stale:
+                by_worker.setdefault(self._home.get(ride_id), []).append((ride_id, last))
+        closed = super()._close_stale(by_worker.pop(None, []))
+        for worker, rides in by_worker.items():
+            try:
+                done = worker.call("close_stale", rides).result()
+            except WorkerError:
+                continue
+            closed.update(done)
+            with self._lock:
+                for ride_id, _ in rides:
+                    if self._home.get(ride_id) is worker:
+                        del self._home[ride_id]
+                        worker.rides -= 1
+        return closed
 
     def _open_ride(self, token: str, vehicle: str, rider_id: str, meta: dict) -> str:
         with self._lock:
@@ -300,7 +319,7 @@ def _serve(pipe, service_args: tuple) -> None:  # pragma: no cover - runs in the
     collector.settle()
     answer(-1, True, None)
     methods = {"open": service._open_ride, "close": service._close_ride, "destination": service.set_destination,
-               "resume": service.resume, "submit": service._submit}
+               "resume": service.resume, "submit": service._submit, "close_stale": service._close_stale}
     while True:
         try:
             message = pipe.recv()

@@ -30,7 +30,8 @@ RIDER_FIELDS = ("age_band", "gender", "skill")
 class Ride:
     """One recorded ride: who rode what, when, and with which model.
 
-    ``started`` and ``ended`` are UNIX epoch seconds (``ended`` is None while the ride is open).
+    ``started`` and ``ended`` are UNIX epoch seconds (``ended`` is None while the ride is open);
+    ``continues_from`` the id of the same device's earlier ride that this one continues (None for a first piece).
     """
 
     ride_id: str
@@ -43,6 +44,7 @@ class Ride:
     age_band: str | None = None
     gender: str | None = None
     skill: str | None = None
+    continues_from: str | None = None
 
 
 @dataclass(frozen=True)

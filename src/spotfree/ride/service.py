@@ -231,7 +231,9 @@ class RideService:
         return self.store.register_device(name)
 
     def start_ride(self, token: str, vehicle: str, rider_id: str, **meta) -> str:
-        """Open a ride for the token's device; ``meta``: ``age_band``, ``gender``, ``skill``, ``started``."""
+        """Open a ride for the token's device; ``meta``: ``age_band``, ``gender``, ``skill``, ``started`` and
+        ``continues_from`` (the id of this device's earlier ride that could not go on:
+        :meth:`~spotfree.ride.store.RideStore.start_ride`)."""
         ride_id = self._open_ride(token, vehicle, rider_id, meta)
         with self._lock:
             self._owners[ride_id] = token_hash(token)
@@ -247,13 +249,15 @@ class RideService:
         return ride_id
 
     def set_destination(self, token: str, ride_id: str, lat: float, lon: float) -> None:
-        """The rider's destination (degrees) for the time-to-arrival."""
+        """The rider's destination (WGS-84 degrees) for the time-to-arrival; kept in the store, so that a ride
+        rebuilt after a restart (:meth:`_replay`) goes on with it."""
         ride = self._own(token, ride_id)
         for name, value, bound in (("lat", lat, 90), ("lon", lon, 180)):
             if isinstance(value, bool) or not (isinstance(value, (int, float)) and math.isfinite(value)
                                                and abs(value) <= bound):
                 raise InputError(f"destination: field {name!r} must be degrees within +-{bound}")
         with ride.lock:
+            self.store.set_destination(token, ride_id, float(lat), float(lon))
             ride.assistant.set_destination(float(lat), float(lon))
 
     def resume(self, token: str, ride_id: str) -> float | None:
@@ -400,7 +404,7 @@ class RideService:
         """The state of an open ride rebuilt from the store: its stored samples run through a new
         :class:`LiveRide` and assistant in blocks (the same labels and episodes as when they came, since blocks
         and single samples give the same results); the events that ended then are already stored and are
-        dropped. The rate bucket starts full; a destination set before is not kept (the phone sets it again)."""
+        dropped. The rate bucket starts full; the destination kept in the store is set again."""
         columns = self.store.samples(ride_id)
         table = np.column_stack([np.asarray(columns[c], dtype=float) for c in SAMPLE_COLUMNS])
         ride = _OpenRide(ride_id, owner, LiveRide(self.model, self.classifier), self.assistant(),
@@ -411,17 +415,31 @@ class RideService:
             ride.assistant.update_block(block[:, _ASSISTED].tolist(), labels)
             ride.assistant.pop_events()
         ride.last_time = float(table[-1, 0]) if len(table) else None
+        destination = self.store.destination(ride_id)
+        if destination is not None:
+            ride.assistant.set_destination(*destination)
         return ride
 
     def close_idle_rides(self, idle: float = IDLE_SECONDS, now: float | None = None) -> list[str]:
         """Close every open ride with no sample for more than ``idle`` s (:data:`IDLE_SECONDS`; UNIX ``now``):
-        its open episodes become events, ``ended`` is the time of its last sample. Returns their ids. A ride that
-        a worker process holds (:class:`~spotfree.ride.pool.RideServicePool`) is left to that worker."""
+        its open episodes become events, ``ended`` is the time of its last sample, and the views are told. Returns
+        their ids. :meth:`keep_tidy` runs this while serving, for the rides this process holds and for those only
+        the store holds (left open by an earlier run); a :class:`~spotfree.ride.pool.RideServicePool` has each
+        worker close its own."""
         now = clock_time() if now is None else now
-        closed = []
-        for ride_id, last in self.store.open_ride_activity():
-            if now - last <= idle or ride_id in self._held_elsewhere():
-                continue
+        stale = [(ride_id, last) for ride_id, last in self.store.open_ride_activity() if now - last > idle]
+        closed = self._close_stale(stale)
+        for ride_id, events in closed.items():
+            self._publish({"type": "end", "ride_id": ride_id, "events": events}, ride_id)
+            with self._lock:
+                self._owners.pop(ride_id, None)
+        return list(closed)
+
+    def _close_stale(self, stale: list[tuple[str, float]]) -> dict[str, list[dict]]:
+        """Close the rides of ``(ride_id, UNIX s of its last activity)`` in this process (each rebuilt from the
+        store when not held): ``{ride_id: its events as dicts}`` of those that were still open."""
+        closed = {}
+        for ride_id, last in stale:
             with self._lock:
                 ride = self._open.pop(ride_id, None)
             if ride is None:
@@ -429,16 +447,9 @@ class RideService:
             with ride.lock:
                 ride.assistant.finish()
                 events = ride.assistant.pop_events()
-            if self.store.close_idle_ride(ride_id, max(last, self.store.ride(ride_id).started), events):
-                closed.append(ride_id)
-                self._publish({"type": "end", "ride_id": ride_id, "events": [vars(e) for e in events]}, ride_id)
-            with self._lock:
-                self._owners.pop(ride_id, None)
+                if self.store.close_idle_ride(ride_id, max(last, self.store.ride(ride_id).started), events):
+                    closed[ride_id] = [vars(e) for e in events]
         return closed
-
-    def _held_elsewhere(self) -> set[str]:
-        """Rides held by other processes (none here; the pool's workers' rides there)."""
-        return set()
 
     # ------------------------------------------------------------ views
 

@@ -65,7 +65,8 @@ MAX_ENROLMENT_TTL = 7 * 86400.0
 ENROLMENT_CODE_BYTES = 9
 """Random bytes of an enrolment code (12 characters to type; it is short-lived and limited in uses)."""
 _OPERATOR_KEY = "operator_token_hash"
-_RIDE_FIELDS = ("ride_id", "device_id", "vehicle", "rider_id", "started", "ended", "model", *RIDER_FIELDS)
+_RIDE_FIELDS = ("ride_id", "device_id", "vehicle", "rider_id", "started", "ended", "model", *RIDER_FIELDS,
+                "continues_from")
 
 
 class AccessError(SpotfreeError, PermissionError):
@@ -207,10 +208,14 @@ class RideStore:
 
     def start_ride(self, token: str, vehicle: str, rider_id: str, *, model: str | None = None,
                    age_band: str | None = None, gender: str | None = None, skill: str | None = None,
-                   started: float | None = None) -> str:
-        """Open a ride for the token's device; returns its id. ``started`` is UNIX seconds (now by default)."""
+                   started: float | None = None, continues_from: str | None = None) -> str:
+        """Open a ride for the token's device; returns its id. ``started`` is UNIX seconds (now by default);
+        ``continues_from`` the id of this device's earlier ride that this one continues (one that could not go
+        on: ended, or closed while the device was away), so that the pieces of a ride can be joined
+        (:meth:`continuation`); NotFoundError for an unknown ride, ForbiddenError for another device's."""
         device_id = self.authenticate(token)
         where = "new ride"
+        previous = validation.text(continues_from, where, "continues_from", required=False)
         fields = {
             "vehicle": validation.text(vehicle, where, "vehicle"),
             "rider_id": validation.text(rider_id, where, "rider_id"),
@@ -220,11 +225,54 @@ class RideStore:
         }
         started = clock.time() if started is None else _epoch(started, where, "started")
         ride_id = uuid.uuid4().hex
-        names = ("ride_id", "device_id", "started", *fields)
-        self._write(lambda db: db.execute(
-            f"INSERT INTO rides ({', '.join(names)}) VALUES ({', '.join('?' * len(names))})",
-            (ride_id, device_id, started, *fields.values())))
+        names = ("ride_id", "device_id", "started", "continues_from", *fields)
+
+        def write(db) -> None:
+            if previous is not None:
+                row = db.execute("SELECT device_id FROM rides WHERE ride_id = ?", (previous,)).fetchone()
+                if row is None:
+                    raise NotFoundError(f"{where}: field 'continues_from': ride {previous!r} is not in the ride "
+                                        "store; give the id of this device's earlier ride")
+                if row[0] != device_id:
+                    raise ForbiddenError(f"{where}: field 'continues_from': ride {previous!r} belongs to another "
+                                         "device; a ride continues only a ride of the same device")
+            db.execute(f"INSERT INTO rides ({', '.join(names)}) VALUES ({', '.join('?' * len(names))})",
+                       (ride_id, device_id, started, previous, *fields.values()))
+        self._write(write)
         return ride_id
+
+    def set_destination(self, token: str, ride_id: str, lat: float, lon: float) -> None:
+        """Keep the rider's destination of an open ride of the token's device (WGS-84 degrees, checked by the
+        caller), replacing an earlier one, so that it outlives the process serving the ride."""
+        def write(db) -> None:
+            self._own_open_ride(db, token, ride_id)
+            db.execute("UPDATE rides SET dest_lat = ?, dest_lon = ? WHERE ride_id = ?",
+                       (float(lat), float(lon), ride_id))
+        self._write(write)
+
+    def destination(self, ride_id: str) -> tuple[float, float] | None:
+        """The destination kept for the ride, ``(lat, lon)`` degrees, or None when none was set."""
+        self.ride(ride_id)
+        lat, lon = self._query("SELECT dest_lat, dest_lon FROM rides WHERE ride_id = ?", (ride_id,))[0]
+        return None if lat is None or lon is None else (float(lat), float(lon))
+
+    def continuation(self, ride_id: str) -> list[str]:
+        """The pieces of the ride that ``ride_id`` belongs to, in order: from the first ride (one that continues
+        no other) through each ride that continues the one before (the newest when a ride was continued twice)."""
+        self.ride(ride_id)
+        chain = [ride_id]
+        while True:  # back to the first piece
+            row = self._query("SELECT continues_from FROM rides WHERE ride_id = ?", (chain[0],))
+            if not row or row[0][0] is None or row[0][0] in chain:
+                break
+            chain.insert(0, row[0][0])
+        while True:  # on to the last piece
+            row = self._query("SELECT ride_id FROM rides WHERE continues_from = ? ORDER BY started DESC, ride_id "
+                              "LIMIT 1", (chain[-1],))
+            if not row or row[0][0] in chain:
+                break
+            chain.append(row[0][0])
+        return chain
 
     def end_ride(self, token: str, ride_id: str, ended: float | None = None) -> None:
         """Close the ride (``ended`` UNIX seconds, now by default); later writes to it are refused."""
@@ -517,19 +565,23 @@ class SQLiteConnection:
 
 
 def _open_schema(db) -> int | None:
-    """Create the tables of a new store, or rewrite a version-1 store into blocks (:mod:`.blocks`); the id of
-    today's feature columns. A store of another version is left untouched (None)."""
+    """Create the tables of a new store, or bring a version-1 store (rewritten into blocks, :mod:`.blocks`) or a
+    version-2 store (rides without continuation and destination) to this version; the id of today's feature
+    columns. A store of another version is left untouched (None)."""
     db.execute(blocks.SCHEMA[0])
     row = db.execute("SELECT value FROM meta WHERE key = ?", ("schema_version",)).fetchone()
-    if row is not None and row[0] not in ("1", str(blocks.SCHEMA_VERSION)):
+    if row is not None and row[0] not in ("1", "2", str(blocks.SCHEMA_VERSION)):
         return None
     for statement in blocks.SCHEMA[1:]:
         db.execute(statement)
     if row is None:
         db.execute("INSERT INTO meta (key, value) VALUES (?, ?)", ("schema_version", str(blocks.SCHEMA_VERSION)))
-    elif row[0] == "1":
-        blocks.upgrade_from_v1(db)
+    elif row[0] != str(blocks.SCHEMA_VERSION):
+        if row[0] == "1":
+            blocks.upgrade_from_v1(db)
+        blocks.upgrade_to_v3(db)
         db.execute("UPDATE meta SET value = ? WHERE key = ?", (str(blocks.SCHEMA_VERSION), "schema_version"))
+    db.execute(blocks.CONTINUATION_INDEX)
     return blocks.feature_set(db, FEATURE_COLUMNS)
 
 

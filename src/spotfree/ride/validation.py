@@ -173,8 +173,15 @@ def check_times(t: np.ndarray, last_time: float | None, where: str) -> None:
 
 
 def _median_step_ok(t: np.ndarray) -> bool:
-    """Whether a batch of fewer than 3 times, or its median step, is at most ``1 / MIN_RATE`` s."""
-    return len(t) < 3 or float(np.median(np.diff(t))) <= 1.0 / MIN_RATE
+    """Whether a batch of fewer than 3 times, or its median step, is at most ``1 / MIN_RATE`` s (the median as
+    :func:`numpy.median` takes it, on plain floats: a phone's batch is a few samples)."""
+    if len(t) < 3:
+        return True
+    times = t.tolist()
+    steps = sorted([b - a for a, b in zip(times, times[1:])])
+    half = len(steps) // 2
+    median = steps[half] if len(steps) % 2 else (steps[half - 1] + steps[half]) / 2
+    return median <= 1.0 / MIN_RATE
 
 
 def feature_batch(features: Mapping[str, Sequence[float]] | np.ndarray, n: int, where: str) -> np.ndarray:
@@ -210,7 +217,18 @@ def label_batch(labels: Sequence[str | None], n: int, where: str, field: str) ->
     """One label (short text, or None where the classifier has no window yet) per sample."""
     if isinstance(labels, str) or len(labels) != n:
         raise InputError(f"{where}: labels {field!r} must be a list of {n} labels, one per sample")
+    try:  # a batch holds a few distinct labels: each is checked once, and only a refusal looks for its row
+        distinct = set(labels)
+    except TypeError:  # an unhashable value: the rows name it
+        distinct = None
+    if distinct is not None and all(label is None or _is_text(label) for label in distinct):
+        return list(labels)
     return [None if label is None else text(label, where, f"{field} row {k + 1}") for k, label in enumerate(labels)]
+
+
+def _is_text(value: object) -> bool:
+    """Whether :func:`text` takes ``value`` as a non-empty text."""
+    return isinstance(value, str) and 0 < len(value) <= MAX_TEXT and value.isprintable()
 
 
 def text(value: object, where: str, field: str, required: bool = True) -> str | None:
@@ -219,7 +237,7 @@ def text(value: object, where: str, field: str, required: bool = True) -> str | 
         if required:
             raise InputError(f"{where}: field {field!r} is empty; give it a value")
         return None
-    if not isinstance(value, str) or len(value) > MAX_TEXT or not value.isprintable():
+    if not _is_text(value):
         raise InputError(f"{where}: field {field!r} must be printable text of at most {MAX_TEXT} characters")
     return value
 

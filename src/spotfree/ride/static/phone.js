@@ -3,11 +3,13 @@
 // One batch is in flight at a time and a batch holds at most MAX_BATCH_SECONDS of samples, so the backlog of a
 // disconnect goes in order and in paced chunks; a batch refused for the rate (429) is sent again when the server
 // says. A batch goes every BATCH_SECONDS of samples, or at once when the page's own classifier raises a warning
-// (its labels equal the server's), so that the sample that warns does not wait for the rest of its batch.
+// (its labels equal the server's), so that the sample that warns does not wait for the rest of its batch. The page
+// shows its own labels and warnings at once; the server's acknowledgement brings speed, distance and time to the
+// destination. A batch a second, not four: the server's cost is mostly per message (benchmarks/serve_load.py).
 "use strict";
 
 const $ = (id) => document.getElementById(id);
-const BATCH_SECONDS = 0.25, MAX_BATCH_SECONDS = 10;
+const BATCH_SECONDS = 1, MAX_BATCH_SECONDS = 10;
 const state = {
   spec: null, pipeline: null, warner: null, resampler: null, socket: null, rideId: null, token: null, origin: null,
   queue: [], seq: 0, inFlight: null, retryTimer: null, fix: null, lastSent: -Infinity, online: false, urgent: false,
@@ -89,10 +91,9 @@ function sample(t, acc, gyr) {
     state.localWarnings.push({ kind: warn, time: t });
     state.urgent = true;
   }
-  if (!state.online) {
-    show(out.label, warn);
-    if (fix && fix.speed !== null) $("speed").textContent = kmh(fix.speed);
-  }
+  // the page's labels and warnings equal the server's: shown at once, not a batch later
+  show(out.label, warn);
+  if (!state.online && fix && fix.speed !== null) $("speed").textContent = kmh(fix.speed);
   state.queue.push(row);
   if (due()) flush();
 }
@@ -135,8 +136,7 @@ function onReply(msg) {
     state.inFlight = null;
     state.serverLabels.push(...msg.labels);
     state.warnings.push(...msg.warnings);
-    const last = msg.labels[msg.labels.length - 1];
-    show(last, msg.warnings.length ? msg.warnings[msg.warnings.length - 1].kind : null);
+    if (msg.warnings.length) show(msg.labels[msg.labels.length - 1], msg.warnings[msg.warnings.length - 1].kind);
     const s = msg.state || {};
     $("speed").textContent = kmh(s.speed);
     $("distance").textContent = km(s.distance);
@@ -148,11 +148,12 @@ function onReply(msg) {
     $("status").textContent = `server refused: ${msg.message}`;
     if (!state.online && state.rideId && (msg.status === 403 || msg.status === 404)) {
       // the ride cannot be resumed (it ended, or was closed while the phone was away): go on in a new ride
-      // with every sample still held, linked to the old one by the page's record
+      // with every sample still held, linked to the old one (the server keeps the link: continues_from)
       state.previousRides.push(state.rideId);
       state.rideId = null;
       sessionStorage.removeItem("spotfree-ride");
-      state.socket.send(JSON.stringify({ type: "start", token: state.token, ...rideMeta() }));
+      state.socket.send(JSON.stringify({ type: "start", token: state.token, ...rideMeta(),
+        continues_from: state.previousRides[state.previousRides.length - 1] }));
       return;
     }
     if (msg.seq !== null && msg.seq !== undefined && state.inFlight && msg.seq === state.inFlight.seq) {
