@@ -72,9 +72,10 @@ BLOCK_SECONDS = 5.0
 PRESENCE_BLOCK_SECONDS = 2.0
 """Length of the alternating blocks of the presence forest's folds: short, so that a class that occurs in a few short
 runs still has windows in both folds (a forest that saw none of a class's windows cannot find them)."""
-PATTERN_FLOOR = 0.01
-"""Bounds ``[PATTERN_FLOOR, 1 - PATTERN_FLOOR]`` of the co-declaration shares ``pi_{d|c}`` (a log of 0 would let one
-forest output veto a class)."""
+PATTERN_FLOOR = 0.2
+"""Bounds ``[PATTERN_FLOOR, 1 - PATTERN_FLOOR]`` of the co-declaration shares ``pi_{d|c}``: the forest's ``rho_d`` is
+an average over similar windows (a window that straddles a change, a motion that also occurs elsewhere), so that a
+window of ``c`` may seem to lie in a bag without ``c``; the bound keeps one output from vetoing a class."""
 SEPARABLE = 0.3
 """Ratio of a class's mean cross-fitted posterior on windows of recordings without it to that on its own windows
 from which the summary warns."""
@@ -185,7 +186,7 @@ class SetSupervisedLearner(BaseEstimator):
         mask = allowed[data.recording]
         prior = self._log_prior(recordings, data)
 
-        log_s = self._presence(X, mask, data, rng)
+        log_s, rho = self._presence(X, mask, data, rng)
         log_q = np.where(mask, log_s + prior, -np.inf)
         labels = self._decide(log_q, data, allowed)
         self.history_ = []
@@ -199,7 +200,7 @@ class SetSupervisedLearner(BaseEstimator):
             if changed < CHANGED:
                 break
         if self.rounds:
-            self._warn_inseparable(log_p, labels, mask)
+            self._warn_inseparable(log_p, rho, labels, mask)
         margin = _margins(self._smoothed(log_q, data), labels)
         self.model_ = self._dictionary(X, labels, margin, data, channels, scaling, offset, scale, sets, recordings)
         names = np.asarray(self.classes_, dtype=object)
@@ -307,26 +308,35 @@ class SetSupervisedLearner(BaseEstimator):
         average."""
         return float(self.smoothing * self.rate_ / self.step)
 
-    def _warn_inseparable(self, log_p: np.ndarray, labels: np.ndarray, mask: np.ndarray) -> None:
-        """Warn about a class that a classifier which did not see the windows gives, on average, at least
-        :data:`SEPARABLE` times as much to the windows of recordings that do not declare it as to its own windows:
-        what the sets named it looks like what happens without it; and about a class that names fewer windows than
-        :data:`LEAF` (only the every-class constraint of the decoding gave it any)."""
+    def _warn_inseparable(self, log_p: np.ndarray, rho: np.ndarray, labels: np.ndarray, mask: np.ndarray) -> None:
+        """Warn about a class whose windows are not told apart from what happens without it: a classifier which did
+        not see the windows gives it, on average, at least :data:`SEPARABLE` times as much on the windows of
+        recordings that do not declare it as on its own windows; or, by the evidence of presence, its own windows
+        seem to lie in recordings without it nearly as often as the other windows of the recordings that declare it,
+        ``1 - mean rho_c(own) >= (1 - SEPARABLE) (1 - mean rho_c(others))`` (cross-fitted on
+        short blocks, this also holds for a class whose windows one fold of the rounds holds alone, whose posterior
+        was fitted on them); or it names fewer windows than :data:`LEAF`."""
         p = np.exp(log_p)
         for c, name in enumerate(self.classes_):
             own, elsewhere = labels == c, ~mask[:, c]
-            if 0 < own.sum() < LEAF:
-                self.warnings_.append(
-                    f"class {name} is not told apart from what happens without it (it names only {int(own.sum())} "
-                    f"windows, fewer than a leaf of the trees holds); check that it happens in the recordings that "
-                    "declare it")
-            elif own.any() and elsewhere.any():
-                ratio = p[elsewhere, c].mean() / p[own, c].mean()
-                if ratio >= SEPARABLE:
-                    self.warnings_.append(
-                        f"class {name} is not told apart from what happens without it (its windows get it "
-                        f"{p[own, c].mean():.2f} on average, windows of recordings without it "
-                        f"{p[elsewhere, c].mean():.2f}); check that it happens in the recordings that declare it")
+            if not own.any() or not elsewhere.any():
+                continue
+            others = mask[:, c] & ~own
+            known = np.isfinite(rho[:, c])
+            alone, besides = (1.0 - np.mean(rho[own & known, c]) if (own & known).any() else 0.0,
+                              1.0 - np.mean(rho[others & known, c]) if (others & known).any() else 0.0)
+            if own.sum() < LEAF:
+                reason = f"it names only {int(own.sum())} windows, fewer than a leaf of the trees holds"
+            elif p[elsewhere, c].mean() >= SEPARABLE * p[own, c].mean():
+                reason = (f"its windows get it {p[own, c].mean():.2f} on average, windows of recordings without it "
+                          f"{p[elsewhere, c].mean():.2f}")
+            elif besides > 0 and alone >= (1.0 - SEPARABLE) * besides:
+                reason = (f"by the evidence of presence its windows seem to lie in recordings without it {alone:.2f} "
+                          f"of the time, the other windows of its recordings {besides:.2f}")
+            else:
+                continue
+            self.warnings_.append(f"class {name} is not told apart from what happens without it ({reason}); check "
+                                  "that it happens in the recordings that declare it")
 
     def _folds(self, data: _Windows, seconds: float = BLOCK_SECONDS) -> np.ndarray:
         """Cross-fitting fold (0 or 1) of every window: alternating :data:`BLOCK_SECONDS` blocks of each recording,
@@ -337,8 +347,8 @@ class SetSupervisedLearner(BaseEstimator):
 
     def _presence(self, X: np.ndarray, mask: np.ndarray, data: _Windows, rng: np.random.Generator) -> np.ndarray:
         """``log s_c(x)`` of every window (module docstring, step 2), from a forest that did not see the window's
-        :data:`PRESENCE_BLOCK_SECONDS` block; 0 where no class is declared by some but not all of the forest's
-        windows."""
+        :data:`PRESENCE_BLOCK_SECONDS` block (0 where no class is declared by some but not all of the forest's
+        windows), and ``rho_c(x)`` (NaN for a class not among the forest's outputs)."""
         n_classes = len(self.classes_)
         declared_by = mask[data.offsets[:-1]]  # (R, C): the recordings' sets
         share = declared_by * (np.diff(data.offsets) / declared_by.sum(axis=1))[:, None]  # windows of c in r
@@ -346,6 +356,7 @@ class SetSupervisedLearner(BaseEstimator):
         pattern = np.clip(pattern, PATTERN_FLOOR, 1.0 - PATTERN_FLOOR)
         fold = self._folds(data, PRESENCE_BLOCK_SECONDS)
         log_s = np.zeros((len(X), n_classes))
+        presence = np.full((len(X), n_classes), np.nan)
         for f in (0, 1):
             held = fold == f
             if not held.any():
@@ -365,10 +376,11 @@ class SetSupervisedLearner(BaseEstimator):
             proba = model.predict_proba(X[held])
             proba = proba if isinstance(proba, list) else [proba]
             rho = np.column_stack([p[:, 1] for p in proba])  # P(d in S | x); each output's classes_ is [0, 1]
+            presence[np.ix_(held, informative)] = rho
             pi = pattern[:, informative]
             ll = rho @ np.log(pi).T + (1.0 - rho) @ np.log(1.0 - pi).T  # (m, C)
             log_s[held] = ll - np.logaddexp.reduce(ll, axis=1, keepdims=True)
-        return log_s
+        return log_s, presence
 
     def _cross_fitted(self, X: np.ndarray, labels: np.ndarray, data: _Windows,
                       rng: np.random.Generator) -> np.ndarray:
