@@ -254,3 +254,25 @@ def test_any_input_trains_or_is_refused_with_an_input_error(data):
     for names, declared in zip(learner.window_labels_, sets):
         assert set(names) <= declared
     assert np.all(np.isfinite(learner.model_.dictionary))
+
+
+def test_the_evidence_of_presence_names_a_class_that_always_comes_with_another():
+    """``hard`` is declared only in recordings that also declare ``soft``; the recordings with ``soft`` and without
+    ``hard`` tell them apart (and one without either, ``soft`` from ``still``): the training windows of ``hard`` end
+    named ``hard`` and those of ``soft`` ``soft``, in every recording."""
+    rng = np.random.default_rng(5)
+    train = []
+    for k in range(3):
+        train.append(_alternating("still", "soft", rng, f"soft-{k}", other_seconds=(2.0, 4.0)))
+        train.append(_recording([("still", 4), ("soft", 4), ("hard", 3), ("still", 4), ("soft", 4), ("hard", 3),
+                                 ("still", 4)], rng, f"hard-{k}"))
+    train.append(_recording([("still", 20)], rng, "still"))
+    sets = [{"still", "soft"}, {"still", "soft", "hard"}] * 3 + [{"still"}]
+    learner = SetSupervisedLearner(seed=0).fit(train, sets)
+    for rec, names, ends in zip(train, learner.window_labels_, learner.window_ends_):
+        truth = rec.truth["label"][ends - learner.window // 2]
+        away = ~near_transitions(rec.truth["label"], rate=rec.rate)[ends - learner.window // 2]
+        for c in ("soft", "hard"):
+            sel = away & (truth == c)
+            if sel.any():
+                assert np.mean(names[sel] == c) >= 0.8, (rec.source, c, np.mean(names[sel] == c))

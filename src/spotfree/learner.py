@@ -8,38 +8,42 @@ Method (``docs/training.md`` has the derivation and the references):
    default ``summary``: level, spread and band powers per channel); a ``summary`` is standardised over all
    training windows, a ``hankel`` window kept as the channel scales leave it (so that the streaming classifiers run
    it in compiled code, as they run the paper's).
-2. **Groups.** The windows of all recordings are grouped by k-means into ``groups`` groups per declared class.
-3. **Naming by evidence.** A recording ``r`` is a bag of windows whose classes lie in its declared set ``S_r``.
-   With ``n_rg`` windows of recording ``r`` in group ``g``, the groups are named by the set-constrained mixture
-   (labelled latent Dirichlet allocation, Ramage et al., EMNLP 2009)
+2. **Evidence of presence.** A recording ``r`` is a bag of windows whose classes lie in its declared set ``S_r``
+   (multiple-instance learning): a window of class ``c`` lies only in bags that declare ``c``, and in bags that
+   declare ``d`` as often as ``c`` comes with ``d``. One forest of extremely randomised trees, an output per class
+   ``d``, learns from every window whether its recording declares ``d``: ``rho_d(x) = P(d in S | x)``, cross-fitted
+   on two folds of alternating short blocks. The sets give how often a window of ``c`` lies in a bag declaring
+   ``d``, ``pi_{d|c}`` (each recording's windows shared equally among its declared classes; ``pi_{c|c} = 1``). A
+   window's evidence for ``c`` is how well its presence pattern matches that of ``c``:
 
-       n_rg ~ sum_{c in S_r} theta_rc phi_cg          (theta_r: class shares of r, phi_c: groups of class c)
+       log s_c(x) = sum_d [rho_d(x) log pi_{d|c} + (1 - rho_d(x)) log(1 - pi_{d|c})]   (normalised over c)
 
-   fitted by expectation-maximisation. A window of group ``g`` in recording ``r`` starts with the posterior
-   ``q(c) ∝ theta_rc phi_cg`` over ``c in S_r`` (0 outside it).
-4. **Relabelling.** The windows of each recording are decoded into runs (:func:`decode_runs`): the class sequence
+   over the classes ``d`` declared by some but not all recordings. A class that always comes with another (a hard
+   stop only in recordings that also declare a soft one) is told apart by the bags that have the other without it.
+   Every window starts with ``log q(c) = log s_c(x)`` over ``c in S_r`` (``-inf`` outside it).
+3. **Relabelling.** The windows of each recording are decoded into runs (:func:`decode_runs`): the class sequence
    inside ``S_r`` that maximises ``sum_i log q_i(z_i)`` minus ``smoothing * rate / step`` per change of class, in
    which every declared class occurs (a class lasts longer than one window; every declared class finds its windows).
    Then, for ``rounds`` rounds, a classifier (extremely randomised trees, each class weighing alike) is fitted on at
    most ``FIT_WINDOWS`` windows of each class, cross-fitted so that no window is scored by a model that saw it (two
-   folds of alternating time blocks); its balanced posterior ``p(c | x)``, restricted to ``S_r``, is the new ``q``
-   and the windows are decoded again. The balanced posterior, not the recording's class shares, decides: a class
+   folds of alternating time blocks); ``log q = log p(c | x) + log s_c(x)`` (its balanced posterior and the evidence
+   of presence of step 2, which keeps the contrast between bags with and without a class in every round),
+   restricted to ``S_r``, and the windows are decoded again. The balanced posterior, not the recording's class shares, decides: a class
    declared in one recording only would otherwise keep whatever it first took there, where the likelihood alone
    cannot tell (a class that is a copy of another plus its own windows explains the data as well). The rounds stop
    early when fewer than 0.2 % of the windows change.
-5. **Dictionary.** Per class, the windows whose neighbours half a window before and after carry the same name (a
-   window holds one state) and whose posterior margin is at or above the class's median, at most ``max_columns``
-   of them spread evenly over time, become the dictionary's columns. The causal columns name the same kind of
-   windows by the class at their last sample. Classification is kernel CRC_RLS on the dictionary
+4. **Dictionary.** Per class, the windows whose posterior margin is at or above the class's median, at most
+   ``max_columns`` of them spread evenly over time, become the dictionary's columns: windows that straddle a change
+   stay eligible, so that the dictionary also holds a class's onsets and ends, which the test windows show as
+   often. The causal columns are chosen alike among the windows named by the class at their last sample. Classification is kernel CRC_RLS on the dictionary
    (:class:`~spotfree.classify.kcrc.KernelCRCClassifier`).
 
 Domain knowledge enters only through ``prior``: an object whose ``log_prior(recording, centres, classes)`` returns an
 ``(m, C)`` array added to ``log q`` of the windows centred at sample indices ``centres`` in every step; the generic
 learner knows nothing of any domain.
 
-The learner's cost is linear in the number of windows: k-means and the classifier are fitted on at most
-``FIT_WINDOWS`` windows per class, the naming works on group counts, and every other step is a pass over the
-windows.
+The learner's cost is linear in the number of windows: the forests are fitted on at most ``FIT_WINDOWS`` windows
+per class, and every other step is a pass over the windows.
 """
 
 from __future__ import annotations
@@ -50,7 +54,6 @@ import numba
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 from sklearn.base import BaseEstimator
-from sklearn.cluster import MiniBatchKMeans
 from sklearn.ensemble import ExtraTreesClassifier
 
 from spotfree.classify.batch import classify_recording, dictionary_classifier
@@ -61,12 +64,18 @@ from spotfree.representation import REPRESENTATIONS, represent
 from spotfree.windows import ChannelScaling, recording_windows
 
 FIT_WINDOWS = 2000
-"""Most windows per class the classifier of a round is fitted on (and, times the classes, k-means)."""
+"""Most windows per class the classifier of a round is fitted on (and, times the classes, the presence forest)."""
 CHANGED = 0.002
 """Share of windows whose name changes below which the rounds stop."""
 BLOCK_SECONDS = 5.0
-"""Length of the time blocks that alternate between the two cross-fitting folds."""
-EM_ITERATIONS = 200
+"""Length of the time blocks that alternate between the two cross-fitting folds of the relabelling rounds."""
+PRESENCE_BLOCK_SECONDS = 2.0
+"""Length of the alternating blocks of the presence forest's folds: short, so that a class that occurs in a few short
+runs still has windows in both folds (a forest that saw none of a class's windows cannot find them)."""
+PATTERN_FLOOR = 0.2
+"""Bounds ``[PATTERN_FLOOR, 1 - PATTERN_FLOOR]`` of the co-declaration shares ``pi_{d|c}``: the forest's ``rho_d`` is
+an average over similar windows (a window that straddles a change, a motion that also occurs elsewhere), so that a
+window of ``c`` may seem to lie in a bag without ``c``; the bound keeps one output from vetoing a class."""
 SEPARABLE = 0.3
 """Ratio of a class's mean cross-fitted posterior on windows of recordings without it to that on its own windows
 from which the summary warns."""
@@ -112,10 +121,8 @@ class SetSupervisedLearner(BaseEstimator):
         Stride of the windows, samples (training and classification).
     representation : {"summary", "hankel"}
         What the dictionary holds of a window (:mod:`spotfree.representation`).
-    groups : int
-        k-means groups per declared class (step 2).
     rounds : int
-        Most relabelling rounds (step 4); 0 keeps the names of the evidence.
+        Most relabelling rounds (step 3); 0 keeps the names decoded from the evidence of presence.
     smoothing : float
         Seconds of windows whose log-posterior a change of class must gain to be made (the switching cost of
         :func:`decode_runs`); the dictionary's margins are averaged over as many windows.
@@ -124,7 +131,7 @@ class SetSupervisedLearner(BaseEstimator):
     prior : object or None
         Domain prior with ``log_prior(recording, centres, classes) -> (m, C)`` (module docstring); None: none.
     seed : int
-        Seed of k-means and of the classifier; the same data and seed give the same model.
+        Seed of the forests and of their samples; the same data and seed give the same model.
 
     Attributes
     ----------
@@ -146,13 +153,12 @@ class SetSupervisedLearner(BaseEstimator):
     """
 
     def __init__(self, channels: tuple[str, ...] | None = None, window: int = 20, step: int = 1,
-                 representation: str = "summary", groups: int = 4, rounds: int = 5, smoothing: float = 0.5,
+                 representation: str = "summary", rounds: int = 5, smoothing: float = 0.5,
                  max_columns: int = 300, prior=None, seed: int = 0):
         self.channels = channels
         self.window = window
         self.step = step
         self.representation = representation
-        self.groups = groups
         self.rounds = rounds
         self.smoothing = smoothing
         self.max_columns = max_columns
@@ -184,14 +190,13 @@ class SetSupervisedLearner(BaseEstimator):
         mask = allowed[data.recording]
         prior = self._log_prior(recordings, data)
 
-        groups = self._group(X, n_classes, rng)
-        log_q = _name_groups(groups, data.recording, allowed, self.groups * n_classes)
-        log_q = np.where(mask, log_q + prior, -np.inf)
+        log_s, rho = self._presence(X, mask, data, rng)
+        log_q = np.where(mask, log_s + prior, -np.inf)
         labels = self._decide(log_q, data, allowed)
         self.history_ = []
         for _ in range(self.rounds):
             log_p = self._cross_fitted(X, labels, data, rng)
-            log_q = np.where(mask, log_p + prior, -np.inf)
+            log_q = np.where(mask, log_p + log_s + prior, -np.inf)
             new = self._decide(log_q, data, allowed)
             changed = float(np.mean(new != labels))
             labels = new
@@ -199,7 +204,7 @@ class SetSupervisedLearner(BaseEstimator):
             if changed < CHANGED:
                 break
         if self.rounds:
-            self._warn_inseparable(log_p, labels, mask)
+            self._warn_inseparable(log_p, rho, labels, mask)
         margin = _margins(self._smoothed(log_q, data), labels)
         self.model_ = self._dictionary(X, labels, margin, data, channels, scaling, offset, scale, sets, recordings)
         names = np.asarray(self.classes_, dtype=object)
@@ -224,7 +229,7 @@ class SetSupervisedLearner(BaseEstimator):
         if self.representation not in REPRESENTATIONS:
             raise InputError(f"representation {self.representation!r} is unknown; use one of "
                              f"{', '.join(REPRESENTATIONS)}")
-        for name in ("window", "step", "groups", "max_columns"):
+        for name in ("window", "step", "max_columns"):
             value = getattr(self, name)
             if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < 1:
                 raise InputError(f"{name}={value!r}: give a whole number >= 1")
@@ -275,12 +280,6 @@ class SetSupervisedLearner(BaseEstimator):
             raise InputError(f"the prior {type(self.prior).__name__} must give one finite row per window and class")
         return prior
 
-    def _group(self, X: np.ndarray, n_classes: int, rng: np.random.Generator) -> np.ndarray:
-        k = min(self.groups * n_classes, len(X))
-        sample = X[rng.choice(len(X), min(len(X), FIT_WINDOWS * n_classes), replace=False)]
-        kmeans = MiniBatchKMeans(n_clusters=k, n_init=3, batch_size=4096, random_state=self.seed).fit(sample)
-        return kmeans.predict(X)
-
     def _smoothed(self, log_q: np.ndarray, data: _Windows) -> np.ndarray:
         span = int(round(self._span))
         if span < 2:
@@ -313,29 +312,86 @@ class SetSupervisedLearner(BaseEstimator):
         average."""
         return float(self.smoothing * self.rate_ / self.step)
 
-    def _warn_inseparable(self, log_p: np.ndarray, labels: np.ndarray, mask: np.ndarray) -> None:
-        """Warn about a class that a classifier which did not see the windows gives, on average, at least
-        :data:`SEPARABLE` times as much to the windows of recordings that do not declare it as to its own windows:
-        what the sets named it looks like what happens without it."""
+    def _warn_inseparable(self, log_p: np.ndarray, rho: np.ndarray, labels: np.ndarray, mask: np.ndarray) -> None:
+        """Warn about a class whose windows are not told apart from what happens without it: a classifier which did
+        not see the windows gives it, on average, at least :data:`SEPARABLE` times as much on the windows of
+        recordings that do not declare it as on its own windows; or, by the evidence of presence, its own windows
+        seem to lie in recordings without it nearly as often as the other windows of the recordings that declare it,
+        ``1 - mean rho_c(own) >= (1 - SEPARABLE) (1 - mean rho_c(others))`` (cross-fitted on
+        short blocks, this also holds for a class whose windows one fold of the rounds holds alone, whose posterior
+        was fitted on them); or it names fewer windows than :data:`LEAF`."""
         p = np.exp(log_p)
         for c, name in enumerate(self.classes_):
             own, elsewhere = labels == c, ~mask[:, c]
-            if own.any() and elsewhere.any():
-                ratio = p[elsewhere, c].mean() / p[own, c].mean()
-                if ratio >= SEPARABLE:
-                    self.warnings_.append(
-                        f"class {name} is not told apart from what happens without it (its windows get it "
-                        f"{p[own, c].mean():.2f} on average, windows of recordings without it "
-                        f"{p[elsewhere, c].mean():.2f}); check that it happens in the recordings that declare it")
+            if not own.any() or not elsewhere.any():
+                continue
+            others = mask[:, c] & ~own
+            known = np.isfinite(rho[:, c])
+            alone, besides = (1.0 - np.mean(rho[own & known, c]) if (own & known).any() else 0.0,
+                              1.0 - np.mean(rho[others & known, c]) if (others & known).any() else 0.0)
+            if own.sum() < LEAF:
+                reason = f"it names only {int(own.sum())} windows, fewer than a leaf of the trees holds"
+            elif p[elsewhere, c].mean() >= SEPARABLE * p[own, c].mean():
+                reason = (f"its windows get it {p[own, c].mean():.2f} on average, windows of recordings without it "
+                          f"{p[elsewhere, c].mean():.2f}")
+            elif besides > 0 and alone >= (1.0 - SEPARABLE) * besides:
+                reason = (f"by the evidence of presence its windows seem to lie in recordings without it {alone:.2f} "
+                          f"of the time, the other windows of its recordings {besides:.2f}")
+            else:
+                continue
+            self.warnings_.append(f"class {name} is not told apart from what happens without it ({reason}); check "
+                                  "that it happens in the recordings that declare it")
+
+    def _folds(self, data: _Windows, seconds: float = BLOCK_SECONDS) -> np.ndarray:
+        """Cross-fitting fold (0 or 1) of every window: alternating :data:`BLOCK_SECONDS` blocks of each recording,
+        the first block's fold alternating between recordings."""
+        block = max(1, int(round(seconds * self.rate_ / self.step)))
+        position = np.arange(len(data.X)) - data.offsets[data.recording]
+        return (data.recording + position // block) % 2
+
+    def _presence(self, X: np.ndarray, mask: np.ndarray, data: _Windows, rng: np.random.Generator) -> np.ndarray:
+        """``log s_c(x)`` of every window (module docstring, step 2), from a forest that did not see the window's
+        :data:`PRESENCE_BLOCK_SECONDS` block (0 where no class is declared by some but not all of the forest's
+        windows), and ``rho_c(x)`` (NaN for a class not among the forest's outputs)."""
+        n_classes = len(self.classes_)
+        declared_by = mask[data.offsets[:-1]]  # (R, C): the recordings' sets
+        share = declared_by * (np.diff(data.offsets) / declared_by.sum(axis=1))[:, None]  # windows of c in r
+        pattern = (share.T @ declared_by) / np.maximum(share.sum(axis=0)[:, None], 1e-12)  # pi_{d|c}, (C, C)
+        pattern = np.clip(pattern, PATTERN_FLOOR, 1.0 - PATTERN_FLOOR)
+        fold = self._folds(data, PRESENCE_BLOCK_SECONDS)
+        log_s = np.zeros((len(X), n_classes))
+        presence = np.full((len(X), n_classes), np.nan)
+        for f in (0, 1):
+            held = fold == f
+            if not held.any():
+                continue
+            train = np.flatnonzero(~held) if (~held).any() else np.arange(len(X))  # one fold only: no hold-out
+            if len(train) > FIT_WINDOWS * n_classes:
+                train = np.sort(rng.choice(train, FIT_WINDOWS * n_classes, replace=False))
+            declared = mask[train]
+            informative = np.flatnonzero(declared.any(axis=0) & ~declared.all(axis=0))
+            if not len(informative):
+                continue
+            targets = declared[:, informative].astype(int)
+            model = ExtraTreesClassifier(n_estimators=100, min_samples_leaf=LEAF, max_features="sqrt", n_jobs=-1,
+                                         random_state=self.seed).fit(X[train], targets[:, 0] if len(informative) == 1
+                                                                     else targets)
+            model.n_jobs = 1  # the threads of predict_proba add the trees up in any order: not reproducible
+            proba = model.predict_proba(X[held])
+            proba = proba if isinstance(proba, list) else [proba]
+            rho = np.column_stack([p[:, 1] for p in proba])  # P(d in S | x); each output's classes_ is [0, 1]
+            presence[np.ix_(held, informative)] = rho
+            pi = pattern[:, informative]
+            ll = rho @ np.log(pi).T + (1.0 - rho) @ np.log(1.0 - pi).T  # (m, C)
+            log_s[held] = ll - np.logaddexp.reduce(ll, axis=1, keepdims=True)
+        return log_s, presence
 
     def _cross_fitted(self, X: np.ndarray, labels: np.ndarray, data: _Windows,
                       rng: np.random.Generator) -> np.ndarray:
         """``log p(c | x)`` of every window from a classifier that did not see it (or, for a class that only one
         fold holds, saw only that class's windows of its own fold)."""
         n_classes = len(self.classes_)
-        block = max(1, int(round(BLOCK_SECONDS * self.rate_ / self.step)))
-        position = np.arange(len(X)) - data.offsets[data.recording]
-        fold = (data.recording + position // block) % 2
+        fold = self._folds(data)
         log_p = np.empty((len(X), n_classes))
         for f in (0, 1):
             if not np.any(fold == f):
@@ -356,20 +412,18 @@ class SetSupervisedLearner(BaseEstimator):
     def _dictionary(self, X, labels, margin, data, channels, scaling, offset, scale, sets, recordings):
         half = max(1, self.window // 2 // self.step)
         names = np.asarray(self.classes_)
-        centred = _single_state(labels, data.runs, half)
         causal = np.full(len(labels), -1)
         causal_margin = np.full(len(labels), -np.inf)
         for a, b in data.runs:
             if b - a > half:
                 causal[a:b - half] = labels[a + half:b]
                 causal_margin[a:b - half] = margin[a + half:b]
-        columns, column_class = _pick(labels, centred, margin, len(names), self.max_columns)
-        causal_columns, causal_class = _pick(causal, _single_state(causal, data.runs, half) & (causal >= 0),
-                                             causal_margin, len(names), self.max_columns)
+        columns, column_class = _pick(labels, margin, len(names), self.max_columns)
+        causal_columns, causal_class = _pick(causal, causal_margin, len(names), self.max_columns)
         found = np.bincount(column_class, minlength=len(names))
         for c in np.flatnonzero(found == 0):
-            self.warnings_.append(f"class {names[c]} has no window that holds it alone; declare it in recordings "
-                                  "where it lasts longer than one window")
+            self.warnings_.append(f"class {names[c]} names no window; declare it in recordings where it lasts longer "
+                                  "than one window")
         counts = {str(names[c]): int(np.sum(labels == c)) for c in range(len(names))}
         per_recording = np.zeros((len(recordings), len(names)), dtype=int)
         np.add.at(per_recording, (data.recording, labels), 1)
@@ -394,38 +448,12 @@ class SetSupervisedLearner(BaseEstimator):
             feature_scale=scale if self.representation == "summary" else None,
             features=recordings[0].meta.get("features", "channels"),
             orientation=recordings[0].meta.get("orientation", "default"),
-            parameters={"affine": AFFINE if self.representation == "hankel" else 0.0, "groups": self.groups,
+            parameters={"affine": AFFINE if self.representation == "hankel" else 0.0,
                         "rounds": self.rounds, "smoothing": self.smoothing,
                         "max_columns": self.max_columns, "seed": self.seed, "landmarks": LANDMARKS,
                         "prior": type(self.prior).__name__ if self.prior is not None else None},
             summary=summary,
         )
-
-
-def _name_groups(groups: np.ndarray, recording: np.ndarray, allowed: np.ndarray,
-                 n_groups: int) -> np.ndarray:
-    """Fit ``n_rg ~ sum_{c in S_r} theta_rc phi_cg`` by EM (module docstring, step 3); return every window's
-    ``log q`` ``(n, C)`` (``-inf`` outside its recording's set)."""
-    n_rec, n_classes = allowed.shape
-    counts = np.zeros((n_rec, n_groups))
-    np.add.at(counts, (recording, groups), 1.0)
-    a = allowed.astype(float)
-    theta = a / a.sum(axis=1, keepdims=True)
-    phi = (a / a.sum(axis=1, keepdims=True)).T @ counts + 1.0  # (C, G): groups seen where the class may be
-    phi /= phi.sum(axis=1, keepdims=True)
-    for _ in range(EM_ITERATIONS):
-        joint = theta[:, :, None] * phi[None, :, :]  # (R, C, G)
-        resp = joint / np.maximum(joint.sum(axis=1, keepdims=True), 1e-300)
-        weighted = resp * counts[:, None, :]
-        phi = weighted.sum(axis=0) + 1e-2
-        phi /= phi.sum(axis=1, keepdims=True)
-        theta = (weighted.sum(axis=2) + 1e-2) * a
-        theta /= theta.sum(axis=1, keepdims=True)
-    joint = theta[:, :, None] * phi[None, :, :]
-    resp = joint / np.maximum(joint.sum(axis=1, keepdims=True), 1e-300)
-    q = resp[recording, :, groups]
-    with np.errstate(divide="ignore"):
-        return np.where(allowed[recording], np.log(np.maximum(q, 1e-12)), -np.inf)
 
 
 def _margins(log_q: np.ndarray, labels: np.ndarray) -> np.ndarray:
@@ -445,28 +473,13 @@ def _balanced_sample(labels: np.ndarray, eligible: np.ndarray, n_classes: int, r
     return np.sort(np.concatenate(rows))
 
 
-def _single_state(labels: np.ndarray, runs: list[tuple[int, int]], half: int) -> np.ndarray:
-    """Windows whose neighbours ``half`` windows before and after carry the same name (a run's first and last
-    window stand for the neighbours beyond its ends)."""
-    ok = np.zeros(len(labels), dtype=bool)
-    for a, b in runs:
-        seg = labels[a:b]
-        index = np.arange(b - a)
-        ok[a:b] = (seg[np.maximum(index - half, 0)] == seg) & (seg[np.minimum(index + half, b - a - 1)] == seg)
-    return ok
-
-
-def _pick(labels: np.ndarray, eligible: np.ndarray, margin: np.ndarray, n_classes: int,
-          max_columns: int) -> tuple[np.ndarray, np.ndarray]:
-    """Per class, the eligible windows with a margin at or above the class's median, at most ``max_columns``
-    spread evenly over their order; a class with no eligible window takes its most confident windows."""
+def _pick(labels: np.ndarray, margin: np.ndarray, n_classes: int, max_columns: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per class ``c``, the windows labelled ``c`` (``labels`` ``-1``: none) with a margin at or above the class's
+    median, at most ``max_columns`` spread evenly over their order."""
     picked, owner = [], []
     for c in range(n_classes):
-        idx = np.flatnonzero(eligible & (labels == c))
-        if not len(idx):
-            idx = np.flatnonzero(labels == c)
-            idx = idx[np.argsort(-margin[idx], kind="stable")[:max_columns]]
-        elif len(idx) > 1:
+        idx = np.flatnonzero(labels == c)
+        if len(idx) > 1:
             idx = idx[margin[idx] >= np.median(margin[idx])]
         if len(idx) > max_columns:
             idx = idx[np.linspace(0, len(idx) - 1, max_columns).round().astype(int)]
