@@ -13,6 +13,7 @@ import pytest
 pytest.importorskip("fastapi")
 from fastapi.testclient import TestClient  # noqa: E402
 
+from classify_fixtures import truth_model  # noqa: E402
 from service_fixtures import bearer, columns as _columns, enrol, model, raw  # noqa: E402,F401
 from spotfree.classify.batch import dictionary_classifier  # noqa: E402
 from spotfree.classify.stream import RideClassifier  # noqa: E402
@@ -424,13 +425,9 @@ def test_pipeline_spec_round_trips_json(model):
 
 @pytest.fixture(scope="module")
 def summary_model(raw):
-    """A model of the general learner in the summary representation (the page computes it in JavaScript)."""
-    from spotfree.learner import SetSupervisedLearner
-    from spotfree.signal.features import ride_features
-
-    rides = [part for _, part in ride_features(raw, derived=True).experiments()]
-    return SetSupervisedLearner(channels=("acc_long", "pitch_rate"), rounds=1).fit(
-        rides, [{"cruising", "normal-braking", "sudden-braking"}] * len(rides)).model_
+    """A dictionary of the summary representation (the page computes it in JavaScript); truth-named, for the
+    mechanics."""
+    return truth_model(raw.select_experiment(1), representation="summary")
 
 
 @pytest.mark.skipif(shutil.which("node") is None, reason="node is not installed")
