@@ -26,7 +26,7 @@ from spotfree.evaluation.metrics import (
 
 runner = CliRunner()
 
-SECTIONS = ("## Protocol", "## Training", "## Accuracy per sample", "## The paper's count",
+SECTIONS = ("## Protocol", "## Training", "## Accuracy per sample", "## The paper's count", "## Sudden stops as events",
             "## Accuracy per true class", "## Confusion matrices", "## Decision latency",
             "## CRC_RLS vs SRC vs B_SRC", "## Peers on the same tests", "## Lateral manoeuvres and road surface",
             "## Results figures")
@@ -87,6 +87,8 @@ def test_an_event_is_detected_by_a_label_run_within_the_tolerance_and_a_run_meet
     assert event_detection(label, truth, "k", rate=10.0, tolerance=0.3) == EventScore(1, 2, 2, 4.1)
     score = event_detection(label, truth, "k", rate=10.0)
     assert score.rate == 1.0 and score.false_alarms_per_hour == pytest.approx(3600 / 4.1)
+    assert score.precision == pytest.approx(2 / 3) and score.f1 == pytest.approx(0.8)  # 2 of 3 runs, 2 of 2 events
+    assert np.isnan(EventScore(0, 0, 0, 1.0).precision) and np.isnan(EventScore(0, 0, 0, 1.0).f1)
 
 
 def test_event_detection_scores_each_experiment_alone_and_counts_labelled_seconds_only():

@@ -64,6 +64,18 @@ class EventScore:
         return self.detected / self.events if self.events else float("nan")
 
     @property
+    def precision(self) -> float:
+        """``detected / (detected + false_alarms)``: a detected event counts one true run; NaN when nothing fired."""
+        fired = self.detected + self.false_alarms
+        return self.detected / fired if fired else float("nan")
+
+    @property
+    def f1(self) -> float:
+        """Harmonic mean of :attr:`precision` and recall (:attr:`rate`); NaN when either is."""
+        p, r = self.precision, self.rate
+        return 2 * p * r / (p + r) if p + r > 0 else float("nan")
+
+    @property
     def false_alarms_per_hour(self) -> float:
         """False alarms per hour of labelled riding; NaN when nothing was labelled."""
         return 3600.0 * self.false_alarms / self.seconds if self.seconds else float("nan")

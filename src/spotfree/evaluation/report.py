@@ -20,6 +20,7 @@ from spotfree.evaluation.metrics import (
     accuracy,
     class_accuracy,
     confusion_matrix,
+    event_detection,
     label_count,
     near_transitions,
 )
@@ -65,8 +66,9 @@ class Evaluation:
 
 def render(ev: Evaluation) -> str:
     """The whole ``report.md``."""
-    sections = [_header(ev), _summary(ev), _protocol(ev), _training(ev), _accuracy(ev), _count(ev), _per_class(ev),
-                _confusions(ev), _latency(ev), _methods(ev), _peers(ev), _ride_models(ev), _figures(ev)]
+    sections = [_header(ev), _summary(ev), _protocol(ev), _training(ev), _accuracy(ev), _count(ev), _sudden_stops(ev),
+                _per_class(ev), _confusions(ev), _latency(ev), _methods(ev), _peers(ev), _ride_models(ev),
+                _figures(ev)]
     return "\n\n".join(s.rstrip() for s in sections) + "\n"
 
 
@@ -382,6 +384,35 @@ own window), fed the held-out raw lateral rides one sample at a time ({ride.stre
 
 - median {median:.1f} us, p99 {p99:.1f} us per raw sample, {verdict} the {STREAM_GOAL_US:g} us budget;
 - stream labels unlike the batch labels of the same rides: {ride.stream.differing}."""
+
+
+def _sudden_stops(ev: Evaluation) -> str:
+    """Sudden stops scored as events in every test, by each method that labels every sample."""
+    methods = [(f"spotfree CRC_RLS ({a})", ev.crc[a]) for a in ALIGNMENTS]
+    methods += [(f"spotfree kernel CRC_RLS ({a})", ev.kcrc[a]) for a in ALIGNMENTS]
+    methods += [(name, runs) for name, runs in ev.peers.items()]
+    rows = []
+    for name, runs in methods:
+        scores = {s: event_detection(runs.runs[s].labels.label, ev.data[s].test.truth["label"], "sudden-braking",
+                                     ev.data[s].test.experiment, ev.data[s].test.rate) for s in SCENARIOS}
+        total = sum(scores.values(), EventScore(0, 0, 0, 0.0))
+        without = sum((v for s, v in scores.items() if not v.events), EventScore(0, 0, 0, 0.0))
+        rows.append([name, f"{total.detected} / {total.events}", str(total.false_alarms), _ratio(total.precision),
+                     _ratio(total.rate), _ratio(total.f1), f"{without.false_alarms_per_hour:.0f}"])
+    return f"""## Sudden stops as events
+
+Each run of true `sudden-braking` samples in a test ride is one sudden stop, detected when a run of
+`sudden-braking` labels meets it within {EVENT_TOLERANCE:g} s (`spotfree.evaluation.metrics.event_detection`); a
+run of labels that meets none is a false alarm. Precision = detected / (detected + false alarms), recall = detected /
+stops; the last column counts the false alarms per hour of the rides without a sudden stop (the normal-braking and
+cruising tests). Peers trained with every label beside.
+
+{_table(["method", "stops detected", "false alarms", "precision", "recall", "F1",
+         "false alarms per hour without stops"], rows)}"""
+
+
+def _ratio(value: float) -> str:
+    return "-" if not np.isfinite(value) else f"{value:.3f}"
 
 
 def _detections(name: str, causal: EventScore, voted: EventScore | None) -> str:
