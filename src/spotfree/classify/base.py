@@ -66,13 +66,13 @@ class ResidualClassifier(ClassifierMixin, BaseEstimator):
     def predict(self, X) -> np.ndarray:
         """Class of each window (row of ``X``), :data:`UNKNOWN` where rejected."""
         X = self._check_windows(X)
-        residuals = self._residuals(X)
-        labels = self.classes_[np.argmin(residuals, axis=1)]
+        ranking, best = self._ranked(X)
+        labels = self.classes_[np.argmin(ranking, axis=1)]
         if self.reject is None:
             return labels
         if labels.dtype.kind not in "US":
             labels = labels.astype(object)
-        return np.where(_ratio(residuals.min(axis=1), self._window_norms(X)) > self.reject, UNKNOWN, labels)
+        return np.where(_ratio(best, self._window_norms(X)) > self.reject, UNKNOWN, labels)
 
     def predict_one(self, y):
         """Class of one window ``y`` ``(d,)``, for streaming."""
@@ -96,6 +96,12 @@ class ResidualClassifier(ClassifierMixin, BaseEstimator):
     def _fit_dictionary(self, A: np.ndarray, atom_class: np.ndarray) -> None:
         """Precompute what classification needs from the dictionary ``A`` ``(d, n_atoms)``."""
         raise NotImplementedError
+
+    def _ranked(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """What :meth:`predict` ranks the classes by ``(n, C)`` (argmin wins) and ``min_i r_i`` ``(n,)``: by default
+        the residuals themselves."""
+        residuals = self._residuals(X)
+        return residuals, residuals.min(axis=1)
 
     def _residuals(self, X: np.ndarray) -> np.ndarray:
         """Class residuals of validated windows ``X`` ``(n, d)``."""

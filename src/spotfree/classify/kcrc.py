@@ -97,18 +97,12 @@ class KernelCRCClassifier(ResidualClassifier):
         inside, outside = self._parts(X)
         return np.sqrt(inside ** 2 + outside[:, None])
 
-    def predict(self, X) -> np.ndarray:
-        """Class of each window (row of ``X``), :data:`UNKNOWN` where rejected. The class is the argmin of the
-        residuals inside the landmarks' span (the part outside is the same for every class), so that a window far
-        from every landmark, whose ``r_i`` all round to 1, is ranked as :meth:`predict_one` and the streaming step
-        rank it."""
-        X = self._check_windows(X)
+    def _ranked(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The residuals inside the landmarks' span rank the classes (the part outside is the same for every class),
+        so that a window far from every landmark, whose ``r_i`` all round to 1, is ranked as :meth:`predict_one` and
+        the streaming step rank it; ``min_i r_i`` for the rejection."""
         inside, outside = self._parts(X)
-        labels = self.classes_[np.argmin(inside, axis=1)]
-        if self.reject is None:
-            return labels
-        rejected = np.sqrt(inside.min(axis=1) ** 2 + outside) > self.reject
-        return np.where(rejected, UNKNOWN, labels.astype(object))
+        return inside, np.sqrt(inside.min(axis=1) ** 2 + outside)
 
     def _window_norms(self, X: np.ndarray) -> np.ndarray:
         return np.ones(len(X))

@@ -397,8 +397,8 @@ def _sudden_stops(ev: Evaluation) -> str:
                                      ev.data[s].test.experiment, ev.data[s].test.rate) for s in SCENARIOS}
         total = sum(scores.values(), EventScore(0, 0, 0, 0.0))
         without = sum((v for s, v in scores.items() if not v.events), EventScore(0, 0, 0, 0.0))
-        rows.append([name, f"{total.detected} / {total.events}", str(total.false_alarms), _ratio(total.precision),
-                     _ratio(total.rate), _ratio(total.f1), f"{without.false_alarms_per_hour:.0f}"])
+        rows.append([name, f"{total.detected} / {total.events}", str(total.false_alarms), _fraction(total.precision),
+                     _fraction(total.rate), _fraction(total.f1), f"{without.false_alarms_per_hour:.0f}"])
     return f"""## Sudden stops as events
 
 Each run of true `sudden-braking` samples in a test ride is one sudden stop, detected when a run of
@@ -411,7 +411,7 @@ cruising tests). Peers trained with every label beside.
          "false alarms per hour without stops"], rows)}"""
 
 
-def _ratio(value: float) -> str:
+def _fraction(value: float) -> str:
     return "-" if not np.isfinite(value) else f"{value:.3f}"
 
 
