@@ -6,6 +6,7 @@ Exit status: 0 on success, 2 on bad input with a one-line message that says what
 from __future__ import annotations
 
 import functools
+import importlib.util
 from pathlib import Path
 from typing import Callable, Optional
 
@@ -46,6 +47,26 @@ def user_errors(command: Callable) -> Callable:
         raise typer.Exit(2)
 
     return wrapper
+
+
+EXTRAS = {
+    "serve": ("server", ("fastapi", "uvicorn", "websockets", "cryptography", "orjson")),
+    "fleet": ("fleet", ("distributed", "pyarrow", "duckdb", "orjson")),
+}
+"""Optional dependencies (``pyproject.toml``): extra -> (what it is called in a message, its top-level modules)."""
+
+
+def _require_extra(command: str, extra: str) -> None:
+    """Refuse ``spotfree COMMAND`` in one line naming the extra to install when one of its modules is missing (the
+    check finds the modules without importing them)."""
+    what, modules = EXTRAS[extra]
+    for module in modules:
+        try:
+            found = importlib.util.find_spec(module) is not None
+        except (ImportError, ValueError):
+            found = False
+        if not found:
+            raise SpotfreeError(f"spotfree {command} needs the {what} extra: pip install 'spotfree[{extra}]'")
 
 
 def _read_log(source: str, rate: float):
@@ -472,6 +493,7 @@ def serve(
     key: Optional[Path] = typer.Option(None, "--key", help="the private key (PEM) of --cert"),
 ) -> None:
     """The live ride assistant: phone page (/), rider view (/rider), operator view (/operator)."""
+    _require_extra("serve", "serve")
     from spotfree.ride.server import run_server
 
     if sync not in ("full", "normal"):
@@ -560,6 +582,13 @@ def hand_run(
     labelled = labels.state != ""
     out.print(f"wrote {output}: {int(labelled.sum())} of {len(labels.time)} samples labelled; no label and the "
               f"command 'stop' where there is no hand")
+
+
+@fleet_app.callback()
+@user_errors
+def fleet() -> None:
+    """Fleet scale: the ride database and batch processing."""
+    _require_extra("fleet", "fleet")
 
 
 @fleet_app.command("generate")

@@ -1,4 +1,7 @@
-"""Fleet scale: a simulated fleet, rides into the ride store, distributed processing, statistics by group."""
+"""Fleet scale: a simulated fleet, rides into the ride store, distributed processing, statistics by group.
+
+Needs the ``fleet`` extra (``pip install 'spotfree[fleet]'``): Dask, Parquet through PyArrow, DuckDB.
+"""
 
 from spotfree.fleet.engine import ProcessReport, process_fleet
 from spotfree.fleet.generator import Fleet, generate_fleet

@@ -1,4 +1,5 @@
 """Live client of the hand-tracking service's WebSocket stream (Leap Motion ``leapd``, Ultraleap's WebSocket server).
+It needs ``websockets``, of the ``serve`` extra.
 
 Protocol (leapjs ``PROTOCOL.md`` and ``lib/connection/base.js``): the client opens ``ws://127.0.0.1:6437/v6.json``
 (the digit selects the protocol version); the service answers with a header ``{"serviceVersion": ..., "version":

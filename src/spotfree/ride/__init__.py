@@ -1,4 +1,7 @@
-"""The ride assistant application: the ride store, the assistant's warnings and trip figures, and exports."""
+"""The ride assistant application: the ride store, the assistant's warnings and trip figures, and exports.
+
+The live service needs the ``serve`` extra (``pip install 'spotfree[serve]'``); the store alone, either extra.
+"""
 
 from spotfree.ride.assistant import RideAssistant, RideWarning, Status
 from spotfree.ride.export import export_csv, export_geojson, export_gpx, export_ride, ride_geojson, ride_recording
