@@ -33,8 +33,9 @@ import numpy as np
 import vqf
 
 import broad
-from spotfree.signal.frame import GRAVITY, gravity_direction
+from spotfree.signal.frame import gravity_direction
 from spotfree.signal.orientation import estimate_attitude
+from spotfree.units import GRAVITY
 
 Runner = Callable[[broad.Trial], np.ndarray]
 """A method: trial -> estimated unit vertical ``(n, 3)`` in the body frame."""

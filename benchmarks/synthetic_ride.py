@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from spotfree.signal.frame import GRAVITY, gravity_direction
+from spotfree.signal.frame import gravity_direction
+from spotfree.units import GRAVITY
 
 
 def synthetic_ride(seed: int, rate: float = 20.0, seconds: float = 240.0, bias=(0.008, -0.006, 0.004)):

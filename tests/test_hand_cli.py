@@ -10,7 +10,8 @@ from typer.testing import CliRunner
 from spotfree.cli import app
 from spotfree.hand.commands import COMMANDS
 from spotfree.hand.log import write_hand_log
-from spotfree.sim.hand import GESTURES, POSTURES, simulate_hands
+from spotfree.hand.vocabulary import GESTURES, POSTURES
+from spotfree.sim.hand import simulate_hands
 
 runner = CliRunner()
 

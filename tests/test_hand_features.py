@@ -9,7 +9,8 @@ import pytest
 from spotfree.errors import InputError
 from spotfree.hand.features import FEATURES, hand_features
 from spotfree.hand.log import frames_to_recording
-from spotfree.sim.hand import POSTURES, simulate_hands
+from spotfree.hand.vocabulary import POSTURES
+from spotfree.sim.hand import simulate_hands
 
 GEOMETRY = [n for n in FEATURES if n.startswith(("pos_", "normal_", "dir_"))]
 

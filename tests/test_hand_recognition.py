@@ -12,7 +12,8 @@ from spotfree.hand.motion import MOTION, motion_channels
 from spotfree.hand.recognition import (
     HandModel, HandRecognizer, declared, features_of, recognise, session_tasks, train_hand, vote_stretches,
 )
-from spotfree.sim.hand import GESTURES, POSTURES, TRAINING_TASKS, simulate_hands
+from spotfree.hand.vocabulary import GESTURES, POSTURES, TRAINING_TASKS
+from spotfree.sim.hand import simulate_hands
 
 
 @pytest.fixture(scope="module")

@@ -11,9 +11,9 @@ from spotfree.cli import app
 from spotfree.errors import InputError
 from spotfree.hand.frames import HAND_CHANNELS, frame_message
 from spotfree.hand.log import read_hand_log
+from spotfree.hand.vocabulary import GESTURES, POSTURES
 from spotfree.sim.hand import (
-    GESTURES, KNUCKLES, PALM_WIDTH, POSTURES, SEGMENTS, draw_person, fingertips, minimum_jerk, pace,
-    simulate_hands,
+    KNUCKLES, PALM_WIDTH, SEGMENTS, draw_person, fingertips, minimum_jerk, pace, simulate_hands,
 )
 
 

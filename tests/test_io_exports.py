@@ -16,7 +16,7 @@ from scipy.spatial.transform import Rotation
 from spotfree.errors import InputError
 from spotfree.io import describe, detect_format, read_recording
 from spotfree.signal.features import ride_features
-from spotfree.signal.frame import GRAVITY
+from spotfree.units import GRAVITY
 
 T0_NS = 1_700_000_000_000_000_000
 DURATION = 12.0

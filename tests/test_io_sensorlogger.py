@@ -11,7 +11,7 @@ from spotfree.errors import InputError
 from spotfree.io import detect_format, read_recording
 from spotfree.io.sensorlogger import read_sensorlogger
 from spotfree.signal.features import ride_features
-from spotfree.signal.frame import GRAVITY
+from spotfree.units import GRAVITY
 
 T0_NS = 1_700_000_000_123_456_789
 GRAVITY_VECTOR = np.array([0.4, 1.1, np.sqrt(GRAVITY**2 - 0.4**2 - 1.1**2)])  # device frame, Android sign

@@ -18,9 +18,10 @@ from spotfree.signal.features import (
     lean_coefficients,
     ride_features,
 )
-from spotfree.signal.frame import GRAVITY, gravity_direction, vehicle_to_device_axes
+from spotfree.signal.frame import gravity_direction, vehicle_to_device_axes
 from spotfree.signal.orientation import ORIENTATIONS
 from spotfree.signal.recursions import FEATURE_WIDTH, ride_features_block
+from spotfree.units import GRAVITY
 
 RATE = 20.0
 

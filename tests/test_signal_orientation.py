@@ -9,9 +9,10 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from spotfree.errors import InputError
-from spotfree.signal.frame import GRAVITY, accel_roll_pitch, gravity_direction
+from spotfree.signal.frame import accel_roll_pitch, gravity_direction
 from spotfree.signal.orientation import (ORIENTATIONS, GravityPI, attitude_filter,
                                          estimate_attitude)
+from spotfree.units import GRAVITY
 
 BROAD_PY = Path(__file__).resolve().parents[1] / "benchmarks" / "broad.py"
 SYNTHETIC_PY = Path(__file__).resolve().parents[1] / "benchmarks" / "synthetic_ride.py"

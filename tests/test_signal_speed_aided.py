@@ -6,7 +6,8 @@ import numpy as np
 
 from spotfree.io.recording import Recording
 from spotfree.signal.features import DERIVED_CHANNELS, FEATURE_CHANNELS, FeatureStream, ride_features
-from spotfree.signal.frame import GRAVITY, vehicle_to_device_axes
+from spotfree.signal.frame import vehicle_to_device_axes
+from spotfree.units import GRAVITY
 
 RATE = 20.0
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from spotfree.errors import InputError
-from spotfree.signal.frame import GRAVITY, accel_roll_pitch, device_to_vehicle_axes
+from spotfree.signal.frame import accel_roll_pitch, device_to_vehicle_axes
 from spotfree.sim import SCENARIOS, simulate_ride, simulate_scenario
 from spotfree.sim.scenarios import (
     CHANNELS,
@@ -18,6 +18,7 @@ from spotfree.sim.scenarios import (
     lateral_labels,
     manoeuvre_share,
 )
+from spotfree.units import GRAVITY
 
 CONFOUNDERS = {"turn", "speed-change", "crossing-stop", "braking", "near-sudden", "kerb", "bump",
                "rough-asphalt", "cobblestone"}

@@ -4,11 +4,12 @@ import numpy as np
 import pytest
 from scipy.signal import welch
 
-from spotfree.signal.frame import GRAVITY, accel_roll_pitch, device_to_vehicle_axes
+from spotfree.signal.frame import accel_roll_pitch, device_to_vehicle_axes
 from spotfree.sim.gps import local_to_geodetic
 from spotfree.sim.imu import ImuSpec, read_imu
 from spotfree.sim.manoeuvres import Plan, iso8608_profile, raised_cosine_step
 from spotfree.sim.vehicle import Road, RiderBody, Vehicle, simulate_motion
+from spotfree.units import GRAVITY
 
 FS = 200.0
 BODY = RiderBody(com_height=0.85, balance_freq=1.0, balance_damping=0.9, lean_to_pitch=0.7, counter_pitch=0.2,

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from spotfree.errors import InputError
-from spotfree.signal.frame import GRAVITY
+from spotfree.units import GRAVITY
 
 MAX_ACCELERATION = 16 * GRAVITY
 """m/s^2 per axis."""

@@ -46,8 +46,9 @@ from spotfree.hand.features import FEATURES
 from spotfree.hand.log import frames_to_recording
 from spotfree.hand.recognition import STAGE_PARAMETERS, STATES, HandLabels, HandModel, HandRecognizer, \
     HandTrainingConfig, declared, features_of, recognise, session_tasks, train_hand
+from spotfree.hand.vocabulary import GESTURES, POSTURES
 from spotfree.learner import SetSupervisedLearner
-from spotfree.sim.hand import GESTURES, POSTURES, TRAINING_PEOPLE, simulate_hands
+from spotfree.sim.hand import TRAINING_PEOPLE, simulate_hands
 
 PAPER = {"labels": 5850, "accuracy": 1.0, "runs": 6}
 """The paper's hand result (section V): 100 % of 5,850 labels over six test runs."""

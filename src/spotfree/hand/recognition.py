@@ -8,8 +8,8 @@ per stage in :data:`STAGE_PARAMETERS`) and classified by its kernel CRC_RLS:
 2. **posture** (the five postures) on palm position, normal (but its x) and direction;
 3. **gesture** (the eight gestures) on palm velocity, normal, direction and the signed rates of the last two.
 
-Training reads whole sessions of the training protocol (:data:`~spotfree.sim.hand.TRAINING_TASKS`), each declaring
-only the classes that occur in it:
+Training reads whole sessions of the training protocol (:data:`~spotfree.hand.vocabulary.TRAINING_TASKS`), each
+declaring only the classes that occur in it:
 
 ======================  ===========================  ====================  ===========================================
 session                 state                        posture               gesture
@@ -48,11 +48,11 @@ from spotfree.hand.commands import CommandFilter
 from spotfree.hand.features import FEATURES, hand_features
 from spotfree.hand.frames import DIRECTION, NORMAL, VELOCITY
 from spotfree.hand.motion import DIRECTION_RATE, MOTION, NORMAL_RATE, SOURCES, motion_channels, motion_step
+from spotfree.hand.vocabulary import GESTURES, POSTURES, TRAINING_TASKS
 from spotfree.io.checks import true_runs, write_text
 from spotfree.io.recording import Recording
 from spotfree.learner import SetSupervisedLearner
 from spotfree.model import DictionaryModel
-from spotfree.sim.hand import GESTURES, POSTURES, TRAINING_TASKS
 
 STAGES = ("state", "posture", "gesture")
 STATES = ("posture", "gesture")

@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 
 from spotfree.errors import InputError
-from spotfree.signal.frame import GRAVITY
+from spotfree.units import GRAVITY
 
 MAX_FILL_RUN = 2
 """Longest run of missing samples (in a uniform file) that is filled by linear interpolation."""

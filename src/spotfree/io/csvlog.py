@@ -47,7 +47,7 @@ from spotfree.errors import InputError
 from spotfree.io import checks
 from spotfree.io.recording import GPS_CHANNELS, GYRO_CHANNELS, IMU_CHANNELS, TRUTH_COLUMNS, Gap, Recording
 from spotfree.io.resample import Stream, merge_streams
-from spotfree.signal.frame import GRAVITY
+from spotfree.units import GRAVITY
 
 STANDARD = ("experiment", "time", *IMU_CHANNELS, *GPS_CHANNELS, *TRUTH_COLUMNS)
 """Column names with a fixed meaning."""

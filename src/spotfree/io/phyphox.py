@@ -42,7 +42,7 @@ from spotfree.errors import InputError
 from spotfree.io import checks
 from spotfree.io.recording import Recording
 from spotfree.io.resample import Stream, merge_streams
-from spotfree.signal.frame import GRAVITY
+from spotfree.units import GRAVITY
 
 _TIME = re.compile(r"^\W*time\b", re.IGNORECASE)
 _AXIS = re.compile(r"(?:^|[\s_])([xyz])(?=$|[\s_(])", re.IGNORECASE)

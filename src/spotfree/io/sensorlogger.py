@@ -38,7 +38,7 @@ from spotfree.errors import InputError
 from spotfree.io import checks
 from spotfree.io.recording import Recording
 from spotfree.io.resample import Stream, merge_streams
-from spotfree.signal.frame import GRAVITY
+from spotfree.units import GRAVITY
 
 SENSORS = (
     "TotalAcceleration", "Accelerometer", "Gravity", "AccelerometerUncalibrated", "Gyroscope", "Location", "Metadata",

@@ -33,7 +33,7 @@ from spotfree.ride.assistant import RideAssistant
 from spotfree.ride.live import LiveRide
 from spotfree.ride.service import RideService, UnavailableError
 from spotfree.ride.store import ForbiddenError, RideStore
-from spotfree.signal.frame import GRAVITY
+from spotfree.units import GRAVITY
 
 
 class WriteLock:

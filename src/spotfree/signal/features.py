@@ -55,12 +55,13 @@ from scipy.signal import lfilter
 
 from spotfree.io.recording import ACC_CHANNELS, GYRO_CHANNELS, Recording
 from spotfree.signal.butterworth import butter_lowpass, lowpass, sections_and_zi
-from spotfree.signal.frame import GRAVITY, MOUNT, gravity_free_level
+from spotfree.signal.frame import MOUNT, gravity_free_level
 from spotfree.signal.mount import estimate_mount
 from spotfree.signal.orientation import GravityPI, PaperAttitude, attitude_filter
 from spotfree.signal.recursions import (FEATURE_PARAMETERS, FEATURE_STATE, ride_features_block,
                                        ride_features_update)
 from spotfree.signal.speed_aided import speed_aided_acceleration, speed_aided_parameters
+from spotfree.units import GRAVITY
 
 FEATURE_CHANNELS = ("roll", "pitch", "pitch_rate", "acc_x", "acc_y", "acc_z")
 """Channel names of the ride features, in output order."""

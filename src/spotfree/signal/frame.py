@@ -21,8 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-GRAVITY = 9.80665
-"""Standard gravity, m/s^2."""
+from spotfree.units import GRAVITY
 
 MOUNT = np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
 """Nominal device-to-vehicle axis map: ``v_vehicle = MOUNT @ v_device``."""

@@ -37,11 +37,12 @@ from spotfree.errors import InputError
 from spotfree.signal.complementary import (
     PAPER_KI, PAPER_KP, pi_complementary, pi_complementary_design, stream_coefficients,
 )
-from spotfree.signal.frame import GRAVITY, accel_roll_pitch
+from spotfree.signal.frame import accel_roll_pitch
 from spotfree.signal.recursions import (
     GRAVITY_PI_PARAMETERS, GRAVITY_PI_STATE, PAPER_PARAMETERS, PAPER_STATE, gravity_pi_run, gravity_pi_update,
     paper_attitude_update,
 )
+from spotfree.units import GRAVITY
 
 ORIENTATIONS = ("default", "paper", "vqf")
 """Valid names of the orientation backends."""

@@ -13,9 +13,10 @@ numbers and their sources):
 * **protocol** (``"test"``): a calibration hold in ``straight``, then ``rounds`` times each of ``left``, ``right``,
   ``stop``, ``backward`` in random order, each reached from ``straight`` and left back to it, so that each of the
   eight gestures ``straight-to-X`` / ``X-to-straight`` occurs ``rounds`` times; every hold varies around the
-  person's posture by a few mm and degrees. ``"training"``: nine sessions per person (:data:`TRAINING_TASKS`): a
-  still hold, one move out to each posture, and ``rounds`` round trips to each, so that evidence across sessions
-  tells the postures and the gestures apart without marking where any of them starts.
+  person's posture by a few mm and degrees. ``"training"``: nine sessions per person
+  (:data:`~spotfree.hand.vocabulary.TRAINING_TASKS`): a still hold, one move out to each posture, and ``rounds``
+  round trips to each, so that evidence across sessions tells the postures and the gestures apart without marking
+  where any of them starts.
 * **movement**: minimum-jerk (Flash & Hogan 1985) ``s(u) = 10 u^3 - 15 u^4 + 6 u^5`` of the warped time ``u =
   tau^gamma``, ``tau = (t - t0) / T``: palm position ``p_a + (p_b - p_a) s + arc sin(pi s)``, orientation by
   spherical interpolation at ``s``, finger curl by minimum jerk inside a sub-interval of the movement. ``T`` grows
@@ -39,17 +40,11 @@ from scipy.spatial.transform import Rotation
 
 from spotfree.errors import InputError
 from spotfree.hand.frames import Hand, HandFrame
-
-POSTURES = ("straight", "left", "right", "stop", "backward")
-"""The five deictic postures (go straight, turn left, turn right, stop, go backward)."""
-GESTURES = tuple(g for p in POSTURES[1:] for g in (f"straight-to-{p}", f"{p}-to-straight"))
-"""The eight gestures: the movement from one posture to another."""
+from spotfree.hand.vocabulary import POSTURES, TRAINING_TASKS
 
 STREAMS = ("person", "plan", "motion", "tracker", "clock")
 
 PROTOCOLS = ("test", "training")
-TRAINING_TASKS = ("hold", *(f"out-{p}" for p in POSTURES[1:]), *(f"round-{p}" for p in POSTURES[1:]))
-"""The sessions of the training protocol of one person, in this order (:func:`training_sequence`)."""
 TRAINING_PEOPLE = 8
 """People whose training protocol ``spotfree hand train`` simulates when given no log, and the evaluation trains on.
 Measured (``benchmarks/hand_eval.py``, BENCHMARKS.md): with 4 people one held-out person's ``right`` was called
@@ -189,8 +184,9 @@ def simulate_hands(
 ) -> list[HandFrame]:
     """Frames of persons ``first`` .. ``first + people - 1``, one session after the other on one service clock;
     session ``k`` of the file carries ``session = k``. ``protocol="test"``: one session per person in which each
-    gesture occurs ``rounds`` times; ``protocol="training"``: the :data:`TRAINING_TASKS` sessions of every person
-    in that order (see :func:`training_sequence`). The same arguments give the same frames."""
+    gesture occurs ``rounds`` times; ``protocol="training"``: the :data:`~spotfree.hand.vocabulary.TRAINING_TASKS`
+    sessions of every person in that order (see :func:`training_sequence`). The same arguments give the same
+    frames."""
     if people < 1 or rounds < 1 or first < 1:
         raise InputError(f"people ({people}), rounds ({rounds}) and first ({first}) must be at least 1")
     if protocol not in PROTOCOLS:

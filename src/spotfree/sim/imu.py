@@ -22,7 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import butter, sosfilt, sosfilt_zi
 
-from spotfree.signal.frame import GRAVITY, vehicle_to_device_axes
+from spotfree.signal.frame import vehicle_to_device_axes
+from spotfree.units import GRAVITY
 
 
 SETTLE = 0.1

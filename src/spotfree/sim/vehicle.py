@@ -65,7 +65,7 @@ import numpy as np
 from scipy.integrate import cumulative_trapezoid
 from scipy.signal import bilinear_zpk, sosfilt, tf2zpk, zpk2sos
 
-from spotfree.signal.frame import GRAVITY
+from spotfree.units import GRAVITY
 
 
 @dataclass(frozen=True)
