@@ -15,7 +15,7 @@ import datetime
 
 from classifier_timing import machine
 
-from spotfree.hand.evaluation import evaluate_hand, hand_report, state_grid
+from spotfree.evaluation.hand import evaluate_hand, hand_report, state_grid
 from spotfree.sim.hand import TRAINING_PEOPLE
 
 GRID = [(("speed", "turn", "flex"), 4), (("speed", "turn"), 3), (("speed", "turn"), 4), (("speed", "turn"), 5)]

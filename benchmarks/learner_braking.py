@@ -23,7 +23,7 @@ import numpy as np
 from machine import describe
 from spotfree.evaluation.metrics import near_transitions
 from spotfree.learner import SetSupervisedLearner
-from spotfree.peers import MiniRocketPeer
+from spotfree.evaluation.peers import MiniRocketPeer
 from spotfree.ride_prior import RidePrior
 from spotfree.signal.features import ride_features
 from spotfree.sim.scenarios import CLASSES, simulate_scenario

@@ -23,7 +23,7 @@ import sklearn
 import threadpoolctl
 from sklearn.metrics import balanced_accuracy_score
 
-from spotfree.peers import ClaspPeer, MiniRocketPeer, NearestNeighbourPeer
+from spotfree.evaluation.peers import ClaspPeer, MiniRocketPeer, NearestNeighbourPeer
 from spotfree.signal.features import ride_features
 from spotfree.sim.scenarios import simulate_scenario
 

@@ -15,7 +15,7 @@ Methods in the same run:
 
 * ``spotfree``: :class:`spotfree.learner.SetSupervisedLearner` with its defaults, class sets only;
 * ``paper recipe``: :class:`spotfree.paper_recipe.PaperRecipe`, class sets only;
-* ``1-NN``, ``MiniRocket``: sliding-window peers (:mod:`spotfree.peers`) trained on the same clips with every
+* ``1-NN``, ``MiniRocket``: sliding-window peers (:mod:`spotfree.evaluation.peers`) trained on the same clips with every
   sample's label.
 
     python benchmarks/real_har.py [--device sp sw] [--train-subjects 12] [--clip 2 3] [--seed 0] [--quick]
@@ -121,7 +121,7 @@ def run(device: str, train_subjects: int, clip: float, seed: int, quick: bool) -
     measure("spotfree", "class sets", lambda: learner.fit(train, sets), learner.predict)
     paper = PaperRecipe(seed=seed)
     measure("paper recipe", "class sets", lambda: paper.fit(train, sets), paper.predict)
-    from spotfree.peers import MiniRocketPeer, NearestNeighbourPeer
+    from spotfree.evaluation.peers import MiniRocketPeer, NearestNeighbourPeer
 
     for name, peer in (("sliding 1-NN", NearestNeighbourPeer(channels=BODY_CHANNELS, alignment="centred")),
                        ("MiniRocket", MiniRocketPeer(channels=BODY_CHANNELS, alignment="centred",

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-import spotfree.evaluate
+import spotfree.evaluation.run
 from spotfree.cli import app
 from spotfree.errors import InputError
 from spotfree.evaluation.lateral_road import MODELS
@@ -134,9 +134,9 @@ def quick_run(tmp_path_factory):
     (folder / "notes.txt").write_text("mine")
     with pytest.MonkeyPatch.context() as patch:
         if not HAS_AEON:
-            make_peers = spotfree.evaluate.make_peers
-            patch.setattr(spotfree.evaluate, "check_peers", lambda: None)
-            patch.setattr(spotfree.evaluate, "make_peers", lambda model, protocol: {
+            make_peers = spotfree.evaluation.run.make_peers
+            patch.setattr(spotfree.evaluation.run, "check_peers", lambda: None)
+            patch.setattr(spotfree.evaluation.run, "make_peers", lambda model, protocol: {
                 k: v for k, v in make_peers(model, protocol).items() if k == "1-NN (supervised)"})
         result = runner.invoke(app, ["evaluate", "--quick", "-o", str(folder), "--seed", "0"],
                                catch_exceptions=False)

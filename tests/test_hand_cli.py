@@ -87,7 +87,7 @@ def test_hand_train_simulates_the_library_s_number_of_training_people_by_default
     import inspect
 
     from spotfree.cli import hand_train
-    from spotfree.hand.evaluation import evaluate_hand
+    from spotfree.evaluation.hand import evaluate_hand
     from spotfree.sim.hand import TRAINING_PEOPLE
 
     assert inspect.signature(hand_train).parameters["people"].default.default == TRAINING_PEOPLE

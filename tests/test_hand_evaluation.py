@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from spotfree.hand.evaluation import ONSETS, _accuracy, _near_change, _onset_scores, _places, onset_truth
+from spotfree.evaluation.hand import ONSETS, _accuracy, _near_change, _onset_scores, _places, onset_truth
 from spotfree.hand.recognition import HandLabels
 
 
@@ -68,7 +68,7 @@ def test_onset_scores_per_threshold_with_and_without_a_collar():
 
 
 def test_gesture_events_match_one_recognised_run_per_true_gesture_near_its_onset():
-    from spotfree.hand.evaluation import gesture_events
+    from spotfree.evaluation.hand import gesture_events
 
     truth = np.array(["straight"] * 10 + ["straight-to-left"] * 10 + ["left"] * 20 + ["left-to-straight"] * 10)
     label = np.array(["straight"] * 12 + ["straight-to-left"] * 6 + ["left"] * 12  # one sample late: matched

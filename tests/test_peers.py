@@ -15,7 +15,7 @@ from sklearn.metrics import balanced_accuracy_score
 
 from spotfree.errors import InputError, SpotfreeError
 from spotfree.io.recording import Recording
-from spotfree.peers import ClaspPeer, MiniRocketPeer, NearestNeighbourPeer
+from spotfree.evaluation.peers import ClaspPeer, MiniRocketPeer, NearestNeighbourPeer
 from spotfree.signal.features import ride_features
 from spotfree.sim.scenarios import simulate_scenario
 

@@ -272,7 +272,7 @@ def _train(output: Path, experiment: list[str], channels: Optional[str], window:
     for warning in learner.warnings_:
         err.print(f"[bold yellow]warning:[/] {warning}", markup=True)
     if figure is not None:
-        from spotfree.figures import training_figure
+        from spotfree.evaluation.figures import training_figure
 
         training_figure(learner, recordings, figure)
         out.print(f"figure: {figure}")
@@ -458,7 +458,7 @@ def evaluate(
                                "protocol)"),
 ) -> None:
     """Reproduce the paper's section V on the simulator: accuracy, the 6-of-7800 count, timings, peers, figures."""
-    from spotfree.evaluate import evaluate as run_evaluation
+    from spotfree.evaluation.run import evaluate as run_evaluation
     from spotfree.evaluation.report import headline
 
     ev = run_evaluation(output, seed=seed, quick=quick, progress=lambda message: err.print(message))

@@ -1,9 +1,11 @@
-"""Results figures like the paper's (section V): the handlebar pitch angle of every test ride with the label
-stream drawn on it, and the ground truth as a band along the top of each panel."""
+"""Figures: the results like the paper's (section V), the handlebar pitch angle of every test ride with the label
+stream drawn on it and the ground truth as a band along the top of each panel; and the training diagnostic, each
+training recording coloured by the names its windows were given."""
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import matplotlib
 
@@ -13,6 +15,9 @@ import numpy as np  # noqa: E402
 
 from spotfree.classify.batch import Labels  # noqa: E402
 from spotfree.io.recording import Recording  # noqa: E402
+
+if TYPE_CHECKING:
+    from spotfree.learner import SetSupervisedLearner
 
 NONE_COLOUR = (0.6, 0.6, 0.6, 1.0)
 """Colour of samples with no label (the first window of a ride)."""
@@ -52,6 +57,28 @@ def results_figure(test: Recording, labels: Labels, classes, path: str | Path, t
     fig.suptitle(f"{title}: dots = labels, top band = ground truth", x=0.01, ha="left", fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.97))
     fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def training_figure(learner: SetSupervisedLearner, recordings: list[Recording], path: str | Path) -> None:
+    """One row per training recording: the model's first channel, each window's centre coloured by the class the
+    fitted ``learner`` named it."""
+    model = learner.model_
+    channel = model.channels[0]
+    colour = class_colours(learner.classes_)
+    fig, axes = plt.subplots(len(recordings), 1, figsize=(12, 2.4 * len(recordings)), squeeze=False)
+    for ax, rec, names, ends in zip(axes[:, 0], recordings, learner.window_labels_, learner.window_ends_):
+        signal = rec.channels[channel]
+        centre = ends - model.window // 2
+        ax.plot(rec.time, signal, color="0.85", lw=0.8)
+        ax.scatter(rec.time[centre], signal[centre], c=[colour[str(n)] for n in names], s=4)
+        ax.set_ylabel(f"{Path(rec.source).name}\n{channel}", fontsize=8)
+    handles = [plt.Line2D([], [], marker="o", ls="", color=c, label=name) for name, c in colour.items()]
+    axes[0, 0].legend(handles=handles, fontsize=7, loc="upper right")
+    axes[0, 0].set_title("training windows by the name the learner gave them", fontsize=9)
+    axes[-1, 0].set_xlabel("time (s)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
     plt.close(fig)
 
 

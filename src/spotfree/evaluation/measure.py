@@ -6,8 +6,8 @@
 * CRC_RLS vs SRC vs B_SRC on one subsample of test windows: the model's stride raised to ``k`` so that each
   scenario gives about ``Protocol.method_windows`` windows, the same windows for the three methods; only the
   samples a window decides (every ``k``-th labelled sample, not the ones its label is held over) are scored.
-* The peers (:mod:`spotfree.peers`), trained on the training experiments with their ground-truth labels, on the
-  model's channels and window, labelling the same tests.
+* The peers (:mod:`spotfree.evaluation.peers`), trained on the training experiments with their ground-truth
+  labels, on the model's channels and window, labelling the same tests.
 """
 
 from __future__ import annotations
@@ -23,8 +23,8 @@ import numpy as np
 from spotfree.classify.batch import Labels, classify_recording, dictionary_classifier
 from spotfree.evaluation.protocol import TRAINED_ON, Protocol, ScenarioData
 from spotfree.model import DictionaryModel
-from spotfree.peers import ClaspPeer, MiniRocketPeer, NearestNeighbourPeer, Peer
-from spotfree.peers.base import from_aeon
+from spotfree.evaluation.peers import ClaspPeer, MiniRocketPeer, NearestNeighbourPeer, Peer
+from spotfree.evaluation.peers.base import from_aeon
 
 ALIGNMENTS = ("causal", "centred")
 HEADLINE = "causal"

@@ -31,7 +31,7 @@ import numpy as np
 
 from spotfree.errors import InputError
 from spotfree.io.recording import Recording
-from spotfree.peers.base import DEFAULT_CHANNELS, Peer, from_aeon
+from spotfree.evaluation.peers.base import DEFAULT_CHANNELS, Peer, from_aeon
 
 NAMINGS = ("centroid", "truth")
 MIN_PIECE = 5
@@ -45,7 +45,8 @@ class ClaspPeer(Peer):
     Parameters
     ----------
     channels, window
-        As for every peer (:class:`spotfree.peers.base.Peer`); ``window`` is ClaSP's subsequence length ``m``.
+        As for every peer (:class:`~spotfree.evaluation.peers.base.Peer`); ``window`` is ClaSP's subsequence length
+        ``m``.
     naming : {"centroid", "truth"}
         How segments get a class (module docstring).
     min_score : float

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from sklearn.neighbors import KNeighborsClassifier
 
-from spotfree.peers.base import DEFAULT_CHANNELS, WindowClassifierPeer
+from spotfree.evaluation.peers.base import DEFAULT_CHANNELS, WindowClassifierPeer
 
 
 class NearestNeighbourPeer(WindowClassifierPeer):
@@ -18,7 +18,7 @@ class NearestNeighbourPeer(WindowClassifierPeer):
     Parameters
     ----------
     channels, window, alignment
-        As for every peer (:class:`spotfree.peers.base.Peer`).
+        As for every peer (:class:`spotfree.evaluation.peers.base.Peer`).
     n_neighbors : int
         Neighbours that vote (1: the nearest window decides).
     """

@@ -11,7 +11,7 @@ pattern boundaries marked by hand.
 from __future__ import annotations
 
 from spotfree.errors import InputError
-from spotfree.peers.base import DEFAULT_CHANNELS, WindowClassifierPeer, from_aeon
+from spotfree.evaluation.peers.base import DEFAULT_CHANNELS, WindowClassifierPeer, from_aeon
 
 MIN_WINDOW = 9
 """MiniRocket's kernels are 9 samples long: shorter windows have no valid convolution."""
@@ -23,7 +23,7 @@ class MiniRocketPeer(WindowClassifierPeer):
     Parameters
     ----------
     channels, window, alignment
-        As for every peer (:class:`spotfree.peers.base.Peer`); ``window`` must be at least 9 samples.
+        As for every peer (:class:`spotfree.evaluation.peers.base.Peer`); ``window`` must be at least 9 samples.
     n_kernels : int
         Number of MiniRocket features (rounded down to a multiple of 84 by aeon; 10,000 is the published default).
     n_jobs : int

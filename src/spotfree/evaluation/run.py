@@ -20,13 +20,12 @@ from typing import Callable
 import numpy as np
 
 from spotfree.errors import InputError
-from spotfree.evaluation.figures import results_figure
+from spotfree.evaluation.figures import results_figure, training_figure
 from spotfree.evaluation.metrics import naming_scores
 from spotfree.evaluation.measure import HEADLINE, check_peers, crc_runs, make_peers, method_runs, peer_runs
 from spotfree.evaluation.protocol import SCENARIOS, Protocol, simulate, train_dictionary
 from spotfree.evaluation.report import Evaluation, render
 from spotfree.evaluation.ride_models import evaluate_ride_models
-from spotfree.figures import training_figure
 from spotfree.sim.scenarios import CLASSES
 
 Progress = Callable[[str], None]
