@@ -5,7 +5,7 @@ other scenario's are trained on spotting-free (each declares the classes that oc
 own scenario (three held-out riders) are labelled causally and scored per true class. The grid runs on
 ``--dev-seeds`` only; the chosen :data:`~spotfree.evaluation.lateral_road.MODELS` are then scored on
 ``--test-seed``, which the grid never sees. Each row: the causal labels, then the same after the offline segment
-vote at the spec's penalty (:mod:`spotfree.classify.segments`).
+vote at the spec's penalty (:mod:`spotfree.votes.segments`).
 
 Run: ``python benchmarks/lateral_road.py [--dev-seeds 100] [--test-seed 0]``.
 """

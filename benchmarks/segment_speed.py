@@ -19,7 +19,7 @@ from datetime import datetime, timezone
 import numpy as np
 import ruptures
 
-from spotfree.classify.segments import MIN_SIZE, change_points
+from spotfree.votes.segments import MIN_SIZE, change_points
 
 PENALTY = 4.0
 RUPTURES_UP_TO = 20000

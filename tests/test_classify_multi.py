@@ -7,11 +7,17 @@ from classify_fixtures import truth_model, with_gap
 from typer.testing import CliRunner
 
 from spotfree.classify.batch import classify_recording
-from spotfree.classify.multi import MultiModelStream, classify_models, model_names, model_penalties
+from spotfree.classify.multi import MultiModelStream, classify_models, model_names
 from spotfree.cli import app
 from spotfree.errors import InputError
 from spotfree.io.csvlog import write_csv
 from spotfree.sim.scenarios import simulate_scenario
+from spotfree.votes.options import Votes, model_penalties, voted_labels, voted_models, votes_per_model
+
+
+def voted(models, ride, **options):
+    """The label table of ``models`` on ``ride`` after the votes of ``options`` given for all of them."""
+    return voted_models(models, ride, votes_per_model(models, **options))
 
 
 @pytest.fixture(scope="module")
@@ -109,30 +115,30 @@ def test_cli_classify_with_several_models_writes_a_column_per_model_and_keeps_th
 
 
 def test_the_segment_and_event_votes_run_per_model_with_only_the_classes_each_has(models, ride):
-    table = classify_models(models, ride, segments=4.0, keep=("kerb",), events=("straight", "smooth"))
+    table = voted(models, ride, segments=4.0, keep=("kerb",), events=("straight", "smooth"))
     for name, model in models.items():
         own = lambda names: tuple(c for c in names if c in model.classes)  # noqa: E731
-        alone = classify_recording(model, ride, segments=4.0, keep=own(("kerb",)), events=own(("straight", "smooth")))
+        alone = voted_labels(model, ride, Votes(4.0, own(("kerb",)), own(("straight", "smooth"))))
         np.testing.assert_array_equal(table[name].to_numpy(), alone.label)
-    plain, events = classify_models(models, ride), classify_models(models, ride, events=("straight",))
+    plain, events = classify_models(models, ride), voted(models, ride, events=("straight",))
     assert not np.array_equal(events["lateral"], plain["lateral"])
     np.testing.assert_array_equal(events[["braking", "road"]], plain[["braking", "road"]])
     for option in ("keep", "events"):
         with pytest.raises(InputError, match=f"--{option} slalm: not a class of any model"):
-            classify_models(models, ride, segments=4.0, **{option: ("slalm",)})
+            voted(models, ride, segments=4.0, **{option: ("slalm",)})
 
 
 def test_event_edges_run_on_the_model_with_the_channel_and_are_refused_elsewhere(models, ride):
-    edged = classify_models(models, ride, segments=4.0, events=("straight",), edges={"yaw_rate": 0.09})
-    voted = classify_models(models, ride, segments=4.0, events=("straight",))
-    alone = classify_recording(models["lateral"], ride, segments=4.0, events=("straight",), edges={"yaw_rate": 0.09})
+    edged = voted(models, ride, segments=4.0, events=("straight",), edges={"yaw_rate": 0.09})
+    events = voted(models, ride, segments=4.0, events=("straight",))
+    alone = voted_labels(models["lateral"], ride, Votes(4.0, (), ("straight",), {"yaw_rate": 0.09}))
     np.testing.assert_array_equal(edged["lateral"].to_numpy(), alone.label)
-    assert not np.array_equal(edged["lateral"], voted["lateral"])
-    np.testing.assert_array_equal(edged[["braking", "road"]], voted[["braking", "road"]])
+    assert not np.array_equal(edged["lateral"], events["lateral"])
+    np.testing.assert_array_equal(edged[["braking", "road"]], events[["braking", "road"]])
     with pytest.raises(InputError, match="--edges yaw: not a channel of any model"):
-        classify_models(models, ride, events=("straight",), edges={"yaw": 0.09})
+        voted(models, ride, events=("straight",), edges={"yaw": 0.09})
     with pytest.raises(InputError, match="--edges vib_z: model road runs no event vote"):
-        classify_models(models, ride, events=("straight",), edges={"vib_z": 0.5})
+        voted(models, ride, events=("straight",), edges={"vib_z": 0.5})
 
 
 def test_penalties_are_given_for_every_model_or_per_model_name():
@@ -157,11 +163,11 @@ def test_cli_segments_per_model_vote_each_model_at_its_own_penalty(models, ride,
     assert result.exit_code == 0, result.output
     assert "segment vote at penalty lateral 4, road 8, kerb kept" in result.output
     table = pd.read_csv(tmp_path / "votes.csv", keep_default_na=False)
-    expected = classify_models(models, ride, segments={"lateral": 4.0, "road": 8.0}, keep=("kerb",))
+    expected = voted(models, ride, segments={"lateral": 4.0, "road": 8.0}, keep=("kerb",))
     for name in models:
         np.testing.assert_array_equal(table[name].astype(str).to_numpy(), expected[name].to_numpy())
     np.testing.assert_array_equal(expected["braking"], classify_models(models, ride)["braking"])
-    assert not np.array_equal(expected["road"], classify_models(models, ride, segments=4.0, keep=("kerb",))["road"])
+    assert not np.array_equal(expected["road"], voted(models, ride, segments=4.0, keep=("kerb",))["road"])
     bad = run("bad.csv", "--segments", "latral=4")
     assert bad.exit_code == 2 and "no model is named latral" in bad.output
     assert not (tmp_path / "bad.csv").exists()

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from spotfree.evaluation.lateral_road import (KIND_RIDES, MODELS, Split, declared_classes, event_classes, score,
-                                              segment_options, spec_split, split)
+                                              spec_votes, spec_split, split)
 from spotfree.evaluation.metrics import Score
 
 
@@ -47,9 +47,9 @@ def test_score_counts_every_labelled_sample_of_each_true_class(road_split):
     # every sample but the first window - 1 of the ride is labelled and counted under its true class
     assert overall.total == len(truth) - (model.window - 1)
     assert per_class["smooth"].total == int(np.sum(truth[model.window - 1:] == "smooth"))
-    options = segment_options(MODELS["road"], model)
-    assert options["segments"] == MODELS["road"].segments and set(options["keep"]) <= {"kerb"}
-    voted, voted_overall = score(model, data.test, "road", **options)
+    votes = spec_votes(MODELS["road"], model)
+    assert votes.segments == MODELS["road"].segments and set(votes.keep) <= {"kerb"}
+    voted, voted_overall = score(model, data.test, "road", votes)
     assert voted_overall.total == overall.total and set(voted) == set(per_class)
     print(f"causal {overall.rate:.3f}, segment vote {voted_overall.rate:.3f}")
     assert voted_overall.rate >= overall.rate

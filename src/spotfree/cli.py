@@ -322,11 +322,9 @@ def classify(
                               "portrait, screen towards the rider)"),
 ) -> None:
     """Label every sample of a log with a trained model, or with several models at once (one feature pass)."""
-    from spotfree.classify.batch import classify_recording
-    from spotfree.classify.multi import model_names, model_penalties
-    from spotfree.classify.segments import edge_levels
-    from spotfree.classify.votes import stored_votes
+    from spotfree.classify.multi import model_names
     from spotfree.model import DictionaryModel
+    from spotfree.votes.options import Votes, edge_levels, model_penalties, stored_votes, voted_labels
 
     if len(paths) < 2:
         raise InputError("classify needs MODEL.npz [MODEL2.npz ...] IN: at least one model file and the log")
@@ -343,13 +341,12 @@ def classify(
                           None if offline else vote, mount)
         return
     dictionary = DictionaryModel.load(model_paths[0])
-    if offline:
-        vote = stored_votes(dictionary)
+    votes = stored_votes(dictionary) if offline else Votes(**vote)
     rec = _read_log(source, dictionary.rate)
     if dictionary.features == "ride" and not rec.has_imu and not set(dictionary.channels) <= set(rec.channels):
         rec.require_imu("the model's ride features")
     estimate = _mount_choice(rec, mount) if dictionary.features == "ride" else None
-    labels = classify_recording(dictionary, rec, method=method, centred=centred, smoothing=smooth, **vote)
+    labels = voted_labels(dictionary, rec, votes, method=method, centred=centred, smoothing=smooth)
     labels.write_csv(output)
     _report_repairs_and_gaps(rec)
     if estimate is not None:
@@ -361,14 +358,14 @@ def classify(
     out.print(f"wrote {output}: {int(labels.labelled().sum())} of {len(labels)} samples labelled by {method}; "
               f"windows: {labels.meta['alignment']}, each label from the window of {window} {where}"
               + (f"; majority vote over {smooth} samples" if smooth else "")
-              + (_stored_note({names[0]: vote}) if offline else _vote_note(vote)))
+              + (_stored_note({names[0]: votes}) if offline else _vote_note(vote)))
     for gap in labels.breaks():
         out.print(f"{gap} (gap in {rec.source}; no label across it)")
 
 
 def _stored_note(votes: dict) -> str:
     """The summary's words on the offline votes stored in the model files (``votes``: per model name)."""
-    from spotfree.classify.votes import describe
+    from spotfree.votes.options import describe
 
     return "; offline votes stored in the model: " + ", ".join(
         f"{name} {describe(vote) or 'none'}" if len(votes) > 1 else describe(vote) or "none"
@@ -376,8 +373,8 @@ def _stored_note(votes: dict) -> str:
 
 
 def _vote_note(vote: dict) -> str:
-    """The summary's words on the segment and event votes (``vote``: their options of ``classify_recording``, or of
-    ``classify_models`` with a penalty per model name)."""
+    """The summary's words on the segment and event votes (``vote``: the fields of
+    :class:`~spotfree.votes.options.Votes`, ``segments`` one penalty or one per model name)."""
     penalties = vote["segments"] if isinstance(vote["segments"], dict) else {"": vote["segments"]}
     if len(set(penalties.values())) == 1:
         penalties = {"": next(iter(penalties.values()))}
@@ -394,19 +391,19 @@ def _classify_several(model_paths: dict[str, str], source: str, output: Path, me
                       smooth: int, vote: dict | None, mount: str = "auto") -> None:
     """``classify`` with several models (``model_paths``: file by name): one label column per model, see
     :mod:`spotfree.classify.multi`; ``vote`` None: each model's stored votes; ``mount`` the ``--mount`` choice."""
-    from spotfree.classify.multi import classify_models, write_labels
-    from spotfree.classify.votes import stored_votes
+    from spotfree.classify.multi import write_labels
     from spotfree.model import DictionaryModel
+    from spotfree.votes.options import stored_votes, voted_models, votes_per_model
 
     models = {name: DictionaryModel.load(path) for name, path in model_paths.items()}
     stored = None if vote else {name: stored_votes(model) for name, model in models.items()}
+    votes = stored or votes_per_model(models, **vote)
     rec = _read_log(source, next(iter(models.values())).rate)
     if not rec.has_imu and any(m.features == "ride" and not set(m.channels) <= set(rec.channels)
                                for m in models.values()):
         rec.require_imu("the models' ride features")
     estimate = _mount_choice(rec, mount) if any(m.features == "ride" for m in models.values()) else None
-    table = classify_models(models, rec, method=method, centred=centred, smoothing=smooth,
-                            **({"votes": stored} if stored else vote))
+    table = voted_models(models, rec, votes, method=method, centred=centred, smoothing=smooth)
     write_labels(table, output)
     _report_repairs_and_gaps(rec)
     if estimate is not None:
@@ -430,9 +427,8 @@ def votes(
     clear: bool = typer.Option(False, "--clear", help="remove the stored votes"),
 ) -> None:
     """Show a model's offline votes, or store them in its file for 'spotfree classify --offline' (all replaced)."""
-    from spotfree.classify.segments import edge_levels
-    from spotfree.classify.votes import describe, stored_votes, with_votes
     from spotfree.model import DictionaryModel
+    from spotfree.votes.options import Votes, describe, edge_levels, stored_votes, with_votes
 
     model = DictionaryModel.load(model_path)
     given = segments is not None or keep or events or edges
@@ -441,7 +437,7 @@ def votes(
     if not (clear or given):
         out.print(f"{model_path}: {describe(stored_votes(model)) or 'no offline vote stored'}")
         return
-    model = with_votes(model, segments, keep, events, edge_levels(edges))
+    model = with_votes(model, Votes(segments, keep, events, edge_levels(edges)))
     model.save(model_path)
     if clear:
         out.print(f"removed the offline votes from {model_path}")

@@ -19,14 +19,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Mapping
 
 import numpy as np
 import pandas as pd
 
 from spotfree.classify import DEFAULT_METHOD, make_classifier
-from spotfree.classify.segments import (change_points, check_classes, check_penalty, event_background, event_edges,
-                                       event_ends, model_edge, segment_signal, segment_vote)
 from spotfree.classify.smoothing import check_smoothing, majority_vote
 from spotfree.errors import InputError
 from spotfree.io.checks import write_text
@@ -58,9 +55,8 @@ class Labels:
     """One label per sample of a recording: ``label[k]`` is a class name, or ``""`` where no window gives one.
 
     ``meta`` says how they were made: ``method``, ``alignment`` (``causal`` / ``centred``), ``offset`` (samples),
-    ``window``, ``step``, ``smoothing`` (samples, 0 for none), ``segments`` (the segment vote's penalty, 0 for
-    none) and its ``keep``, ``events`` (the event vote's background class, ``""`` for none), ``edges``
-    (``{channel: level}`` of the event edges, empty for none), and the model's ``classes``.
+    ``window``, ``step``, ``smoothing`` (samples, 0 for none) and the model's ``classes``; the offline votes
+    (:func:`spotfree.votes.apply_votes`) add theirs.
     """
 
     time: np.ndarray
@@ -150,22 +146,14 @@ def alignment_offset(model: DictionaryModel, centred: bool) -> int:
 
 
 def classify_recording(model: DictionaryModel, rec: Recording, method: str = DEFAULT_METHOD, centred: bool = False,
-                       smoothing: int | None = None, classifier=None, segments: float | None = None,
-                       keep: tuple[str, ...] = (), events: tuple[str, ...] = (),
-                       edges: Mapping[str, float] | None = None) -> Labels:
+                       smoothing: int | None = None, classifier=None) -> Labels:
     """Label every sample of ``rec`` (a raw IMU log or a log of the model's channels), see the module docstring.
 
     ``smoothing``: majority vote over that many samples (:mod:`spotfree.classify.smoothing`), None for none.
-    ``segments``: the penalty of the offline segment vote (:mod:`spotfree.classify.segments`), None for none;
-    ``keep``: classes it leaves as labelled. ``events``: the model's background class, to run the event vote after
-    it (:func:`~spotfree.classify.segments.event_ends`; empty for none). ``edges``: ``{channel: level}`` for one of
-    the model's channels, the event edges after the event vote (:func:`~spotfree.classify.segments.event_edges`,
-    reach one window; None or empty: none). The votes are :func:`offline_votes` on the labels made without them.
     ``classifier``: a classifier already fitted by :func:`dictionary_classifier` (fitted here when None).
     """
     smoothing = check_smoothing(smoothing)
-    votes = vote_options(model, segments, keep, events, edges)
-    feats = _classifiable(model, rec)
+    feats = classifiable_features(model, rec)
     segments = feats.segments()
     clf = classifier if classifier is not None else dictionary_classifier(model, method, causal=not centred)
     scaling = ChannelScaling(tuple(model.channels), model.scale)
@@ -183,37 +171,15 @@ def classify_recording(model: DictionaryModel, rec: Recording, method: str = DEF
         label[samples] = predicted[i + (samples - samples[0]) // model.step]
         if smoothing:
             label[start:stop] = majority_vote(label[start:stop], smoothing, centred)
-    labels = Labels(
+    return Labels(
         time=feats.time, label=label, rate=feats.rate, experiment=feats.experiment, source=rec.source,
         meta={"method": method, "alignment": "centred" if centred else "causal", "offset": offset,
               "window": model.window, "step": model.step, "smoothing": smoothing or 0,
-              "segments": 0, "keep": [], "events": "", "edges": {}, "classes": [str(c) for c in model.classes]},
+              "classes": [str(c) for c in model.classes]},
     )
-    return _voted(model, feats, labels, *votes)
 
 
-def offline_votes(model: DictionaryModel, rec: Recording, labels: Labels, segments: float | None = None,
-                  keep: tuple[str, ...] = (), events: tuple[str, ...] = (),
-                  edges: Mapping[str, float] | None = None) -> Labels:
-    """``labels`` (made by :func:`classify_recording` from ``model`` and ``rec`` without votes) after the offline
-    votes that :func:`classify_recording` takes the same options for, so that one classification serves both."""
-    if len(labels) != len(rec) or labels.meta.get("segments") or labels.meta.get("events"):
-        raise InputError(f"{rec.source}: offline votes need the labels of this recording made without votes")
-    votes = vote_options(model, segments, keep, events, edges)
-    return _voted(model, _classifiable(model, rec), labels, *votes)
-
-
-def vote_options(model: DictionaryModel, segments, keep, events, edges) -> tuple:
-    """``(penalty, keep, background, edge)`` of the offline votes (options of :func:`classify_recording`), checked
-    against ``model``."""
-    penalty = check_penalty(segments)
-    check_classes("--keep", keep, model.classes)
-    check_classes("--events", events, model.classes)
-    background = event_background(events, model.classes)
-    return penalty, tuple(keep), background, model_edge(edges or {}, model.channels, background)
-
-
-def _classifiable(model: DictionaryModel, rec: Recording) -> Recording:
+def classifiable_features(model: DictionaryModel, rec: Recording) -> Recording:
     """:func:`model_features` of ``rec``, refused when no gap-free stretch holds a window."""
     feats = model_features(model, rec)
     if not any(stop - start >= model.window for start, stop in feats.segments()):
@@ -222,25 +188,3 @@ def _classifiable(model: DictionaryModel, rec: Recording) -> Recording:
             f"{model.window / model.rate:.2f} s); nothing to classify"
         )
     return feats
-
-
-def _voted(model: DictionaryModel, feats: Recording, labels: Labels, penalty: float | None, keep: tuple[str, ...],
-           background: str | None, edge: tuple[str, float] | None) -> Labels:
-    """``labels`` of ``feats`` after the segment vote, the event vote and the event edges, each per gap-free
-    stretch; ``labels`` itself when none is asked for."""
-    if not (penalty or background):
-        return labels
-    label = np.asarray(labels.label, dtype=object).copy()
-    for start, stop in feats.segments():
-        if penalty:
-            x = segment_signal({c: feats.channels[c][start:stop] for c in model.channels}, model.channels)
-            label[start:stop] = segment_vote(label[start:stop], change_points(x, penalty), keep)
-        if background:
-            label[start:stop] = segment_vote(label[start:stop], event_ends(label[start:stop], background), keep)
-        if edge:
-            label[start:stop] = event_edges(label[start:stop], feats.channels[edge[0]][start:stop], background,
-                                            edge[1], model.window)
-    meta = dict(labels.meta, segments=penalty or 0, keep=list(keep), events=background or "",
-                edges=dict([edge]) if edge else {})
-    return Labels(time=labels.time, label=label, rate=labels.rate, experiment=labels.experiment,
-                  source=labels.source, meta=meta)

@@ -6,22 +6,22 @@ share the rate and the attitude filter. Each model then keeps its own channels, 
 batch :func:`~spotfree.classify.batch.classify_recording` on the shared features; in streaming one ring buffer of
 feature vectors serves every model (:class:`~spotfree.classify.ring.ModelRing`), so a sample costs one compiled
 feature step and one compiled call that windows and classifies each due model. The labels of
-:class:`MultiModelStream` equal the causal labels of :func:`classify_models` sample for sample.
+:class:`MultiModelStream` equal the causal labels of :func:`classify_models` sample for sample. The offline votes
+run per model on the batch labels (:func:`spotfree.votes.voted_models`).
 """
 
 from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Iterable, Mapping
+from typing import Mapping
 
 import numpy as np
 import pandas as pd
 
 from spotfree.classify import DEFAULT_METHOD
-from spotfree.classify.batch import classify_recording, dictionary_classifier
+from spotfree.classify.batch import Labels, classify_recording, dictionary_classifier
 from spotfree.classify.ring import ModelRing
-from spotfree.classify.segments import check_channels, check_classes, event_background, kept_classes, model_edge
 from spotfree.classify.smoothing import check_smoothing
 from spotfree.classify.stream import MAX_GAP, PRODUCED, starts_segment
 from spotfree.errors import InputError
@@ -41,27 +41,6 @@ def model_names(paths) -> list[str]:
     return names
 
 
-def model_penalties(values: Iterable[str], names: list[str]) -> dict[str, float]:
-    """Segment-vote penalty per model name from ``--segments`` values: ``P`` for every model, ``NAME=P`` for the
-    model named ``NAME`` (it wins over ``P``); 0 (no vote) where none is given. The numbers are checked where the
-    vote runs (:func:`~spotfree.classify.segments.check_penalty`)."""
-    default, own = 0.0, {}
-    for value in values:
-        name, _, number = str(value).rpartition("=")
-        try:
-            penalty = float(number)
-        except ValueError:
-            raise InputError(f"--segments {value}: give a penalty (a number) or MODEL=PENALTY, MODEL one of "
-                             f"{', '.join(names)}") from None
-        if name and name not in names:
-            raise InputError(f"--segments {value}: no model is named {name} (models: {', '.join(names)})")
-        if name:
-            own[name] = penalty
-        else:
-            default = penalty
-    return {name: own.get(name, default) for name in names}
-
-
 def _check_models(models: Mapping[str, DictionaryModel]) -> None:
     """One feature pass must serve every model: same rate, same attitude filter, same kind of features."""
     if not models:
@@ -79,45 +58,43 @@ def _check_models(models: Mapping[str, DictionaryModel]) -> None:
             )
 
 
-def classify_models(models: Mapping[str, DictionaryModel], rec: Recording, method: str = DEFAULT_METHOD,
-                    centred: bool = False, smoothing: int | None = None,
-                    segments: float | Mapping[str, float] | None = None, keep: tuple[str, ...] = (),
-                    events: tuple[str, ...] = (), edges: Mapping[str, float] | None = None,
-                    votes: Mapping[str, Mapping] | None = None) -> pd.DataFrame:
-    """One label column per model (named by its key) for every sample of ``rec``, after ``experiment`` (when the
-    recording has one) and ``time`` (s); ``""`` where a model gives no label (see
-    :mod:`spotfree.classify.batch`). The ride features of a raw IMU log are computed once for all models.
-    ``segments``, ``keep``, ``events``: the segment and event votes of every model
-    (:mod:`spotfree.classify.segments`): ``segments`` one penalty for all or one per model name (none for a model
-    it does not name), each model keeping the classes of ``keep`` it has and running the event vote
-    when one of ``events`` is its class, then its event edges when one of ``edges`` (``{channel: level}``) is its
-    channel; a class or channel no model has is an error. ``votes``: instead, each model's own options of
-    :func:`~spotfree.classify.batch.classify_recording` by name (:func:`spotfree.classify.votes.stored_votes`)."""
+def shared_features(models: Mapping[str, DictionaryModel], rec: Recording) -> Recording:
+    """The ride features of a raw IMU log ``rec``, computed once for all ``models`` (derived channels included), or
+    ``rec`` itself when the models are not of ride features or it holds none of the raw channels."""
     _check_models(models)
-    known = [c for model in models.values() for c in model.classes]
-    check_classes("--keep", keep, known, "any model")
-    check_classes("--events", events, known, "any model")
-    edges = dict(edges or {})
-    check_channels("--edges", edges, [c for model in models.values() for c in model.channels], "any model")
-    own_edges = {name: {c: level for c, level in edges.items() if c in model.channels}
-                 for name, model in models.items()}
-    for name, model in models.items():
-        model_edge(own_edges[name], model.channels, event_background(events, model.classes), f"model {name}")
     first = next(iter(models.values()))
     if first.features == "ride" and rec.has_imu:
-        rec = ride_features(rec, orientation=first.orientation, derived=True)
+        return ride_features(rec, orientation=first.orientation, derived=True)
+    return rec
+
+
+def model_labels(models: Mapping[str, DictionaryModel], rec: Recording, method: str = DEFAULT_METHOD,
+                 centred: bool = False, smoothing: int | None = None) -> dict[str, Labels]:
+    """The :func:`~spotfree.classify.batch.classify_recording` labels of every model (by name) on
+    :func:`shared_features` of ``rec``."""
+    feats = shared_features(models, rec)
+    return {name: classify_recording(model, feats, method=method, centred=centred, smoothing=smoothing)
+            for name, model in models.items()}
+
+
+def label_table(labels: Mapping[str, Labels]) -> pd.DataFrame:
+    """``experiment`` (when the labels have one), ``time`` (s) and one label column per model (named by its key)
+    from labels of one recording."""
+    first = next(iter(labels.values()))
     table: dict[str, object] = {}
-    if rec.experiment is not None:
-        table["experiment"] = rec.experiment
-    table["time"] = rec.time
-    for name, model in models.items():
-        own = dict(votes[name]) if votes is not None else {
-            "segments": segments.get(name) if isinstance(segments, Mapping) else segments,
-            "keep": kept_classes(keep, model.classes), "events": kept_classes(events, model.classes),
-            "edges": own_edges[name]}
-        table[name] = classify_recording(model, rec, method=method, centred=centred, smoothing=smoothing,
-                                         **own).label
+    if first.experiment is not None:
+        table["experiment"] = first.experiment
+    table["time"] = first.time
+    table.update({name: own.label for name, own in labels.items()})
     return pd.DataFrame(table)
+
+
+def classify_models(models: Mapping[str, DictionaryModel], rec: Recording, method: str = DEFAULT_METHOD,
+                    centred: bool = False, smoothing: int | None = None) -> pd.DataFrame:
+    """One label column per model (named by its key) for every sample of ``rec``, after ``experiment`` (when the
+    recording has one) and ``time`` (s); ``""`` where a model gives no label (see
+    :mod:`spotfree.classify.batch`). The ride features of a raw IMU log are computed once for all models."""
+    return label_table(model_labels(models, rec, method=method, centred=centred, smoothing=smoothing))
 
 
 def write_labels(table: pd.DataFrame, path: str | Path) -> None:

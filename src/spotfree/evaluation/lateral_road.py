@@ -8,10 +8,11 @@ declaring only the set of the model's classes that occur somewhere in it, as a r
 would declare it: in its own scenario the classes of its labels; in the other scenario the classes its confounders
 amount to (:data:`EVENT_CLASSES`: a road ride's gentle turns, a lateral ride's surface patches and kerbs). A spec
 with ``one_kind`` (both models now) trains instead, as the paper does, on one recording per manoeuvre: each training
-rider rides once per kind of manoeuvre or road event and once without any (:data:`KIND_RIDES`). Tests are labelled causally by :func:`~spotfree.classify.batch.classify_recording` and
-scored per true class (:func:`~spotfree.evaluation.metrics.class_accuracy`); then again after the offline segment
-vote (:mod:`spotfree.classify.segments`) at the spec's penalty, and the event vote where the spec asks for it. The
-spec's short classes (kerbs) are scored as detected events too (:func:`~spotfree.evaluation.metrics.event_detection`).
+rider rides once per kind of manoeuvre or road event and once without any (:data:`KIND_RIDES`). Tests are labelled
+causally by :func:`~spotfree.classify.batch.classify_recording` and scored per true class
+(:func:`~spotfree.evaluation.metrics.class_accuracy`); then again after the offline votes (:mod:`spotfree.votes`):
+the segment vote at the spec's penalty, and the event vote and edges where the spec asks for them. The spec's short
+classes (kerbs) are scored as detected events too (:func:`~spotfree.evaluation.metrics.event_detection`).
 """
 
 from __future__ import annotations
@@ -20,8 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from spotfree.classify.batch import classify_recording, offline_votes
-from spotfree.classify.segments import kept_classes
+from spotfree.classify.batch import classify_recording
 from spotfree.evaluation.metrics import EventScore, Score, class_accuracy, event_detection
 from spotfree.io.recording import Recording
 from spotfree.learner import SetSupervisedLearner
@@ -29,13 +29,14 @@ from spotfree.presets import PRESETS, preset_learner
 from spotfree.model import DictionaryModel
 from spotfree.signal.features import ride_features
 from spotfree.sim.scenarios import CLASSES, simulate_scenario
+from spotfree.votes.options import Votes, apply_votes, kept_classes, voted_labels
 
 
 @dataclass(frozen=True)
 class ModelSpec:
     """A model of one scenario's classes, learnt by the preset of the same name (:mod:`spotfree.presets`);
     ``one_kind``: trained on rides of one kind of manoeuvre each (:data:`KIND_RIDES`) rather than on mixed rides; its
-    offline votes (:func:`segment_options`): segment penalty, classes kept, event vote and event edges
+    offline votes (:func:`spec_votes`): segment penalty, classes kept, event vote and event edges
     ``(channel, level)``; ``detections``: short classes also scored as detected events
     (:func:`~spotfree.evaluation.metrics.event_detection`)."""
 
@@ -168,10 +169,11 @@ def split(scenario: str, seed: int, repeats: int = 7, n_train: int = 4, rate: fl
     return Split(training, test, tests)
 
 
-def score(model: DictionaryModel, test: Recording, scenario: str, **votes) -> tuple[dict[str, Score], Score]:
-    """Per-class and overall accuracy of the causal labels of ``test`` (every labelled sample), after the segment
-    and event votes of ``votes`` (:func:`segment_options`) when given."""
-    return score_labels(classify_recording(model, test, **votes).label, test, scenario)
+def score(model: DictionaryModel, test: Recording, scenario: str,
+          votes: Votes = Votes()) -> tuple[dict[str, Score], Score]:
+    """Per-class and overall accuracy of the causal labels of ``test`` (every labelled sample), after ``votes``
+    (:func:`spec_votes`; the default runs none)."""
+    return score_labels(voted_labels(model, test, votes).label, test, scenario)
 
 
 def score_labels(labels: np.ndarray, test: Recording, scenario: str) -> tuple[dict[str, Score], Score]:
@@ -186,11 +188,11 @@ def detections(spec: ModelSpec, labels: np.ndarray, test: Recording) -> dict[str
             for name in spec.detections}
 
 
-def segment_options(spec: ModelSpec, model: DictionaryModel) -> dict:
-    """The segment vote of ``spec`` for ``model``: its penalty, the classes of ``spec.keep`` the model has, the
-    background class of the event vote when ``spec.events`` and its event edges ``spec.edges``."""
-    return {"segments": spec.segments, "keep": kept_classes(spec.keep, model.classes),
-            "events": (spec.background,) if spec.events else (), "edges": dict(spec.edges) if spec.events else {}}
+def spec_votes(spec: ModelSpec, model: DictionaryModel) -> Votes:
+    """The offline votes of ``spec`` for ``model``: its segment penalty, the classes of ``spec.keep`` the model has,
+    the background class of the event vote when ``spec.events`` and its event edges ``spec.edges``."""
+    return Votes(spec.segments, kept_classes(spec.keep, model.classes),
+                 (spec.background,) if spec.events else (), dict(spec.edges) if spec.events else {})
 
 
 def train_and_score(spec: ModelSpec, data: Split, seed: int, **params) -> ModelScore:
@@ -204,7 +206,7 @@ def train_and_score(spec: ModelSpec, data: Split, seed: int, **params) -> ModelS
     scored = ModelScore(model, per_class, overall, list(learner.warnings_),
                         detected=detections(spec, causal.label, data.test))
     if spec.segments:
-        voted = offline_votes(model, data.test, causal, **segment_options(spec, model)).label
+        voted = apply_votes(model, data.test, causal, spec_votes(spec, model)).label
         scored.segmented, scored.segmented_overall = score_labels(voted, data.test, spec.scenario)
         scored.segmented_detected = detections(spec, voted, data.test)
     return scored

@@ -6,16 +6,15 @@ import pytest
 from classify_fixtures import truth_model
 from typer.testing import CliRunner
 
-from spotfree.classify.batch import classify_recording
 from spotfree.classify.multi import classify_models
-from spotfree.classify.votes import describe, stored_votes, with_votes
 from spotfree.cli import app
 from spotfree.errors import InputError
 from spotfree.io.csvlog import write_csv
 from spotfree.model import DictionaryModel
 from spotfree.sim.scenarios import simulate_scenario
+from spotfree.votes.options import Votes, describe, stored_votes, voted_labels, with_votes
 
-LATERAL = {"segments": 4.0, "keep": (), "events": ("straight",), "edges": {"yaw_rate": 0.09}}
+LATERAL = Votes(segments=4.0, events=("straight",), edges={"yaw_rate": 0.09})
 
 
 @pytest.fixture(scope="module")
@@ -33,16 +32,15 @@ def ride():
 
 
 def test_votes_survive_the_file_and_label_as_the_same_options_do(models, ride, tmp_path):
-    lateral = with_votes(models["lateral"], **LATERAL)
+    lateral = with_votes(models["lateral"], LATERAL)
     lateral.save(tmp_path / "lateral.npz")
     loaded = DictionaryModel.load(tmp_path / "lateral.npz")
     assert stored_votes(loaded) == LATERAL and loaded.parameters["votes"]["segments"] == 4.0
     assert describe(stored_votes(loaded)) == "--segments 4 --events straight --edges yaw_rate=0.09"
-    np.testing.assert_array_equal(classify_recording(loaded, ride, **stored_votes(loaded)).label,
-                                  classify_recording(models["lateral"], ride, **LATERAL).label)
+    np.testing.assert_array_equal(voted_labels(loaded, ride, stored_votes(loaded)).label,
+                                  voted_labels(models["lateral"], ride, LATERAL).label)
     cleared = with_votes(loaded)
-    assert "votes" not in cleared.parameters and stored_votes(cleared) == {"segments": None, "keep": (), "events": (),
-                                                                           "edges": {}}
+    assert "votes" not in cleared.parameters and stored_votes(cleared) == Votes()
 
 
 def test_votes_a_model_cannot_run_are_refused(models):
@@ -52,7 +50,7 @@ def test_votes_a_model_cannot_run_are_refused(models):
                          ({"events": ("straight",), "edges": {"roll": 0.1}}, "--edges roll: not a channel"),
                          ({"segments": -1.0}, r"\(--segments\)")]:
         with pytest.raises(InputError, match=message):
-            with_votes(models["lateral"], **bad)
+            with_votes(models["lateral"], Votes(**bad))
 
 
 def test_cli_stores_shows_uses_and_clears_the_votes_and_bad_input_keeps_the_file(models, ride, tmp_path):
@@ -74,7 +72,7 @@ def test_cli_stores_shows_uses_and_clears_the_votes_and_bad_input_keeps_the_file
     offline = run("classify", path, tmp_path / "ride.csv", "-o", tmp_path / "offline.csv", "--offline")
     assert offline.exit_code == 0
     assert "offline votes stored in the model: --segments 4" in " ".join(offline.output.split())
-    explicit = classify_recording(models["lateral"], ride, **LATERAL).label
+    explicit = voted_labels(models["lateral"], ride, LATERAL).label
     labels = pd.read_csv(tmp_path / "offline.csv", keep_default_na=False)["label"].astype(str).to_numpy()
     np.testing.assert_array_equal(labels, explicit)
 

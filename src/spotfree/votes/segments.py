@@ -1,4 +1,5 @@
-"""Segment vote (offline): labels made constant between change points of the model's own channels.
+"""The offline votes' algorithms: the segment vote (labels made constant between change points of the model's own
+channels), the event vote and the event edges.
 
 A ride is piecewise steady: a straight, a turn, a patch of cobblestone. A window classifier labels each sample from
 a short window, so near every change and wherever a short window happens to look like another class its labels
@@ -11,8 +12,7 @@ flicker. The segment vote finds the changes in the signal itself and lets each s
    ``sum_segments (sum_t ||x_t - mean_segment||^2 + penalty)`` is lowest, segments at least ``min_size`` samples
    long: ``penalty`` is in units of the standardised squared error, so it does not depend on the channels' units
    (larger: fewer, longer segments). Written here, compiled, on cumulative sums (a segment's cost in O(d)); it gives
-   the breakpoints of ``ruptures.Pelt(model="l2", jump=1)`` (tested), 0.4 ms for a 65 s ride against 1.2 s and
-   30 ms for an hour (``benchmarks/segment_speed.py``, BENCHMARKS.md);
+   the breakpoints of ``ruptures.Pelt(model="l2", jump=1)``;
 3. every segment takes the label most of its labelled samples carry (ties: the earliest such label); samples
    without a label stay without one, and the classes in ``keep`` (short events such as ``kerb``) keep their labels
    and cast no vote.
@@ -35,13 +35,11 @@ Seeing the whole stretch, all three are for offline use (``spotfree classify --s
 
 from __future__ import annotations
 
-import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable
 
 import numba
 import numpy as np
 
-from spotfree.errors import InputError
 from spotfree.io.checks import true_runs
 from spotfree.signal.features import LEVEL_CHANNELS
 
@@ -50,16 +48,6 @@ LEVEL_FLOOR = 1e-3
 level 0) does not give minus infinity."""
 MIN_SIZE = 3
 """Shortest segment (samples)."""
-
-
-def check_penalty(penalty: float | None) -> float | None:
-    """``penalty`` validated: None or 0 means no segment vote."""
-    if penalty is None or penalty == 0:
-        return None
-    if isinstance(penalty, bool) or not isinstance(penalty, (int, float, np.integer, np.floating)) \
-            or not np.isfinite(penalty) or penalty < 0:
-        raise InputError(f"segment penalty (--segments) must be a number > 0 (or 0 for none), got {penalty!r}")
-    return float(penalty)
 
 
 def segment_signal(channels: dict[str, np.ndarray], names: Iterable[str]) -> np.ndarray:
@@ -127,77 +115,12 @@ def _pelt_l2(x: np.ndarray, penalty: float, min_size: int) -> np.ndarray:  # pra
     return np.array(ends[::-1])
 
 
-def check_classes(option: str, names: Iterable[str], classes: Iterable, whose: str = "the model") -> None:
-    """Refuse the class ``names`` given to ``option`` (``--keep``, ``--events``) that are not among ``classes``
-    (those of ``whose``)."""
-    _refuse_unknown(option, names, classes, "class", whose)
-
-
-def check_channels(option: str, names: Iterable[str], channels: Iterable, whose: str = "the model") -> None:
-    """Refuse the channel ``names`` given to ``option`` (``--edges``) that are not among ``channels``."""
-    _refuse_unknown(option, names, channels, "channel", whose)
-
-
-def _refuse_unknown(option: str, names: Iterable[str], known: Iterable, kind: str, whose: str) -> None:
-    known = sorted({str(c) for c in known})
-    unknown = sorted(set(names) - set(known))
-    if unknown:
-        raise InputError(f"{option} {', '.join(unknown)}: not a {kind} of {whose} ({', '.join(known)})")
-
-
-def kept_classes(keep: Iterable[str], classes: Iterable) -> tuple[str, ...]:
-    """The classes of ``keep`` that are among a model's ``classes``."""
-    names = {str(c) for c in classes}
-    return tuple(c for c in keep if c in names)
-
-
-def event_background(events: Iterable[str], classes: Iterable) -> str | None:
-    """The one class of ``events`` (background classes given for the event vote) that is among a model's
-    ``classes``; None when there is none."""
-    found = kept_classes(events, classes)
-    if len(found) > 1:
-        raise InputError(f"--events {', '.join(found)}: give one background class per model")
-    return found[0] if found else None
-
-
 def event_ends(labels: np.ndarray, background: str) -> np.ndarray:
     """Ends (exclusive) of the runs of ``labels`` that alternate between ``background`` (or no label, ``""``) and
     the other classes; the last is ``len(labels)``."""
     labels = np.asarray(labels).astype(str)
     inside = (labels != background) & (labels != "")
     return np.r_[np.flatnonzero(inside[1:] != inside[:-1]) + 1, len(labels)]
-
-
-def edge_levels(values: Iterable[str]) -> dict[str, float]:
-    """``--edges CHANNEL=LEVEL`` values as ``{channel: level}``; a level must be a number > 0 (channel units)."""
-    levels = {}
-    for value in values:
-        channel, _, number = str(value).partition("=")
-        try:
-            level = float(number)
-        except ValueError:
-            level = math.nan
-        if not channel or not math.isfinite(level) or level <= 0:
-            raise InputError(f"--edges {value}: give CHANNEL=LEVEL, a channel of the model and a level > 0 in its "
-                             "units (yaw_rate=0.09 for the lateral model)")
-        levels[channel] = level
-    return levels
-
-
-def model_edge(edges: Mapping[str, float], channels: Iterable[str], background: str | None,
-               whose: str = "the model") -> tuple[str, float] | None:
-    """The ``(channel, level)`` of ``edges`` (:func:`edge_levels`) for a model with these ``channels`` and event-vote
-    ``background`` class, or None when ``edges`` is empty; refused when it names another channel, more than one,
-    or the model runs no event vote."""
-    if not edges:
-        return None
-    check_channels("--edges", edges, channels, whose)
-    if len(edges) > 1:
-        raise InputError(f"--edges {', '.join(edges)}: give one channel per model ({whose})")
-    if background is None:
-        raise InputError(f"--edges {next(iter(edges))}: {whose} runs no event vote; give its background class "
-                         "with --events")
-    return next(iter(edges.items()))
 
 
 def event_edges(labels: np.ndarray, values: np.ndarray, background: str, level: float, reach: int) -> np.ndarray:

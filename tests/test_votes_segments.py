@@ -4,10 +4,12 @@ import numpy as np
 import pytest
 from classify_fixtures import model, raw, with_gap  # noqa: F401 (fixtures)
 
-from spotfree.classify.batch import classify_recording, offline_votes
-from spotfree.classify.segments import (LEVEL_FLOOR, change_points, check_penalty, edge_levels, event_background,
-                                       event_edges, event_ends, model_edge, segment_signal, segment_vote)
+from spotfree.classify.batch import classify_recording
 from spotfree.errors import InputError
+from spotfree.votes.options import Votes, apply_votes, check_penalty, edge_levels, event_background, model_edge, \
+    voted_labels
+from spotfree.votes.segments import (LEVEL_FLOOR, change_points, event_edges, event_ends, segment_signal,
+                                     segment_vote)
 
 
 def test_change_points_find_a_step_in_the_mean_and_one_in_a_level_channels_scale():
@@ -95,11 +97,11 @@ def test_a_bad_penalty_is_refused(bad):
 def test_the_vote_labels_only_labelled_samples_changes_less_and_is_in_the_meta(model, raw):
     ride = with_gap(raw.select_experiment(2), 400, 440)
     plain = classify_recording(model, ride)
-    voted = classify_recording(model, ride, segments=4.0)
+    voted = voted_labels(model, ride, Votes(segments=4.0))
     np.testing.assert_array_equal(voted.labelled(), plain.labelled())
     flips = lambda lab: int(np.sum(lab[1:] != lab[:-1]))  # noqa: E731
     assert flips(voted.label) < flips(plain.label)
-    assert voted.meta["segments"] == 4.0 and voted.meta["keep"] == [] and plain.meta["segments"] == 0
+    assert voted.meta["segments"] == 4.0 and voted.meta["keep"] == [] and "segments" not in plain.meta
     truth = ride.truth["label"]
     right = lambda lab: np.mean(lab.label[lab.labelled()] == truth[lab.labelled()])  # noqa: E731
     print(f"causal {right(plain):.3f}, segment vote {right(voted):.3f}")
@@ -109,30 +111,31 @@ def test_the_vote_labels_only_labelled_samples_changes_less_and_is_in_the_meta(m
 def test_kept_classes_keep_their_labels_and_an_unknown_class_is_refused(model, raw):
     ride = raw.select_experiment(2)
     plain = classify_recording(model, ride)
-    kept = classify_recording(model, ride, segments=4.0, keep=("sudden-braking",))
+    kept = voted_labels(model, ride, Votes(segments=4.0, keep=("sudden-braking",)))
     was = plain.label == "sudden-braking"
     assert was.any()
     np.testing.assert_array_equal(kept.label[was], "sudden-braking")
     with pytest.raises(InputError, match=r"--keep kerb: not a class of the model"):
-        classify_recording(model, ride, segments=4.0, keep=("kerb",))
+        voted_labels(model, ride, Votes(segments=4.0, keep=("kerb",)))
 
 
 def test_the_event_vote_makes_each_stop_one_label_and_is_in_the_meta(model, raw):
     ride = raw.select_experiment(2)
-    voted = classify_recording(model, ride, segments=4.0, events=("cruising",))
-    assert voted.meta["events"] == "cruising" and classify_recording(model, ride).meta["events"] == ""
+    voted = voted_labels(model, ride, Votes(segments=4.0, events=("cruising",)))
+    assert voted.meta["events"] == "cruising"
+    assert voted_labels(model, ride, Votes(segments=4.0)).meta["events"] == ""
     label = voted.label.astype(str)
     ends = event_ends(label, "cruising")
     stops = [label[start:end] for start, end in zip([0, *ends[:-1]], ends) if label[start] not in ("cruising", "")]
     assert stops and all(len(set(stop)) == 1 for stop in stops)
     with pytest.raises(InputError, match=r"--events straight: not a class of the model"):
-        classify_recording(model, ride, events=("straight",))
+        voted_labels(model, ride, Votes(events=("straight",)))
 
 
 def test_event_edges_move_labels_only_within_a_window_of_an_event_edge_and_are_in_the_meta(model, raw):
     ride = raw.select_experiment(2)
-    voted = classify_recording(model, ride, segments=4.0, events=("cruising",))
-    edged = classify_recording(model, ride, segments=4.0, events=("cruising",), edges={"lean": 0.04})
+    voted = voted_labels(model, ride, Votes(segments=4.0, events=("cruising",)))
+    edged = voted_labels(model, ride, Votes(segments=4.0, events=("cruising",), edges={"lean": 0.04}))
     assert edged.meta["edges"] == {"lean": 0.04} and voted.meta["edges"] == {}
     np.testing.assert_array_equal(edged.labelled(), voted.labelled())
     moved = np.flatnonzero(edged.label != voted.label)
@@ -141,24 +144,24 @@ def test_event_edges_move_labels_only_within_a_window_of_an_event_edge_and_are_i
     edges = np.flatnonzero(inside[1:] != inside[:-1]) + 1
     assert all(np.min(np.abs(edges - k)) <= model.window for k in moved)
     with pytest.raises(InputError, match="--edges lean: the model runs no event vote"):
-        classify_recording(model, ride, edges={"lean": 0.04})
+        voted_labels(model, ride, Votes(edges={"lean": 0.04}))
 
 
 def test_votes_on_labels_already_made_equal_the_votes_of_one_classification(model, raw):
     ride = with_gap(raw.select_experiment(2), 400, 440)
     plain = classify_recording(model, ride)
-    votes = dict(segments=4.0, keep=("sudden-braking",), events=("cruising",), edges={"lean": 0.04})
-    once = classify_recording(model, ride, **votes)
-    again = offline_votes(model, ride, plain, **votes)
+    votes = Votes(segments=4.0, keep=("sudden-braking",), events=("cruising",), edges={"lean": 0.04})
+    once = voted_labels(model, ride, votes)
+    again = apply_votes(model, ride, plain, votes)
     np.testing.assert_array_equal(again.label, once.label)
-    assert again.meta == once.meta and plain.meta["segments"] == 0
-    assert offline_votes(model, ride, plain) is plain
+    assert again.meta == once.meta and "segments" not in plain.meta
+    assert apply_votes(model, ride, plain, Votes()) is plain
     with pytest.raises(InputError, match="labels of this recording made without votes"):
-        offline_votes(model, ride, once, segments=4.0)
+        apply_votes(model, ride, once, Votes(segments=4.0))
     with pytest.raises(InputError, match="labels of this recording made without votes"):
-        offline_votes(model, raw.select_experiment(1), plain, segments=4.0)
+        apply_votes(model, raw.select_experiment(1), plain, Votes(segments=4.0))
     with pytest.raises(InputError, match="--events straight: not a class of the model"):
-        offline_votes(model, ride, plain, events=("straight",))
+        apply_votes(model, ride, plain, Votes(events=("straight",)))
 
 
 def test_change_points_equal_the_breakpoints_of_ruptures_pelt():
