@@ -13,10 +13,8 @@ the window left unexplained,
     rho(y) = min_i r_i(y) / ||y||_2   (0: explained exactly, 1: explained no better than by zero),
 
 and the window is rejected when ``rho(y) > reject``. This ratio measures distance to the class subspaces; the
-alternative ``min_i r_i / second-smallest r_i`` measures ambiguity between known classes instead. Telling windows
-of an unseen pattern (cobblestone vibration) from the known test windows of the simulated braking rides, ``rho``
-had the higher ROC AUC for CRC, SRC and B_SRC alike (0.73 vs 0.70 for CRC); on synthetic subspaces both were
-near 1 (``benchmarks/classifier_timing.py``, BENCHMARKS.md).
+alternative ``min_i r_i / second-smallest r_i`` measures ambiguity between known classes instead
+(``benchmarks/classifier_timing.py`` compares the two).
 
 Estimator convention (scikit-learn): ``fit(X, y)`` takes the atoms as rows, ``X`` of shape ``(n_atoms, d)``;
 ``predict`` and ``decision_function`` take windows as rows. ``decision_function`` returns the class residuals

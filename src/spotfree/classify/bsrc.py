@@ -27,8 +27,7 @@ class BlockSparseClassifier(ResidualClassifier):
     Parameters
     ----------
     alpha : float
-        Block weight relative to ``max_i ||Â_i^T y|| / w_i`` (module docstring), in ``(0, 1)``. The default was
-        the most accurate of 0.01-0.4 on the simulated rides of ``benchmarks/classifier_timing.py``.
+        Block weight relative to ``max_i ||Â_i^T y|| / w_i`` (module docstring), in ``(0, 1)``.
     tol : float
         Duality gap at which a window is done, relative to ``1/2 ||y||^2``.
     max_iter : int

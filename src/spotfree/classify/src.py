@@ -11,7 +11,7 @@ window's amplitude: the same ``alpha`` gives the same support for ``y`` and ``10
 ``r_i(y) = ||y - Â_i x_i||`` (``Â_i, x_i``: the atoms and coefficients of class ``i``).
 
 Solver: scikit-learn's ``sparse_encode``, one window at a time, by least-angle regression (``"lasso_lars"``, the
-homotopy path: exact, and the faster on ride dictionaries, BENCHMARKS.md) or coordinate descent (``"lasso_cd"``).
+homotopy path: exact) or coordinate descent (``"lasso_cd"``).
 ``sparse_encode`` solves ``1/2 ||y - Â x||^2 + alpha' ||x||_1``; each window is divided by its ``||Â^T y||_inf``
 so that ``alpha' = alpha``, and its code multiplied back. (Proximal gradient, as B_SRC uses, needed more than 1000
 iterations for most ride windows: the atoms of a block-Hankel dictionary are nearly collinear.)

@@ -42,8 +42,7 @@ when needed: three ``n x n`` arrays are kept (``C``, ``W2``, ``W3``), in float32
 group shrink factors; the A-, B- and dual updates with the C-step's right-hand side, by row blocks whose products
 with ``P`` run on BLAS in a small thread pool; the tridiagonal solve, by column chunks. Each BLAS call is limited to
 one thread and OpenMP workers wait passively (``OMP_WAIT_POLICY``, unless set by the user): on a shared 2-core
-machine, spinning workers of one pool stall the other (measured: 13 ms instead of 0.9 ms per iteration at
-``n = 120``).
+machine, spinning workers of one pool stall the other.
 
 Residuals (Boyd et al. 2011, sec. 3.3): primal ``r = ||(C - A, C - B, D C - U)||_F``; dual
 ``s = rho ||A' - A + B' - B + D^T (U' - U)||_F``, which for this splitting equals ``rho ||W1 + W2 + D^T W3||_F``.
@@ -79,8 +78,8 @@ ADAPT_FACTOR = 2.0
 """Residual balancing: every ADAPT_EVERY iterations before ADAPT_UNTIL, rho is multiplied (divided) by ADAPT_FACTOR
 when the relative primal (dual) residual exceeds the other ADAPT_RATIO-fold."""
 DEFAULT_RHO_PER_LAMBDA = 30.0
-"""Initial rho as a multiple of max(lambda1, lambda2); residual balancing corrects a poor start within ~20
-iterations (measured on the test problems: final rho between 10 and 60 times lambda)."""
+"""Initial rho as a multiple of max(lambda1, lambda2); residual balancing corrects a poor start within the first
+iterations."""
 BLOCK_ELEMENTS = 1 << 20
 """Entries of one row block of the update pass (rows = BLOCK_ELEMENTS // n): small enough for the cache."""
 
@@ -541,9 +540,8 @@ class OrderedSubspaceClustering(_SelfExpressiveClustering):
     n_clusters : number of groups for normalized cuts.
     lambda1, lambda2 : weights of ``||Z||_1`` and ``||Z R||_{1,2}`` as fractions of
         :func:`penalty_scale` ``mu = max_{i != j} |x_i . x_j|`` (so that they follow the scale of the data;
-        ``lambda1 >= 1`` gives ``Z = 0``). The defaults 0.01 / 0.1 gave the best mean adjusted Rand index
-        (0.95) on the synthetic switching block-Hankel windows of ``benchmarks/osc_speed.py`` (1300 windows, seeds
-        0-2) over the grid ``lambda1`` in {0.003, 0.005, 0.01, 0.02, 0.03}, ``lambda2`` in {0.003, ..., 1}.
+        ``lambda1 >= 1`` gives ``Z = 0``). The defaults 0.01 / 0.1 are the best of a grid on the synthetic
+        switching block-Hankel windows of ``benchmarks/osc_speed.py`` (mean adjusted Rand index).
     rho : initial ADMM penalty as a fraction of ``mu``; ``None`` uses ``DEFAULT_RHO_PER_LAMBDA`` times the larger
         weight. It is adapted by residual balancing during the first iterations.
     max_iter, tol : iteration cap and relative tolerance of both residuals.

@@ -21,8 +21,8 @@ GPS (``lat``, ``lon`` in WGS-84 degrees; ``speed`` in m/s):
   distance;
 * distance is counted from an anchor: an accepted fix less than ``min_step`` from the anchor moves the position
   but adds nothing; one farther adds its distance from the anchor and becomes the anchor. Phone fixes wander by
-  about half a metre a second even when standing; summed, that added 4-11 % to slow simulated rides
-  (:mod:`spotfree.sim.gps`), 2-4 % with a 2 m step;
+  about half a metre a second even when standing (:mod:`spotfree.sim.gps` models it): summed fix to fix, that
+  wander would count as distance;
 * ``speed`` is the receiver's speed of the latest fix, or, when a fix has none, the distance from the previous
   accepted fix over the time between them; it is NaN once no fix has come for ``fix_timeout`` seconds;
 * time to destination: ``eta = remaining / v_avg``, ``remaining`` the great-circle distance from the position to

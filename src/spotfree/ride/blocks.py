@@ -8,7 +8,7 @@ The labels of one model over a batch are one ``label_blocks`` row: the times as 
 JSON list (null where there is none). Times increase within a block and from one block of a ride to the next, so
 a ride's last time is the ``t1`` of its block with the largest ``t0`` (a primary-key lookup).
 
-Writing a batch is then two inserts whatever its size (a row per sample cost about 11 us each, three tables).
+Writing a batch is then two inserts whatever its size, where a row per sample cost an insert per sample and table.
 
 Schema version 1 held a row per sample; :func:`upgrade_from_v1` rewrites such a store in place, in the
 transaction that opens it, into blocks of at most :data:`UPGRADE_BLOCK` samples.

@@ -1,17 +1,16 @@
 """Garbage collection in a long-running ride service: no full collection in the middle of the traffic.
 
 CPython's cyclic collector stops the interpreter for a full (generation-2) collection in proportion to the
-objects alive. In ``spotfree serve`` under 400 phones, those pauses were 30-100 ms (after startup's 200,000 objects
-were frozen) and 120-200 ms (before), every few seconds: they alone made the 99th percentile of the batch-to-ack
-latency (BENCHMARKS.md, "Live service under load"). So, once the service is built:
+objects alive; under many phones such pauses, every few seconds, set the tail of the batch-to-acknowledgement
+latency (``benchmarks/serve_load.py`` measures it). So, once the service is built:
 
 * everything alive is collected once and frozen (:func:`gc.freeze`: modules, the model, compiled kernels are
   never scanned again);
 * automatic full collections are switched off (the young generations are still collected as usual, which frees
   the per-batch garbage);
 * a daemon thread runs a full collection every :data:`FULL_COLLECTION_SECONDS`, so that reference cycles which
-  outlived the young generations (an ended ride's objects, say) are still freed: one pause of tens of ms every
-  ten minutes instead of every few seconds.
+  outlived the young generations (an ended ride's objects, say) are still freed: one pause every
+  :data:`FULL_COLLECTION_SECONDS` instead of every few seconds.
 """
 
 from __future__ import annotations

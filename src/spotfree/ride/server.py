@@ -132,8 +132,8 @@ def run_server(host: str, port: int, database: str, https: bool, replay: str | N
         f"{redact_location(database)}")
     collector.settle()  # no full garbage collection pauses while serving (spotfree.ride.collector)
     # a WebSocket message over MAX_BODY closes the socket (1009) as it arrives, before it is buffered whole;
-    # no per-message compression: a batch or an acknowledgement is under a few kB, and deflating each one cost
-    # an eighth of the server's CPU under load (BENCHMARKS.md)
+    # no per-message compression: a batch or an acknowledgement is under a few kB, too small for deflating each
+    # one to pay for its CPU under load
     # uvicorn shuts down gracefully on SIGTERM, then raises the signal again for the handler it found: this one
     # ends the run normally, so that the store and the ride workers are closed and the exit status is 0
     signal.signal(signal.SIGTERM, _stop)

@@ -83,37 +83,27 @@ CHANNEL_CHANGED = {"vib_x": 2, "vib_y": 2, "vib_z": 2}
 version would be fed other values, so loading it is refused."""
 
 LEAN_TIME_CONSTANT = 10.0
-"""Time constant ``tau`` (s) of the ``lean`` leaky integrator. Measured on simulated braking rides (experiment 1,
-median lean per true class, no bias stage) for tau 5 / 10 / 20 s: normal braking inside the sudden-braking ride
--0.10 / -0.14 / -0.17 rad (seed 1), while the gyro bias moves cruising of the normal-braking ride to 0.03 / 0.06 /
-0.10 rad (seed 3), as far as a gentle braking; 10 s lies between. Not tuned on purity."""
+"""Time constant ``tau`` (s) of the ``lean`` leaky integrator (the module docstring's recursion): long enough to
+hold the lean of a braking, short enough that the gyro bias left in ``q - beta`` does not move cruising as far as a
+gentle braking."""
 
 LEAN_BIAS_TIME_CONSTANT = 20.0
-"""Time constant ``tau_b`` (s) of the gyro bias tracked out of ``lean``. Measured as above (seeds 0, 3, 4: both rides,
-tau_b none / 20 / 40 s): the median lean of cruising spreads over -0.093..0.101 rad across the six rides without the
-bias stage, -0.015..0.054 rad with 20 s, -0.038..0.068 rad with 40 s."""
+"""Time constant ``tau_b`` (s) of the gyro bias ``beta`` tracked out of ``lean`` (a first-order low-pass of the
+pitch rate ``q``): it keeps the lean of cruising near zero across rides."""
 
 
 LONG_CUTOFF = 1.0
-"""Cut-off (Hz) of the ``acc_long`` low-pass. Measured (supervised 5-NN across simulated riders, causal labels,
-1 s windows): 1 Hz recognised normal braking better than 0.5 Hz (0.36-0.77 against 0.37-0.74) and, unlike 3 Hz,
-leaves no handlebar vibration that makes one rider's cruising unlike another's."""
+"""Cut-off (Hz) of the ``acc_long`` low-pass: it passes the deceleration of a braking and removes the handlebar
+vibration that makes one rider's cruising unlike another's."""
 
 
 VIB_TIME_CONSTANT = 0.05
-"""Time constant ``tau_v`` (s) of the vibration RMS: one sample at 20 Hz, so that a model's window does the averaging
-and a change of surface shows within it. Measured with the road model (spotting-free, one ride per road event,
-causal kernel CRC_RLS, development seeds 100-103, mean of all test samples; scratch runs with the vibration over the
-root of the last GPS speed, windows of 6 samples): 0.905 at 0.05 s, 0.898 at 0.1 s, 0.897 at 0.025 s; on
-``vib_y, vib_z`` with windows of 10, 0.875 at 0.05 s against 0.834 at 0.25 s, the earlier value (seeds 100-102).
-The errors left lie within 1 s of a change of surface (BENCHMARKS.md)."""
+"""Time constant ``tau_v`` (s) of the vibration RMS (the module docstring's recursion, :func:`vibration_coefficient`):
+one sample at 20 Hz, so that a model's window does the averaging and a change of surface shows within it."""
 
 ROUGH_SPEED = (1.0, 8.0)
-"""m/s: the range the speed under ``rough_*`` is held to (walking pace; above a self-balancing vehicle's top speed).
-On simulated road rides (seeds 100-102, ``tau_v`` 0.25 s) the median ``vib_z`` over the root of the GPS speed is
-0.27 on smooth asphalt, 1.12 on rough asphalt and 2.17 on cobblestone; the road model on ``rough_y, rough_z``
-scored 0.900 of the samples against 0.891 on ``vib_y, vib_z`` (same windows, development seeds 100-103; lowest seed
-0.853 against 0.830)."""
+"""m/s: ``(u_min, u_max)``, the range the speed ``u`` under ``rough = vib / sqrt(u)`` is held to (walking pace;
+above a self-balancing vehicle's top speed)."""
 
 
 def vibration_coefficient(rate: float, tau: float = VIB_TIME_CONSTANT) -> float:

@@ -132,10 +132,10 @@ class GravityPI:
     observing all three axes (the integral term cannot see the bias about the vertical).
 
     Defaults: ``kp, ki, acc_scale, rate_scale, max_error, acc_tau, motion_tau`` are the point of
-    ``benchmarks/tune_orientation.py``'s grid with the lowest mean inclination error on the four BROAD trials at
-    20.4 Hz among the points no worse than the previous default on a synthetic ride-like motion (braking pulses,
-    sway, gyro bias from the start); the same selection made on two trials and scored on the other two, all six
-    ways, is reported in ``benchmarks/results/orientation_leave_trials_out.md``. The rest constants are physical
+    ``benchmarks/tune_orientation.py``'s grid with the lowest mean inclination error on the BROAD trials (Laidig
+    et al. 2021) among the points no worse on a synthetic ride-like motion (braking pulses, sway, gyro bias from
+    the start); ``benchmarks/orientation_leave_trials_out.py`` checks the selection on held-out trials. The rest
+    constants are physical
     (phone gyro noise and bias are well below 2 deg/s, 0.5 m/s^2 passes handlebar vibration) and were not tuned.
     ``acc_tau = 0``, ``motion_tau = 0`` give the filter without the accelerometer low-pass (the previous
     default had also ``acc_scale = 10``, ``rate_scale = 8``).

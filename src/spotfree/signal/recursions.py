@@ -11,7 +11,7 @@ Each filter keeps its math in its own module's docstring; its per-sample recursi
   :class:`~spotfree.signal.features.FeatureStream`.
 
 Constants and states are numpy records (the ``*_PARAMETERS`` and ``*_STATE`` dtypes); Python passes them as
-one-element arrays (numba takes those in about 1 us where a record scalar costs 35 us), the kernels work on
+one-element arrays (numba takes those far faster than a record scalar), the kernels work on
 ``array[0]``. Every kernel is cached to disk by numba and calls only kernels of this module: numba's cache does not
 notice a change in another file, so a chain across modules could run stale code.
 """

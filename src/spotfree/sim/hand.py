@@ -46,10 +46,8 @@ STREAMS = ("person", "plan", "motion", "tracker", "clock")
 
 PROTOCOLS = ("test", "training")
 TRAINING_PEOPLE = 8
-"""People whose training protocol ``spotfree hand train`` simulates when given no log, and the evaluation trains on.
-Measured (``benchmarks/hand_eval.py``, BENCHMARKS.md): with 4 people one held-out person's ``right`` was called
-``straight`` in 74 samples (postures 98.40 % offline, seed 0); with 8 every posture sample of stage 2 is right on
-seeds 0 and 1, in the same training time."""
+"""People whose training protocol ``spotfree hand train`` simulates when given no log, and the evaluation trains on
+(``benchmarks/hand_eval.py`` scores the choice)."""
 
 PALM_WIDTH = 0.085
 """m, palm width of a hand of scale 1."""

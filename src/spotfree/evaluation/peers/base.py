@@ -7,9 +7,9 @@ A peer is a method the paper's spotting-free classifier is compared against in t
 * ``predict(recording)``: returns one label per sample, an array of ``str`` with ``""`` where the peer gives none;
 * records its wall-clock cost: ``fit_time_`` (s, the last ``fit``) and ``predict_time_`` (s, the last ``predict``).
 
-BLAS runs on one thread inside ``fit`` and ``predict``, as in :mod:`spotfree.cluster`: on the shared 2-core
-machines, OpenBLAS's two threads made the 840 x 840 ``eigh`` of MiniRocket's ridge cross-validation 3-35 times
-slower than one thread (0.45 s against 1.4-16 s, measured while other jobs ran).
+BLAS runs on one thread inside ``fit`` and ``predict``, as in :mod:`spotfree.cluster`: on shared 2-core machines,
+OpenBLAS's two threads made the ``eigh`` of MiniRocket's ridge cross-validation many times slower than one
+thread.
 
 Channels are divided by their standard deviation over the training samples
 (:class:`spotfree.windows.ChannelScaling`), as for the dictionary. A window of ``L = window`` samples ending at
