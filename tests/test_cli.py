@@ -1,5 +1,7 @@
 """The command-line contract of DESIGN.md: commands listed, each answers --help, bad input exits 2."""
 
+import os
+import stat
 import subprocess
 import sys
 
@@ -185,3 +187,29 @@ def test_train_refuses_an_option_out_of_range_and_keeps_the_model_there(tmp_path
     assert result.exit_code == 2
     assert option in result.output, result.output
     assert model.read_bytes() == b"an older model"
+
+
+def test_output_piped_to_a_file_is_not_wrapped(tmp_path):
+    deep = tmp_path / ("a-folder-with-a-long-name-" * 3)
+    deep.mkdir()
+    proc = subprocess.run([sys.executable, "-m", "spotfree.cli", "simulate", "cruising", "-o", str(deep / "ride.csv"),
+                           "--repeats", "1"], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert len(lines) == 1 and len(lines[0]) > 120 and lines[0].endswith(" s")
+
+
+def test_files_are_written_with_the_users_umask_and_replace_the_old_one_whole(tmp_path):
+    from classify_fixtures import truth_model
+
+    ride, model_path = tmp_path / "ride.csv", tmp_path / "m.npz"
+    previous = os.umask(0o027)
+    try:
+        assert runner.invoke(app, ["simulate", "cruising", "-o", str(ride), "--repeats", "1"]).exit_code == 0
+        truth_model(read_recording(str(ride))).save(model_path)
+        model_path.chmod(0o600)  # replaced by a new file, which takes the umask's mode
+        truth_model(read_recording(str(ride))).save(model_path)
+    finally:
+        os.umask(previous)
+    assert stat.S_IMODE(ride.stat().st_mode) == 0o640 and stat.S_IMODE(model_path.stat().st_mode) == 0o640
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.npz", "ride.csv"]  # no temporary file left

@@ -28,8 +28,20 @@ fleet_app = typer.Typer(help="Fleet scale: the ride database and batch processin
 app.add_typer(hand_app, name="hand")
 app.add_typer(fleet_app, name="fleet")
 
-err = Console(stderr=True, highlight=False, soft_wrap=True)
-out = Console(highlight=False)
+PIPED_WIDTH = 1000
+"""Columns of a console whose output is not a terminal: a table keeps its natural width and no line wraps."""
+
+
+def _console(stderr: bool = False) -> Console:
+    """A console that wraps at the terminal's width on a terminal, and never when piped to a file or a program."""
+    console = Console(stderr=stderr, highlight=False, soft_wrap=True)
+    if not console.is_terminal:
+        console.width = PIPED_WIDTH
+    return console
+
+
+err = _console(stderr=True)
+out = _console()
 
 
 def user_errors(command: Callable) -> Callable:
@@ -520,8 +532,8 @@ def hand_simulate(
     frames = simulate_hands(people=people, seed=seed, rounds=rounds, protocol=protocol)
     write_hand_log(frames, output)
     with_hand = sum(1 for f in frames if f.hands)
-    out.print(f"wrote {output}: {frames[-1].session} session(s), {len(frames)} frames ({len(frames) - with_hand} without a hand), "
-              f"{frames[-1].time - frames[0].time:.1f} s of service clock")
+    out.print(f"wrote {output}: {frames[-1].session} session(s), {len(frames)} frames "
+              f"({len(frames) - with_hand} without a hand), {frames[-1].time - frames[0].time:.1f} s of service clock")
 
 
 @hand_app.command("train")

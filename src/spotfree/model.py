@@ -20,8 +20,6 @@ Loading uses ``allow_pickle=False``: a model file can never execute code.
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 import zipfile
 import zlib
 from dataclasses import dataclass, field
@@ -30,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from spotfree.errors import InputError
+from spotfree.io.checks import replacing
 from spotfree.representation import REPRESENTATIONS, represent, representation_size
 from spotfree.signal.features import CHANNEL_CHANGED, FEATURE_CHANGES, FEATURE_VERSION
 
@@ -145,9 +144,7 @@ class DictionaryModel:
         path = Path(path)
         if path.suffix != ".npz":
             raise InputError(f"{path}: a model file must end in .npz")
-        fd, tmp = tempfile.mkstemp(prefix=path.name, suffix=".tmp.npz", dir=path.parent if str(path.parent) else ".")
-        os.close(fd)
-        try:
+        with replacing(path, suffix=".tmp.npz") as tmp:
             causal = ({} if self.causal_dictionary is None else
                       {"causal_dictionary": self.causal_dictionary, "causal_column_class": self.causal_column_class})
             if self.representation == "summary":
@@ -160,10 +157,6 @@ class DictionaryModel:
                 metadata=np.array(json.dumps(self.metadata(), sort_keys=True)),
                 **causal,
             )
-            os.replace(tmp, path)
-        finally:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
 
     @classmethod
     def load(cls, path: str | Path) -> "DictionaryModel":

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import os
 import platform
+import secrets
 import shutil
-import tempfile
 import time
 from datetime import datetime, timezone
 from pathlib import Path
@@ -66,8 +66,8 @@ def evaluate(output: str | Path, seed: int = 0, quick: bool = False, progress: P
     )
     say("drawing figures and writing the report")
     output.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{output.name}.", dir=output.parent))
-    staging.chmod(0o755)
+    staging = output.parent / f".{output.name}.{secrets.token_hex(6)}"
+    staging.mkdir()  # mode 0o777 less the user's umask, as the folder it becomes
     classes = list(dict.fromkeys([c for name in SCENARIOS for c in CLASSES[name]] + list(model.classes)))
     try:
         training_figure(trained.learner, trained.recordings, staging / "training.png")

@@ -7,14 +7,16 @@ fix; every safe repair appends one line to the ``repairs`` list it is given (it 
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import difflib
 import io
 import os
 import re
-import tempfile
+import secrets
 import zipfile
 from pathlib import Path, PurePosixPath
+from typing import Iterator
 
 import numpy as np
 import pandas as pd
@@ -109,20 +111,33 @@ def read_text(path: Path) -> str:
     return decode(raw, str(path))
 
 
-def write_text(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file in the same folder, so ``path`` is never half written."""
+@contextlib.contextmanager
+def replacing(path: str | Path, suffix: str = ".tmp") -> Iterator[Path]:
+    """A new empty file beside ``path`` (its name ends in ``suffix``) to write in the ``with`` block; it then replaces
+    ``path`` at once, so ``path`` is never half written, or is removed when the block fails. It is created as any
+    file the user writes, with mode ``0o666`` less the user's umask."""
     path = Path(path)
     folder = path.parent
     if not folder.is_dir():
         raise InputError(f"{path}: folder '{folder}' does not exist; create it first")
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    while True:
+        temporary = folder / f".{path.name}.{secrets.token_hex(6)}{suffix}"
+        try:
+            os.close(os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+            break
+        except FileExistsError:
+            continue
     try:
-        with os.fdopen(handle, "w", encoding="utf-8", newline="") as stream:
-            stream.write(text)
+        yield temporary
         os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
+    finally:
+        temporary.unlink(missing_ok=True)
+
+
+def write_text(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` as UTF-8 through :func:`replacing`, so ``path`` is never half written."""
+    with replacing(path) as temporary:
+        temporary.write_text(text, encoding="utf-8", newline="")
 
 
 # ---------------------------------------------------------------- CSV dialects and tables
