@@ -3,11 +3,19 @@
 :class:`LiveRide` runs the causal ride features (:class:`~spotfree.signal.features.FeatureStream`, derived
 channels included, for the operator's plot) and feeds the model's channels of them to
 :class:`~spotfree.classify.stream.RideClassifier` (``update_features``), so each sample is filtered once; the
-labels equal ``RideClassifier.update`` on the raw samples. A segment (filters, window buffer) starts afresh at a
-non-finite sample or a time step longer than ``max_gap`` s, as in :mod:`spotfree.classify.stream`.
+labels equal ``RideClassifier.update`` on the raw samples while the mount is the nominal one. A segment (filters,
+window buffer) starts afresh at a non-finite sample or a time step longer than ``max_gap`` s, as in
+:mod:`spotfree.classify.stream`, and where the mount changes.
+
+The mount: :class:`~spotfree.signal.mount.MountTracker` estimates the device-to-vehicle rotation from the ride's
+first samples (gravity at rest or cruising, then forward from the GPS speed changes); the features use the
+nominal mount until it decides, then the mount it decided. Its reports (the mount, and whether it is unusual or
+uncertain) are :class:`~spotfree.ride.records.Event` ``mount`` for the ride record (:meth:`LiveRide.pop_events`).
+The page runs the same tracker (``MountTracker`` in ``static/pipeline.js``) on the same samples, so it switches at
+the same sample.
 
 :func:`pipeline_spec` is the same pipeline as numbers for the page's JavaScript copy (``static/pipeline.js``):
-filter coefficients, the channel scales and the CRC_RLS residual operators ``E_i = I - A_i P_i`` stacked row by
+filter coefficients, the mount tracker's parameters, the channel scales and the CRC_RLS residual operators ``E_i = I - A_i P_i`` stacked row by
 row ``(C d, d)``, so the page keeps classifying when its connection drops.
 """
 
@@ -24,11 +32,13 @@ from spotfree.classify.stream import MAX_GAP, RideClassifier, segment_runs, star
 from spotfree.errors import InputError
 from spotfree.model import DictionaryModel
 from spotfree.representation import summary_tables
-from spotfree.ride.records import FEATURE_COLUMNS, SAMPLE_COLUMNS
+from spotfree.ride.records import FEATURE_COLUMNS, SAMPLE_COLUMNS, Event
 from spotfree.signal.butterworth import butter_lowpass
 from spotfree.signal.complementary import pi_complementary_design
 from spotfree.signal.features import LONG_CUTOFF, FeatureStream, lean_coefficients
+from spotfree.signal import mount as mount_tracking
 from spotfree.signal.frame import GRAVITY, MOUNT
+from spotfree.signal.mount import MountTracker
 from spotfree.signal.orientation import GravityPI
 from spotfree.signal.speed_aided import SpeedAidedParameters
 
@@ -52,10 +62,19 @@ class LiveRide:
             raise InputError("the live service needs a model of ride features (trained on raw IMU logs)")
         self.model = model
         self.max_gap = max_gap
+        self.mount = MountTracker(model.rate)
         self._classifier = RideClassifier(model, classifier=classifier, max_gap=max_gap)
         self._features = FeatureStream(model.rate, model.orientation, derived=True)
         self._pick = np.array([FEATURE_COLUMNS.index(c) for c in model.channels])
         self._time: float | None = None
+
+    def pop_events(self) -> list[Event]:
+        """The mount's reports since the last call, as ``mount`` events (start = end = the sample's time)."""
+        return [Event("mount", t, t, line) for t, line in self.mount.pop_reports()]
+
+    def _remount(self, mount: np.ndarray) -> None:
+        """Features on ``mount`` from here, a new segment (the classifier's starts with the caller's)."""
+        self._features = FeatureStream(self.model.rate, self.model.orientation, derived=True, mount=mount)
 
     def update(self, t: float, acc, gyr, speed: float = math.nan) -> tuple[np.ndarray, str | None]:
         """``(features, label)`` of one sample at ``t`` (s): ``acc`` (m/s^2, gravity included) and ``gyr``
@@ -63,6 +82,9 @@ class LiveRide:
         ``features`` follow :data:`~spotfree.ride.records.FEATURE_COLUMNS` (NaN on a non-finite sample)."""
         values = (*acc, *gyr)
         finite = all(math.isfinite(v) for v in values)
+        if self.mount.update(float(t), acc, gyr, speed):
+            self._remount(self.mount.used)
+            self._classifier.reset()
         previous, self._time = self._time, float(t)
         if not finite or starts_segment(previous, self._time, self.max_gap):
             self._features.reset()
@@ -82,18 +104,40 @@ class LiveRide:
             rows = [self.update(r[0], r[1:4], r[4:7], r[9]) for r in table.tolist()]
             return np.array([f for f, _ in rows]), [label for _, label in rows]
         t = table[:, 0]
-        runs = segment_runs(t, self._time, self.max_gap)
+        remounts = {} if self.mount.final else {
+            k: self.mount.used for k, r in enumerate(table[:, _IMU_COLUMNS].tolist())
+            if self.mount.update(t[k], r[:3], r[3:6], r[6])}
+        runs = _split(segment_runs(t, self._time, self.max_gap), remounts)
         feats = np.empty((len(table), len(FEATURE_COLUMNS)))
         for rows, fresh in runs:
-            if fresh:
+            if rows.start in remounts:
+                self._remount(remounts[rows.start])
+            elif fresh:
                 self._features.reset()
             feats[rows] = self._features.update_block(table[rows], _IMU_COLUMNS)
         self._time = float(t[-1])
         return feats, self._classifier.update_produced_block(feats, t, runs)
 
 
+def _split(runs: list[tuple[slice, bool]], starts) -> list[tuple[slice, bool]]:
+    """``runs`` (:func:`~spotfree.classify.stream.segment_runs`) split so that each row in ``starts`` begins a new
+    segment."""
+    out = []
+    for rows, fresh in runs:
+        bounds = [rows.start, *(k for k in sorted(starts) if rows.start < k < rows.stop), rows.stop]
+        out += [(slice(a, b), fresh if a == rows.start and a not in starts else True)
+                for a, b in zip(bounds, bounds[1:])]
+    return out
+
+
 _IMU_COLUMNS = np.array([SAMPLE_COLUMNS.index(c) for c in ("ax", "ay", "az", "gx", "gy", "gz", "speed")])
 """Where :meth:`LiveRide.update_block` finds the IMU values and the GPS speed in a sample table."""
+
+
+_TRACKER_PARAMETERS = ("QUIET_RATE", "QUIET_FORCE", "MIN_INTERVAL", "MIN_INTERVALS", "SIGNIFICANCE",
+                       "MIN_SPEED_CHANGE", "USUAL_ANGLE", "LEAN_TIME_CONSTANT", "LIVE_QUIET_SECONDS",
+                       "UNCERTAIN_SECONDS")
+"""The constants of :mod:`spotfree.signal.mount` the page's ``MountTracker`` needs (sent lower-case)."""
 
 
 def _sections(sos: np.ndarray) -> dict:
@@ -106,7 +150,9 @@ def pipeline_spec(model: DictionaryModel, classifier=None) -> dict:
     """The model's streaming pipeline as JSON-ready numbers for ``static/pipeline.js`` (CRC_RLS or kernel CRC_RLS).
 
     Keys: ``classes``, ``channels``, ``pick`` (indices into :data:`FEATURE_COLUMNS`), ``rate`` (Hz), ``window``,
-    ``step``, ``scale``, ``normalisation``, ``affine``, ``max_gap`` (s), ``mount`` (device to vehicle axes),
+    ``step``, ``scale``, ``normalisation``, ``affine``, ``max_gap`` (s), ``mount`` (the nominal device to vehicle
+    axes, used until the ride's own is known), ``mount_tracker`` (the constants of :mod:`spotfree.signal.mount`,
+    lower-case),
     ``gravity`` (m/s^2), ``attitude`` (``kind`` and its parameters), ``lowpass`` and ``long_lowpass``
     (Butterworth sections), ``lean`` (``b``, ``a``, ``c``), ``speed_aided`` (noise densities), ``operator``
     (the ``(C d, d)`` residual operators, flat, row-major), ``reject`` (None when off), ``kernel`` (None for
@@ -159,6 +205,7 @@ def pipeline_spec(model: DictionaryModel, classifier=None) -> dict:
         "affine": model_affine(model),
         "max_gap": MAX_GAP,
         "mount": MOUNT.tolist(),
+        "mount_tracker": {name.lower(): float(getattr(mount_tracking, name)) for name in _TRACKER_PARAMETERS},
         "gravity": GRAVITY,
         "attitude": attitude,
         "lowpass": _sections(butter_lowpass(model.rate)),

@@ -7,14 +7,21 @@ up axes written in device coordinates.
 * **Up** is the mean direction of the specific force over the quiet samples (rotation rate below
   :data:`QUIET_RATE` and specific-force magnitude within :data:`QUIET_FORCE` of g): at rest or cruising the
   accelerometer reads gravity only.
-* **Forward** comes from the GPS speed. A change of speed ``dv/dt`` goes with (a) a horizontal specific force along
-  the direction of travel and (b), on a self-balancing vehicle, a lean about the vehicle's left axis (it leans
-  into the acceleration, which is what keeps the specific force near its body axis). Both are regressed on
-  ``dv/dt`` at the GPS fixes: (a) the specific force perpendicular to up, (b) the leaky integral of the rotation
-  rate perpendicular to up (:func:`~spotfree.signal.features.leaky_lean` on each axis). Each gives a direction
-  and a correlation with ``dv/dt``; the more correlated one is kept. Without GPS speed (or with too little
-  change of speed), forward is taken as the top edge of the phone, or its back when it stands upright (the
-  horizontal part of ``y - z``): the phone faces the rider, top edge forward or up.
+* **Forward** comes from the GPS speed. Between two fixes at least :data:`MIN_INTERVAL` s apart, the speed change
+  ``d = (v_k - v_j) / (t_k - t_j)`` is the mean longitudinal acceleration, and goes with (a) the mean specific force
+  over those samples, whose horizontal part points along the direction of travel, and (b), on a self-balancing
+  vehicle, the mean lean about the vehicle's left axis (it leans into the acceleration, which keeps the specific
+  force near its body axis): the leaky integral ``L[n] = c L[n-1] + w[n] / f_s``, ``c = exp(-1 / (tau f_s))``,
+  ``tau = LEAN_TIME_CONSTANT``, of the rotation rate ``w``. For each cue ``x`` (a device-frame 3-vector per
+  interval) the horizontal least-squares direction ``u = P S_xd / |P S_xd|`` (``P = I - up up^T``, ``S`` centred
+  sums over the intervals) and its correlation ``r = u . S_xd / sqrt(u^T S_xx u S_dd)`` are found; the more
+  correlated cue is kept: forward is ``u`` (force) or ``u x up`` (lean), if the correlation is significant
+  (:data:`SIGNIFICANCE`). Without GPS speed (or with too little change of speed, or no significant correlation) forward is the phone's top edge, or its back when it stands upright
+  (the horizontal part of ``y - z``): the phone faces the rider, top edge forward or up.
+
+All of it rests on running sums (:class:`MountStatistics`), so the same numbers come from a whole log
+(:func:`estimate_mount`) and from a live ride sample by sample (:class:`MountTracker`, whose twin in the phone page
+is ``MountTracker`` in ``ride/static/pipeline.js``).
 
 The estimate is *usual* when it is within :data:`USUAL_ANGLE` of the nominal mount (:data:`~spotfree.signal.frame.MOUNT`,
 flat on the handlebar, top edge forward); then the nominal mount is used and the attitude filter takes up the small
@@ -23,10 +30,10 @@ difference, as it always did. Otherwise the estimate is used and a warning says 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.signal import lfilter
 
 from spotfree.errors import InputError
 from spotfree.io.recording import ACC_CHANNELS, GYRO_CHANNELS, Recording
@@ -41,11 +48,20 @@ QUIET_FORCE = 1.0
 MIN_QUIET = 0.05
 """Fewest quiet samples, as a fraction of the log, for a trusted vertical."""
 
-MIN_CORRELATION = 0.5
-"""Least correlation with the GPS speed change for a forward direction from the data."""
+MIN_INTERVAL = 1.0
+"""Least time (s) between the two GPS fixes of a speed change."""
+
+MIN_INTERVALS = 8
+"""Fewest speed changes for a forward direction from the data."""
+
+SIGNIFICANCE = 1e-4
+"""Largest chance that speed changes unrelated to every direction fit one as well: with ``n`` changes the
+two-direction fit of a cue reaches a correlation ``r`` by chance with probability ``(1 - r^2)^((n - 3) / 2)``
+(Gaussian noise). Below this the forward direction is taken from the data: e.g. ``r`` above 0.73 over 30 changes,
+above 0.53 over 60. Strict, because consecutive intervals are not quite independent."""
 
 MIN_SPEED_CHANGE = 0.1
-"""Least standard deviation of ``dv/dt`` (m/s^2) at the fixes for a forward direction from the data."""
+"""Least standard deviation of the speed changes ``d`` (m/s^2) for a forward direction from the data."""
 
 USUAL_ANGLE = np.deg2rad(15.0)
 """An estimate within this angle of the nominal mount is usual: the nominal mount is used."""
@@ -53,12 +69,23 @@ USUAL_ANGLE = np.deg2rad(15.0)
 LEAN_TIME_CONSTANT = 2.0
 """Time constant (s) of the leaky integral that turns rotation rate into lean."""
 
+LIVE_QUIET_SECONDS = 3.0
+"""Seconds of quiet samples a live ride needs before it trusts its vertical."""
+
+UNCERTAIN_SECONDS = 60.0
+"""Seconds into a live ride after which a mount not yet known from the data is reported as uncertain."""
+
 PRESETS = {
     "flat": MOUNT,
     "upright": np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
 }
 """Named mounts for ``--mount``: flat on the handlebar, top edge forward (the nominal mount); standing upright in a
 holder, portrait, screen towards the rider (forward is the phone's back, up its top edge)."""
+
+TOP_EDGE_SOURCE = "the phone's top edge (or back, when upright): no GPS speed change to tell"
+"""Where forward came from when the GPS speed did not tell."""
+
+_CUES = ("the specific force that goes with GPS speed changes", "the lean that goes with GPS speed changes")
 
 
 @dataclass
@@ -90,7 +117,8 @@ class MountEstimate:
         forward = self.estimated[0]
         return (f"mount: up is {_axes(up)}, forward is {_axes(forward)} (device frame; {tilt:.0f} deg from "
                 f"screen-up), {np.degrees(self.angle_from_nominal):.0f} deg from flat with the top edge forward; "
-                f"forward from {self.source}; "
+                f"forward from {self.source}"
+                + (f" (correlation {self.correlation:.2f}); " if self.source != TOP_EDGE_SOURCE else "; ")
                 + (f"using the --mount {self.choice} choice" if self.choice != "auto" else
                    "using the nominal mount" if np.allclose(self.used, MOUNT) else "using the estimate"))
 
@@ -104,6 +132,162 @@ def rotation_angle(r: np.ndarray) -> float:
     return float(np.arccos(np.clip((np.trace(r) - 1) / 2, -1.0, 1.0)))
 
 
+class MountStatistics:
+    """Running sums of a ride for its mount (see the module docstring), one sample at a time.
+
+    Per valid sample: the count and specific-force sum of all and of the quiet samples, the leaky lean integral,
+    and the sums of the open speed-change interval; per closed interval, for each cue ``x`` (mean specific force,
+    mean lean; device frame) and the speed change ``d``: ``n``, ``sum d``, ``sum d^2``, ``sum x``, ``sum x d`` and
+    ``sum x x^T``. Plain floats, in the order of ``MountStatistics`` in ``ride/static/pipeline.js``."""
+
+    def __init__(self, rate: float):
+        self.rate = float(rate)
+        self.lean_c = math.exp(-1.0 / (LEAN_TIME_CONSTANT * self.rate))
+        self.valid = 0
+        self.quiet = 0
+        self.force = [0.0, 0.0, 0.0]
+        self.quiet_force = [0.0, 0.0, 0.0]
+        self.lean = [0.0, 0.0, 0.0]
+        self.fix: tuple[float, float] | None = None
+        self.inside = 0
+        self.inside_sums = [0.0] * 6
+        self.n = 0
+        self.d = 0.0
+        self.dd = 0.0
+        self.x = [[0.0] * 3, [0.0] * 3]
+        self.xd = [[0.0] * 3, [0.0] * 3]
+        self.xx = [[0.0] * 9, [0.0] * 9]
+
+    def update(self, t: float, acc, gyr, speed: float = math.nan) -> bool:
+        """Take one sample at ``t`` (s): ``acc`` (m/s^2, gravity included) and ``gyr`` (rad/s) device-frame
+        3-vectors, ``speed`` (m/s) on a GPS fix, NaN otherwise. True when it closed a speed-change interval."""
+        a0, a1, a2 = float(acc[0]), float(acc[1]), float(acc[2])
+        w0, w1, w2 = float(gyr[0]), float(gyr[1]), float(gyr[2])
+        c, lean = self.lean_c, self.lean
+        if not all(math.isfinite(v) for v in (a0, a1, a2, w0, w1, w2)):
+            lean[0], lean[1], lean[2] = c * lean[0], c * lean[1], c * lean[2]
+            return False
+        step = 1.0 / self.rate
+        lean[0], lean[1], lean[2] = c * lean[0] + w0 * step, c * lean[1] + w1 * step, c * lean[2] + w2 * step
+        self.valid += 1
+        f = self.force
+        f[0] += a0; f[1] += a1; f[2] += a2  # noqa: E702
+        norm_a = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+        if math.sqrt(w0 * w0 + w1 * w1 + w2 * w2) < QUIET_RATE and abs(norm_a - GRAVITY) < QUIET_FORCE:
+            self.quiet += 1
+            q = self.quiet_force
+            q[0] += a0; q[1] += a1; q[2] += a2  # noqa: E702
+        s = self.inside_sums
+        for k, v in enumerate((a0, a1, a2, lean[0], lean[1], lean[2])):
+            s[k] += v
+        self.inside += 1
+        speed = float(speed)
+        if not math.isfinite(speed):
+            return False
+        if self.fix is None or t <= self.fix[0]:
+            self._open(t, speed)
+            return False
+        if t - self.fix[0] < MIN_INTERVAL:
+            return False
+        d = (speed - self.fix[1]) / (t - self.fix[0])
+        self.n += 1
+        self.d += d
+        self.dd += d * d
+        for cue in range(2):
+            x = [s[3 * cue + k] / self.inside for k in range(3)]
+            sx, sxd, sxx = self.x[cue], self.xd[cue], self.xx[cue]
+            for i in range(3):
+                sx[i] += x[i]
+                sxd[i] += x[i] * d
+                for j in range(3):
+                    sxx[3 * i + j] += x[i] * x[j]
+        self._open(t, speed)
+        return True
+
+    def _open(self, t: float, speed: float) -> None:
+        """Start the next interval at the fix ``(t, speed)``."""
+        self.fix = (t, speed)
+        self.inside = 0
+        self.inside_sums = [0.0] * 6
+
+    def up(self, min_quiet: float = MIN_QUIET) -> tuple[np.ndarray, bool]:
+        """``(up, trusted)``: the unit vertical (device frame) from the quiet samples, or from all of them
+        (``trusted`` False) when fewer than ``min_quiet`` of them are quiet."""
+        trusted = self.quiet > 0 and self.quiet >= min_quiet * self.valid
+        return _unit(np.array(self.quiet_force if trusted else self.force)), trusted
+
+    def forward(self, up: np.ndarray) -> tuple[np.ndarray | None, str, float]:
+        """``(forward, source, r)`` from the speed changes (``forward`` a horizontal unit vector, device frame), or
+        ``(None, '', r)`` with fewer than :data:`MIN_INTERVALS` changes, too little change or no significant ``r``
+        (``r`` NaN when not computed)."""
+        if self.n < MIN_INTERVALS:
+            return None, "", math.nan
+        n = self.n
+        sdd = self.dd - self.d * self.d / n
+        if sdd <= 0 or math.sqrt(sdd / n) < MIN_SPEED_CHANGE:
+            return None, "", math.nan
+        best = (None, "", -math.inf)
+        for cue, name in enumerate(_CUES):
+            sx = np.array(self.x[cue])
+            sxd = np.array(self.xd[cue]) - sx * self.d / n
+            sxx = np.array(self.xx[cue]).reshape(3, 3) - np.outer(sx, sx) / n
+            w = _horizontal(sxd, up)
+            size = float(np.linalg.norm(w))
+            spread = float(w @ sxx @ w) / size ** 2 if size > 0 else 0.0
+            if spread <= 0:
+                continue
+            u = w / size
+            r = float(u @ sxd) / math.sqrt(spread * sdd)
+            if r > best[2]:
+                best = (u if cue == 0 else _unit(np.cross(u, up)), name, r)
+        if best[2] <= 0 or (1.0 - best[2] ** 2) ** ((n - 3) / 2) >= SIGNIFICANCE:
+            return None, "", best[2]
+        return best
+
+    def estimate(self, choice: str = "auto", where: str = "", min_quiet: float = MIN_QUIET,
+                 speed_given: bool = True, override: bool = True) -> MountEstimate:
+        """The :class:`MountEstimate` of the samples so far (``choice`` as :func:`estimate_mount`; ``where``
+        begins every warning; ``speed_given``: whether the ride has GPS speed, for the warning that it did not
+        tell the direction; ``override``: whether the warning of an unusual mount names ``--mount``)."""
+        if choice not in ("auto", "estimate", *PRESETS):
+            raise InputError(f"--mount {choice!r} is not known; give auto, estimate, {', '.join(PRESETS)}")
+        warnings = []
+        fraction = self.quiet / max(self.valid, 1)
+        up, trusted = self.up(min_quiet)
+        if not trusted:
+            warnings.append(f"{where}only {100 * fraction:.0f} % of the samples are at rest or cruising; the "
+                            f"vertical is the mean over the whole log and may be off")
+        forward, source, r = self.forward(up)
+        if forward is None:
+            forward, source = top_edge_forward(up), TOP_EDGE_SOURCE
+            if speed_given:
+                warnings.append(f"{where}the GPS speed does not yet tell the direction of travel; assumed the "
+                                f"phone's top edge (or back) points forward")
+        estimated = np.vstack([forward, np.cross(up, forward), up])
+        result = MountEstimate(estimated, estimated, source, fraction, r, warnings, choice)
+        if choice == "auto":
+            unusual = result.angle_from_nominal > USUAL_ANGLE
+            result.used = estimated if unusual else MOUNT
+            if unusual:
+                warnings.append(f"{where}the phone is mounted {np.degrees(result.angle_from_nominal):.0f} deg from "
+                                f"flat with its top edge forward; features use the estimated mount"
+                                + (" (override with --mount flat|upright|estimate)" if override else ""))
+        elif choice != "estimate":
+            result.used = PRESETS[choice]
+        result.used = np.asarray(result.used, dtype=float)
+        return result
+
+
+def top_edge_forward(up: np.ndarray) -> np.ndarray:
+    """Forward (device frame, unit, horizontal) when the data do not tell: the horizontal part of ``y - z`` (the
+    top edge of a phone lying flat, the back of one standing upright), of ``y + z`` when that vanishes."""
+    for guess in ((0.0, 1.0, -1.0), (0.0, 1.0, 1.0)):
+        h = _horizontal(np.array(guess), up)
+        if np.linalg.norm(h) > 0.1:
+            return _unit(h)
+    return _unit(_horizontal(np.array([1.0, 0.0, 0.0]), up))
+
+
 def estimate_mount(rec: Recording, choice: str = "auto") -> MountEstimate:
     """The device-to-vehicle rotation of ``rec`` (raw IMU in the device frame; GPS ``speed`` used when present).
 
@@ -112,37 +296,13 @@ def estimate_mount(rec: Recording, choice: str = "auto") -> MountEstimate:
     if choice not in ("auto", "estimate", *PRESETS):
         raise InputError(f"--mount {choice!r} is not known; give auto, estimate, {', '.join(PRESETS)}")
     rec.require_imu("mount detection")
-    acc, gyr = rec.array(ACC_CHANNELS), rec.array(GYRO_CHANNELS)
-    valid = np.all(np.isfinite(acc), axis=1) & np.all(np.isfinite(gyr), axis=1)
-    warnings = []
-    quiet = valid & (np.linalg.norm(gyr, axis=1) < QUIET_RATE) & \
-        (np.abs(np.linalg.norm(acc, axis=1) - GRAVITY) < QUIET_FORCE)
-    fraction = float(quiet.sum() / max(valid.sum(), 1))
-    if fraction < MIN_QUIET:
-        warnings.append(f"{rec.source}: only {100 * fraction:.0f} % of the samples are at rest or cruising; the "
-                        f"vertical is the mean over the whole log and may be off")
-        quiet = valid
-    up = _unit(acc[quiet].mean(axis=0))
-    forward, source, correlation = _forward_from_speed(rec, acc, gyr, valid, up)
-    if forward is None:
-        forward = _unit(_horizontal(np.array([0.0, 1.0, -1.0]), up))
-        source = "the phone's top edge (or back, when upright): no GPS speed change to tell"
-        if rec.channels.get("speed") is not None:
-            warnings.append(f"{rec.source}: the GPS speed changes too little to tell the direction of travel; "
-                            f"assumed the phone's top edge (or back) points forward")
-    left = np.cross(up, forward)
-    estimated = np.vstack([forward, left, up])
-    used = {"auto": None, "estimate": estimated, **PRESETS}[choice]
-    result = MountEstimate(estimated, estimated, source, fraction, correlation, warnings, choice)
-    if used is None:
-        unusual = result.angle_from_nominal > USUAL_ANGLE
-        used = estimated if unusual else MOUNT
-        if unusual:
-            warnings.append(f"{rec.source}: the phone is mounted {np.degrees(result.angle_from_nominal):.0f} deg "
-                            f"from flat with its top edge forward; features use the estimated mount (override "
-                            f"with --mount flat|upright|estimate)")
-    result.used = np.asarray(used, dtype=float)
-    return result
+    stats = MountStatistics(rec.rate)
+    speed = rec.channels.get("speed")
+    speeds = np.full(len(rec), np.nan) if speed is None else speed
+    rows = np.column_stack([rec.time, rec.array(ACC_CHANNELS), rec.array(GYRO_CHANNELS), speeds]).tolist()
+    for t, a0, a1, a2, w0, w1, w2, v in rows:
+        stats.update(t, (a0, a1, a2), (w0, w1, w2), v)
+    return stats.estimate(choice, f"{rec.source}: ", speed_given=speed is not None)
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -150,44 +310,73 @@ def _unit(v: np.ndarray) -> np.ndarray:
 
 
 def _horizontal(v: np.ndarray, up: np.ndarray) -> np.ndarray:
-    """The part of ``(..., 3)`` vectors perpendicular to the unit vector ``up``."""
-    return v - np.outer(v @ up, up).reshape(np.shape(v)) if np.ndim(v) > 1 else v - (v @ up) * up
+    """The part of the vector ``v`` perpendicular to the unit vector ``up``."""
+    return v - (v @ up) * up
 
 
-def _forward_from_speed(rec, acc, gyr, valid, up):
-    """``(forward, source, correlation)`` from the GPS speed changes, or ``(None, '', nan)``."""
-    speed = rec.channels.get("speed")
-    if speed is None:
-        return None, "", float("nan")
-    fixes = np.flatnonzero(np.isfinite(speed) & valid)
-    if len(fixes) < 8:
-        return None, "", float("nan")
-    t, v = rec.time[fixes], speed[fixes]
-    dvdt = np.gradient(v, t)
-    if np.std(dvdt) < MIN_SPEED_CHANGE:
-        return None, "", float("nan")
-    fill = np.where(valid[:, None], acc, np.nan)
-    force = _horizontal(np.where(np.isfinite(fill), fill, up * GRAVITY), up)
-    rate = np.where(valid[:, None], gyr, 0.0)
-    c = np.exp(-1.0 / (LEAN_TIME_CONSTANT * rec.rate))
-    lean = lfilter([1.0 / rec.rate], [1.0, -c], _horizontal(rate, up), axis=0)
-    span = max(1, int(round(rec.rate)))
-    smooth = np.ones(span) / span
-    cues = {
-        "the specific force that goes with GPS speed changes":
-            (lambda w: _unit(w), np.apply_along_axis(np.convolve, 0, force, smooth, mode="same")[fixes]),
-        "the lean that goes with GPS speed changes":
-            (lambda w: _unit(np.cross(w, up)), lean[fixes]),
-    }
-    best = (None, "", -np.inf)
-    for name, (direction, x) in cues.items():
-        x = x - x.mean(axis=0)
-        d = dvdt - dvdt.mean()
-        w = x.T @ d / (d @ d)
-        fitted = x @ _unit(w)
-        r = float(np.corrcoef(fitted, d)[0, 1]) if np.std(fitted) > 0 else 0.0
-        if r > best[2]:
-            best = (direction(w), name, r)
-    if best[2] < MIN_CORRELATION:
-        return None, "", best[2]
-    return best
+class MountTracker:
+    """The mount of a live ride, found from its first samples (see the module docstring).
+
+    Until :data:`LIVE_QUIET_SECONDS` of quiet samples have come, the nominal mount is used. Then the vertical is
+    known, and forward is taken from the GPS speed changes if they tell it (as offline), else from the phone's top
+    edge (or back); the mount decided is used if
+    it is unusual (:data:`USUAL_ANGLE`), else the nominal one. While forward is only assumed, each closed speed
+    change is tried again until the GPS speed tells; then the mount is final and the statistics stop. Whenever the
+    mount used changes, :meth:`update` says so, and the features start a new segment at that sample.
+
+    ``reports`` collects ``(t, line)`` for the ride record: each decision (with its warnings: unusual), and, once,
+    the doubt (uncertain) when the mount is not final :data:`UNCERTAIN_SECONDS` into the ride."""
+
+    def __init__(self, rate: float):
+        self.rate = float(rate)
+        self.statistics = MountStatistics(rate)
+        self.used = MOUNT.copy()
+        self.stage = "nominal"
+        self.estimate: MountEstimate | None = None
+        self.reports: list[tuple[float, str]] = []
+        self._start: float | None = None
+        self._has_speed = False
+        self._doubted = False
+
+    @property
+    def final(self) -> bool:
+        """True once the mount will not change again."""
+        return self.stage == "final"
+
+    def update(self, t: float, acc, gyr, speed: float = math.nan) -> bool:
+        """Take one sample (as :meth:`MountStatistics.update`); True when the mount used changes at it."""
+        if self.final:
+            return False
+        if self._start is None:
+            self._start = t
+        self._has_speed = self._has_speed or math.isfinite(speed)
+        closed = self.statistics.update(t, acc, gyr, speed)
+        changed = False
+        if self.stage == "nominal" and self.statistics.quiet >= LIVE_QUIET_SECONDS * self.rate:
+            changed = self._decide(t)
+        elif self.stage == "vertical" and closed and self.statistics.forward(self.statistics.up(0.0)[0])[0] is not None:
+            changed = self._decide(t)
+        if not self._doubted and not self.final and t - self._start >= UNCERTAIN_SECONDS:
+            self._doubted = True
+            self.reports.append((t, "mount uncertain: " + (
+                f"no {LIVE_QUIET_SECONDS:g} s at rest or cruising in the first {UNCERTAIN_SECONDS:g} s; the nominal "
+                f"mount (flat, top edge forward) is used" if self.stage == "nominal" else
+                "the GPS speed has not told the direction of travel; forward is assumed to be the phone's top edge "
+                "(or back)" if self._has_speed else
+                "no GPS speed to tell the direction of travel; forward is assumed to be the phone's top edge (or "
+                "back)")))
+        return changed
+
+    def _decide(self, t: float) -> bool:
+        """Estimate now; True when the mount used changes."""
+        estimate = self.statistics.estimate("auto", "", 0.0, speed_given=False, override=False)
+        self.stage = "vertical" if estimate.source == TOP_EDGE_SOURCE else "final"
+        changed = not np.array_equal(estimate.used, self.used)
+        self.estimate, self.used = estimate, estimate.used
+        self.reports.append((t, "; ".join([estimate.describe(), *estimate.warnings])))
+        return changed
+
+    def pop_reports(self) -> list[tuple[float, str]]:
+        """The reports since the last call."""
+        reports, self.reports = self.reports, []
+        return reports
