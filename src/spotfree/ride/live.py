@@ -10,13 +10,13 @@ window buffer) starts afresh at a non-finite sample or a time step longer than `
 The mount: :class:`~spotfree.signal.mount.MountTracker` estimates the device-to-vehicle rotation from the ride's
 first samples (gravity at rest or cruising, then forward from the GPS speed changes); the features use the
 nominal mount until it decides, then the mount it decided. Its reports (the mount, and whether it is unusual or
-uncertain) are :class:`~spotfree.ride.records.Event` ``mount`` for the ride record (:meth:`LiveRide.pop_events`).
+uncertain) are events for the ride record (:meth:`LiveRide.pop_events`).
 The page runs the same tracker (``MountTracker`` in ``static/pipeline.js``) on the same samples, so it switches at
 the same sample.
 
 :func:`pipeline_spec` is the same pipeline as numbers for the page's JavaScript copy (``static/pipeline.js``):
-filter coefficients, the mount tracker's parameters, the channel scales and the CRC_RLS residual operators ``E_i = I - A_i P_i`` stacked row by
-row ``(C d, d)``, so the page keeps classifying when its connection drops.
+filter coefficients, the mount tracker's parameters, the channel scales and the CRC_RLS residual operators
+``E_i = I - A_i P_i`` stacked row by row ``(C d, d)``, so the page keeps classifying when its connection drops.
 """
 
 from __future__ import annotations
@@ -69,8 +69,9 @@ class LiveRide:
         self._time: float | None = None
 
     def pop_events(self) -> list[Event]:
-        """The mount's reports since the last call, as ``mount`` events (start = end = the sample's time)."""
-        return [Event("mount", t, t, line) for t, line in self.mount.pop_reports()]
+        """The mount's reports since the last call (:class:`~spotfree.signal.mount.MountTracker`: kinds ``mount``,
+        ``unusual-mount``, ``uncertain-mount``) as events at the sample's time."""
+        return [Event(kind, t, t, detail) for t, kind, detail in self.mount.pop_reports()]
 
     def _remount(self, mount: np.ndarray) -> None:
         """Features on ``mount`` from here, a new segment (the classifier's starts with the caller's)."""

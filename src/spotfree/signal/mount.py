@@ -16,15 +16,16 @@ up axes written in device coordinates.
   interval) the horizontal least-squares direction ``u = P S_xd / |P S_xd|`` (``P = I - up up^T``, ``S`` centred
   sums over the intervals) and its correlation ``r = u . S_xd / sqrt(u^T S_xx u S_dd)`` are found; the more
   correlated cue is kept: forward is ``u`` (force) or ``u x up`` (lean), if the correlation is significant
-  (:data:`SIGNIFICANCE`). Without GPS speed (or with too little change of speed, or no significant correlation) forward is the phone's top edge, or its back when it stands upright
-  (the horizontal part of ``y - z``): the phone faces the rider, top edge forward or up.
+  (:data:`SIGNIFICANCE`). Without GPS speed (or with too little change of speed, or no significant correlation)
+  forward is the phone's top edge, or its back when it stands upright (the horizontal part of ``y - z``): the
+  phone faces the rider, top edge forward or up.
 
 All of it rests on running sums (:class:`MountStatistics`), so the same numbers come from a whole log
 (:func:`estimate_mount`) and from a live ride sample by sample (:class:`MountTracker`, whose twin in the phone page
 is ``MountTracker`` in ``ride/static/pipeline.js``).
 
-The estimate is *usual* when it is within :data:`USUAL_ANGLE` of the nominal mount (:data:`~spotfree.signal.frame.MOUNT`,
-flat on the handlebar, top edge forward); then the nominal mount is used and the attitude filter takes up the small
+The estimate is *usual* when it is within :data:`USUAL_ANGLE` of the nominal mount
+(:data:`~spotfree.signal.frame.MOUNT`, flat on the handlebar, top edge forward); then the nominal mount is used and the attitude filter takes up the small
 difference, as it always did. Otherwise the estimate is used and a warning says so.
 """
 
@@ -85,6 +86,9 @@ holder, portrait, screen towards the rider (forward is the phone's back, up its 
 TOP_EDGE_SOURCE = "the phone's top edge (or back, when upright): no GPS speed change to tell"
 """Where forward came from when the GPS speed did not tell."""
 
+REPORT_KINDS = ("mount", "unusual-mount", "uncertain-mount")
+"""The kinds of :class:`MountTracker`'s reports: the mount decided (usual, or unusual and used), the doubt."""
+
 _CUES = ("the specific force that goes with GPS speed changes", "the lean that goes with GPS speed changes")
 
 
@@ -121,6 +125,15 @@ class MountEstimate:
                 + (f" (correlation {self.correlation:.2f}); " if self.source != TOP_EDGE_SOURCE else "; ")
                 + (f"using the --mount {self.choice} choice" if self.choice != "auto" else
                    "using the nominal mount" if np.allclose(self.used, MOUNT) else "using the estimate"))
+
+
+    def brief(self) -> str:
+        """:meth:`describe` in at most 100 characters (an event's detail in the ride record)."""
+        tilt = np.degrees(np.arccos(np.clip(self.estimated[2, 2], -1, 1)))
+        forward = f"GPS speed (r {self.correlation:.2f})" if self.source != TOP_EDGE_SOURCE else "top edge or back"
+        used = "nominal" if np.allclose(self.used, MOUNT) else "estimate"
+        return (f"{np.degrees(self.angle_from_nominal):.0f} deg from flat ({tilt:.0f} deg tilt); forward from "
+                f"{forward}; {used} used")
 
 
 def _axes(v: np.ndarray) -> str:
@@ -324,8 +337,9 @@ class MountTracker:
     change is tried again until the GPS speed tells; then the mount is final and the statistics stop. Whenever the
     mount used changes, :meth:`update` says so, and the features start a new segment at that sample.
 
-    ``reports`` collects ``(t, line)`` for the ride record: each decision (with its warnings: unusual), and, once,
-    the doubt (uncertain) when the mount is not final :data:`UNCERTAIN_SECONDS` into the ride."""
+    ``reports`` collects ``(t, kind, detail)`` for the ride record (``detail`` at most 100 characters): each
+    decision, of kind ``mount`` (usual: the nominal mount is used) or ``unusual-mount`` (the estimate is used), and,
+    once, ``uncertain-mount`` when the mount is not final :data:`UNCERTAIN_SECONDS` into the ride."""
 
     def __init__(self, rate: float):
         self.rate = float(rate)
@@ -333,7 +347,7 @@ class MountTracker:
         self.used = MOUNT.copy()
         self.stage = "nominal"
         self.estimate: MountEstimate | None = None
-        self.reports: list[tuple[float, str]] = []
+        self.reports: list[tuple[float, str, str]] = []
         self._start: float | None = None
         self._has_speed = False
         self._doubted = False
@@ -358,13 +372,11 @@ class MountTracker:
             changed = self._decide(t)
         if not self._doubted and not self.final and t - self._start >= UNCERTAIN_SECONDS:
             self._doubted = True
-            self.reports.append((t, "mount uncertain: " + (
-                f"no {LIVE_QUIET_SECONDS:g} s at rest or cruising in the first {UNCERTAIN_SECONDS:g} s; the nominal "
-                f"mount (flat, top edge forward) is used" if self.stage == "nominal" else
-                "the GPS speed has not told the direction of travel; forward is assumed to be the phone's top edge "
-                "(or back)" if self._has_speed else
-                "no GPS speed to tell the direction of travel; forward is assumed to be the phone's top edge (or "
-                "back)")))
+            self.reports.append((t, REPORT_KINDS[2], (
+                f"no {LIVE_QUIET_SECONDS:g} s at rest or cruising in {UNCERTAIN_SECONDS:g} s; nominal mount used"
+                if self.stage == "nominal" else
+                "GPS speed has not told forward; assumed: the top edge or back" if self._has_speed else
+                "no GPS speed to tell forward; assumed: the top edge or back")))
         return changed
 
     def _decide(self, t: float) -> bool:
@@ -373,10 +385,11 @@ class MountTracker:
         self.stage = "vertical" if estimate.source == TOP_EDGE_SOURCE else "final"
         changed = not np.array_equal(estimate.used, self.used)
         self.estimate, self.used = estimate, estimate.used
-        self.reports.append((t, "; ".join([estimate.describe(), *estimate.warnings])))
+        unusual = not np.array_equal(estimate.used, MOUNT)
+        self.reports.append((t, REPORT_KINDS[1] if unusual else REPORT_KINDS[0], estimate.brief()))
         return changed
 
-    def pop_reports(self) -> list[tuple[float, str]]:
+    def pop_reports(self) -> list[tuple[float, str, str]]:
         """The reports since the last call."""
         reports, self.reports = self.reports, []
         return reports
