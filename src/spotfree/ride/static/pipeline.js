@@ -369,23 +369,38 @@
         this.normalisation = Float64Array.from(spec.kernel.normalisation);
       }
       this.time = null;
+      this.hold = Math.round(spec.mount_history * spec.rate);
+      this.history = [];
       this.resetSegment();
     }
-    resetSegment() { this.features.reset(); this.position = 0; this.count = 0; this.label = null; }
+    resetSegment() { this.features.reset(); this.history = []; this.resetWindows(); }
+    resetWindows() { this.position = 0; this.count = 0; this.label = null; }
+    remount(mount) {
+      // features and windows on the new mount from the start of the segment: the samples held run again through
+      // them, their labels dropped (spotfree.ride.live.LiveRide._remount)
+      this.features = new FeatureStream(this.spec, mount);
+      this.resetWindows();
+      for (const [, acc, gyr, speed] of this.history.slice(-this.hold)) {
+        this.push(this.features.update(acc, gyr, speed));
+      }
+    }
     update(t, acc, gyr, speed) {
       const values = [...acc, ...gyr];
       const finite = values.every(Number.isFinite);
       speed = speed === null || speed === undefined ? NaN : speed;
-      if (this.mount.update(t, acc, gyr, speed)) {
-        this.features = new FeatureStream(this.spec, this.mount.used);
-        this.resetSegment();
-      }
       const previous = this.time;
       this.time = t;
       const jump = previous !== null && !(t - previous > 0 && t - previous <= this.spec.max_gap);
       if (jump || !finite) this.resetSegment();
+      if (this.mount.update(t, acc, gyr, speed)) this.remount(this.mount.used);
       if (!finite) return { features: null, label: null };
       const feats = this.features.update(acc, gyr, speed);
+      if (this.mount.stage === "final") this.history = [];
+      else {
+        // held while the mount may still change: the last mount_history s
+        this.history.push([t, acc, gyr, speed]);
+        if (this.history.length > 2 * this.hold) this.history = this.history.slice(-this.hold);
+      }
       return { features: feats, label: this.push(feats) };
     }
     push(feats) {
