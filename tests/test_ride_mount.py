@@ -1,13 +1,11 @@
 """The live ride's mount: a phone flat, upright in a holder or turned on the handlebar gives the flat phone's vehicle
 features once its mount is known; blocks equal samples across the switches; the ride record says what was found."""
 
-import itertools
-
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from service_fixtures import model, raw  # noqa: F401
+from service_fixtures import model, raw, sample_and_block_runs  # noqa: F401
 from spotfree.ride.live import LiveRide
 from spotfree.io.recording import Recording
 from spotfree.ride.records import FEATURE_COLUMNS, SAMPLE_COLUMNS
@@ -104,19 +102,14 @@ def test_without_the_estimate_an_upright_tablet_is_wrong(rows, flat_on_its_estim
 def test_blocks_equal_samples_across_the_mount_switches(model, rows):
     upright = remounted(rows, MOUNTS["upright in a holder"])[:900]
     upright[500:, 0] += 2.0  # and a time gap
+    upright[560, 2] = np.nan  # and a sample that is not finite, before the second switch
     one, blocks = LiveRide(model), LiveRide(model)
-    want = [one.update(r[0], r[1:4], r[4:7], r[9]) for r in upright]
-    got_features, got_labels, k = [], [], 0
-    for size in itertools.cycle([1, 5, 7, 3, 40, 200]):
-        if k >= len(upright):
-            break
-        feats, labels = blocks.update_block(upright[k:k + size])
-        got_features.append(feats)
-        got_labels += labels
-        k += size
-    assert one.pop_events() == blocks.pop_events() and len(one.mount.reports) == 0
+    want, got_features, got_labels = sample_and_block_runs(one, blocks, upright, [1, 5, 7, 3, 40, 200])
+    events = one.pop_events()
+    assert events == blocks.pop_events() and [e.kind for e in events] == ["unusual-mount", "unusual-mount"]
+    assert events[1].start > upright[500, 0]  # the second switch comes after the gap
     assert got_labels == [label for _, label in want]
-    np.testing.assert_array_equal(np.vstack(got_features), np.array([f for f, _ in want]))
+    np.testing.assert_array_equal(got_features, np.array([f for f, _ in want]))
 
 
 def test_no_rest_and_no_gps_are_reported_as_uncertain(model, rows):

@@ -1,7 +1,6 @@
 """The live service's web API with FastAPI's TestClient: devices, rides, batches, refusals, rate, warnings, views,
 push, pipeline; and ``spotfree serve --simulate`` in a subprocess."""
 
-import itertools
 import json
 import math
 import shutil
@@ -14,7 +13,7 @@ pytest.importorskip("fastapi")
 from fastapi.testclient import TestClient  # noqa: E402
 
 from classify_fixtures import truth_model  # noqa: E402
-from service_fixtures import bearer, columns as _columns, enrol, model, raw  # noqa: E402,F401
+from service_fixtures import bearer, columns as _columns, enrol, model, raw, sample_and_block_runs  # noqa: E402,F401
 from spotfree.classify.batch import dictionary_classifier  # noqa: E402
 from spotfree.classify.stream import RideClassifier  # noqa: E402
 from spotfree.ride.api import create_app  # noqa: E402
@@ -64,18 +63,10 @@ def test_live_ride_blocks_equal_sample_by_sample_across_gaps_and_nan(raw, model,
     rows[200:, 0] += 2.0  # a time gap longer than MAX_GAP: a new segment
     rows[350, 2] = np.nan  # a sample that is not finite: a gap of one sample
     clf = dictionary_classifier(model, method, causal=True)
-    one, blocks = LiveRide(model, clf), LiveRide(model, clf)
-    want = [one.update(r[0], r[1:4], r[4:7], r[9]) for r in rows]
-    got_features, got_labels, k = [], [], 0
-    for size in itertools.cycle([1, 5, 7, 3, 40]):
-        if k >= len(rows):
-            break
-        feats, labels = blocks.update_block(rows[k:k + size])
-        got_features.append(feats)
-        got_labels += labels
-        k += size
+    want, got_features, got_labels = sample_and_block_runs(LiveRide(model, clf), LiveRide(model, clf), rows,
+                                                          [1, 5, 7, 3, 40])
     assert got_labels == [label for _, label in want]
-    np.testing.assert_array_equal(np.vstack(got_features), np.array([f for f, _ in want]))
+    np.testing.assert_array_equal(got_features, np.array([f for f, _ in want]))
     assert got_labels[200] is None and got_labels[350] is None and got_labels[351] is None
     assert len(set(got_labels) - {None}) >= 2
 
