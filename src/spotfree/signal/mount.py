@@ -12,10 +12,13 @@ up axes written in device coordinates.
   over those samples, whose horizontal part points along the direction of travel, and (b), on a self-balancing
   vehicle, the mean lean about the vehicle's left axis (it leans into the acceleration, which keeps the specific
   force near its body axis): the leaky integral ``L[n] = c L[n-1] + w[n] / f_s``, ``c = exp(-1 / (tau f_s))``,
-  ``tau = LEAN_TIME_CONSTANT``, of the rotation rate ``w``. For each cue ``x`` (a device-frame 3-vector per
-  interval) the horizontal least-squares direction ``u = P S_xd / |P S_xd|`` (``P = I - up up^T``, ``S`` centred
-  sums over the intervals) and its correlation ``r = u . S_xd / sqrt(u^T S_xx u S_dd)`` are found; the more
-  correlated cue is kept: forward is ``u`` (force) or ``u x up`` (lean), if the correlation is significant
+  ``tau = LEAN_TIME_CONSTANT``, of the rotation rate ``w``. In a turn both also carry the centripetal
+  acceleration ``c = v_m (w_m . up)`` (``v_m`` the mean of the two fixes' speeds, ``w_m`` the mean rotation rate,
+  ``up`` the vertical of the quiet samples so far) along the left axis, and riders slow into turns, so ``c`` is a
+  second regressor. For each cue ``x`` (a device-frame 3-vector per interval) forward is the horizontal part of
+  the coefficient of ``d`` in ``x ~ d + c``, ``u = P (S_xd S_cc - S_xc S_dc)``, normalised (``P = I - up up^T``,
+  ``S`` centred sums over the intervals), and ``r`` the partial correlation of ``u . x`` with ``d`` given ``c``;
+  the more correlated cue is kept: forward is ``u`` (force) or ``u x up`` (lean), if ``r`` is significant
   (:data:`SIGNIFICANCE`). Without GPS speed (or with too little change of speed, or no significant correlation)
   forward is the phone's top edge, or its back when it stands upright (the horizontal part of ``y - z``): the
   phone faces the rider, top edge forward or up.
@@ -25,8 +28,10 @@ All of it rests on running sums (:class:`MountStatistics`), so the same numbers 
 is ``MountTracker`` in ``ride/static/pipeline.js``).
 
 The estimate is *usual* when it is within :data:`USUAL_ANGLE` of the nominal mount
-(:data:`~spotfree.signal.frame.MOUNT`, flat on the handlebar, top edge forward); then the nominal mount is used and the attitude filter takes up the small
-difference, as it always did. Otherwise the estimate is used and a warning says so.
+(:data:`~spotfree.signal.frame.MOUNT`, flat on the handlebar, top edge forward); then the nominal mount is used, as
+before mount detection, and the small difference stays in the features (a constant offset of roll and pitch, and a
+little of ``acc_y`` in ``acc_x`` for a turn about the vertical). Otherwise the estimate is used and a warning says
+so.
 """
 
 from __future__ import annotations
@@ -57,9 +62,9 @@ MIN_INTERVALS = 8
 
 SIGNIFICANCE = 1e-4
 """Largest chance that speed changes unrelated to every direction fit one as well: with ``n`` changes the
-two-direction fit of a cue reaches a correlation ``r`` by chance with probability ``(1 - r^2)^((n - 3) / 2)``
-(Gaussian noise). Below this the forward direction is taken from the data: e.g. ``r`` above 0.73 over 30 changes,
-above 0.53 over 60. Strict, because consecutive intervals are not quite independent."""
+two-direction fit of a cue (the turn held) reaches a correlation ``r`` by chance with probability
+``(1 - r^2)^((n - 4) / 2)`` (Gaussian noise). Below this the forward direction is taken from the data: e.g. ``r``
+above 0.74 over 30 changes, above 0.53 over 60. Strict, because consecutive intervals are not quite independent."""
 
 MIN_SPEED_CHANGE = 0.1
 """Least standard deviation of the speed changes ``d`` (m/s^2) for a forward direction from the data."""
@@ -149,9 +154,10 @@ class MountStatistics:
     """Running sums of a ride for its mount (see the module docstring), one sample at a time.
 
     Per valid sample: the count and specific-force sum of all and of the quiet samples, the leaky lean integral,
-    and the sums of the open speed-change interval; per closed interval, for each cue ``x`` (mean specific force,
-    mean lean; device frame) and the speed change ``d``: ``n``, ``sum d``, ``sum d^2``, ``sum x``, ``sum x d`` and
-    ``sum x x^T``. Plain floats, in the order of ``MountStatistics`` in ``ride/static/pipeline.js``."""
+    and the sums of the open speed-change interval; per closed interval, for the speed change ``d``, the turn ``c``
+    and each cue ``x`` (mean specific force, mean lean; device frame): ``n``, the sums of ``d``, ``c``, ``d^2``,
+    ``c^2``, ``d c``, and of ``x``, ``x d``, ``x c``, ``x x^T``. Plain floats, in the order of ``MountStatistics``
+    in ``ride/static/pipeline.js``."""
 
     def __init__(self, rate: float):
         self.rate = float(rate)
@@ -163,12 +169,16 @@ class MountStatistics:
         self.lean = [0.0, 0.0, 0.0]
         self.fix: tuple[float, float] | None = None
         self.inside = 0
-        self.inside_sums = [0.0] * 6
+        self.inside_sums = [0.0] * 9
         self.n = 0
         self.d = 0.0
         self.dd = 0.0
+        self.c = 0.0
+        self.cc = 0.0
+        self.dc = 0.0
         self.x = [[0.0] * 3, [0.0] * 3]
         self.xd = [[0.0] * 3, [0.0] * 3]
+        self.xc = [[0.0] * 3, [0.0] * 3]
         self.xx = [[0.0] * 9, [0.0] * 9]
 
     def update(self, t: float, acc, gyr, speed: float = math.nan) -> bool:
@@ -191,7 +201,7 @@ class MountStatistics:
             q = self.quiet_force
             q[0] += a0; q[1] += a1; q[2] += a2  # noqa: E702
         s = self.inside_sums
-        for k, v in enumerate((a0, a1, a2, lean[0], lean[1], lean[2])):
+        for k, v in enumerate((a0, a1, a2, lean[0], lean[1], lean[2], w0, w1, w2)):
             s[k] += v
         self.inside += 1
         speed = float(speed)
@@ -203,15 +213,23 @@ class MountStatistics:
         if t - self.fix[0] < MIN_INTERVAL:
             return False
         d = (speed - self.fix[1]) / (t - self.fix[0])
+        g = self.quiet_force if self.quiet > 0 else self.force
+        yaw = (g[0] * s[6] + g[1] * s[7] + g[2] * s[8]) / (self.inside * math.sqrt(g[0] * g[0] + g[1] * g[1]
+                                                                                     + g[2] * g[2]))
+        turn = 0.5 * (speed + self.fix[1]) * yaw
         self.n += 1
         self.d += d
         self.dd += d * d
+        self.c += turn
+        self.cc += turn * turn
+        self.dc += d * turn
         for cue in range(2):
             x = [s[3 * cue + k] / self.inside for k in range(3)]
-            sx, sxd, sxx = self.x[cue], self.xd[cue], self.xx[cue]
+            sx, sxd, sxc, sxx = self.x[cue], self.xd[cue], self.xc[cue], self.xx[cue]
             for i in range(3):
                 sx[i] += x[i]
                 sxd[i] += x[i] * d
+                sxc[i] += x[i] * turn
                 for j in range(3):
                     sxx[3 * i + j] += x[i] * x[j]
         self._open(t, speed)
@@ -221,7 +239,7 @@ class MountStatistics:
         """Start the next interval at the fix ``(t, speed)``."""
         self.fix = (t, speed)
         self.inside = 0
-        self.inside_sums = [0.0] * 6
+        self.inside_sums = [0.0] * 9
 
     def up(self, min_quiet: float = MIN_QUIET) -> tuple[np.ndarray, bool]:
         """``(up, trusted)``: the unit vertical (device frame) from the quiet samples, or from all of them
@@ -239,21 +257,31 @@ class MountStatistics:
         sdd = self.dd - self.d * self.d / n
         if sdd <= 0 or math.sqrt(sdd / n) < MIN_SPEED_CHANGE:
             return None, "", math.nan
+        scc = self.cc - self.c * self.c / n
+        sdc = self.dc - self.d * self.c / n
+        turns = scc > 0 and sdd * scc - sdc * sdc > 0
         best = (None, "", -math.inf)
         for cue, name in enumerate(_CUES):
             sx = np.array(self.x[cue])
             sxd = np.array(self.xd[cue]) - sx * self.d / n
+            sxc = np.array(self.xc[cue]) - sx * self.c / n
             sxx = np.array(self.xx[cue]).reshape(3, 3) - np.outer(sx, sx) / n
-            w = _horizontal(sxd, up)
+            w = _horizontal(sxd * scc - sxc * sdc if turns else sxd, up)
             size = float(np.linalg.norm(w))
-            spread = float(w @ sxx @ w) / size ** 2 if size > 0 else 0.0
-            if spread <= 0:
+            if size == 0:
                 continue
             u = w / size
-            r = float(u @ sxd) / math.sqrt(spread * sdd)
+            zd, zc, zz = float(u @ sxd), float(u @ sxc), float(u @ sxx @ u)
+            if turns:  # partial correlation with d, the turn c held
+                zd, zz, dd = zd - zc * sdc / scc, zz - zc * zc / scc, sdd - sdc * sdc / scc
+            else:
+                dd = sdd
+            if zz <= 0:
+                continue
+            r = zd / math.sqrt(zz * dd)
             if r > best[2]:
                 best = (u if cue == 0 else _unit(np.cross(u, up)), name, r)
-        if best[2] <= 0 or (1.0 - best[2] ** 2) ** ((n - 3) / 2) >= SIGNIFICANCE:
+        if best[2] <= 0 or (1.0 - best[2] ** 2) ** ((n - 4) / 2) >= SIGNIFICANCE:
             return None, "", best[2]
         return best
 
@@ -274,7 +302,7 @@ class MountStatistics:
         if forward is None:
             forward, source = top_edge_forward(up), TOP_EDGE_SOURCE
             if speed_given:
-                warnings.append(f"{where}the GPS speed does not yet tell the direction of travel; assumed the "
+                warnings.append(f"{where}the GPS speed changes do not tell the direction of travel; assumed the "
                                 f"phone's top edge (or back) points forward")
         estimated = np.vstack([forward, np.cross(up, forward), up])
         result = MountEstimate(estimated, estimated, source, fraction, r, warnings, choice)

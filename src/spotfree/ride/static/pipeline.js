@@ -198,14 +198,15 @@
 
   class MountStatistics {
     // MountStatistics of spotfree.signal.mount: quiet-sample force sums, leaky lean, and per speed-change interval
-    // (GPS fixes at least min_interval s apart) the sums of d, d^2, x, x d and x x^T of each cue x
+    // (GPS fixes at least min_interval s apart) the sums of d, c, d^2, c^2, d c and of x, x d, x c, x x^T of each
+    // cue x (the turn c the centripetal acceleration)
     constructor(p, rate, g) {
       this.p = p; this.rate = rate; this.g = g;
       this.leanC = Math.exp(-1.0 / (p.lean_time_constant * rate));
       this.valid = 0; this.quiet = 0; this.force = [0, 0, 0]; this.quietForce = [0, 0, 0]; this.lean = [0, 0, 0];
-      this.fix = null; this.inside = 0; this.insideSums = [0, 0, 0, 0, 0, 0];
-      this.n = 0; this.d = 0.0; this.dd = 0.0;
-      this.x = [[0, 0, 0], [0, 0, 0]]; this.xd = [[0, 0, 0], [0, 0, 0]];
+      this.fix = null; this.inside = 0; this.insideSums = new Array(9).fill(0);
+      this.n = 0; this.d = 0.0; this.dd = 0.0; this.c = 0.0; this.cc = 0.0; this.dc = 0.0;
+      this.x = [[0, 0, 0], [0, 0, 0]]; this.xd = [[0, 0, 0], [0, 0, 0]]; this.xc = [[0, 0, 0], [0, 0, 0]];
       this.xx = [new Array(9).fill(0), new Array(9).fill(0)];
     }
     update(t, acc, gyr, speed) {
@@ -228,26 +229,31 @@
         q[0] += a0; q[1] += a1; q[2] += a2;
       }
       const s = this.insideSums;
-      [a0, a1, a2, lean[0], lean[1], lean[2]].forEach((v, k) => { s[k] += v; });
+      [a0, a1, a2, lean[0], lean[1], lean[2], w0, w1, w2].forEach((v, k) => { s[k] += v; });
       this.inside += 1;
       if (!Number.isFinite(speed)) return false;
       if (this.fix === null || t <= this.fix[0]) { this.open(t, speed); return false; }
       if (t - this.fix[0] < p.min_interval) return false;
       const d = (speed - this.fix[1]) / (t - this.fix[0]);
-      this.n += 1; this.d += d; this.dd += d * d;
+      const g = this.quiet > 0 ? this.quietForce : this.force;
+      const yaw = (g[0] * s[6] + g[1] * s[7] + g[2] * s[8]) / (this.inside * Math.sqrt(g[0] * g[0] + g[1] * g[1]
+        + g[2] * g[2]));
+      const turn = 0.5 * (speed + this.fix[1]) * yaw;
+      this.n += 1; this.d += d; this.dd += d * d; this.c += turn; this.cc += turn * turn; this.dc += d * turn;
       for (let cue = 0; cue < 2; cue++) {
         const x = [0, 1, 2].map((k) => s[3 * cue + k] / this.inside);
-        const sx = this.x[cue], sxd = this.xd[cue], sxx = this.xx[cue];
+        const sx = this.x[cue], sxd = this.xd[cue], sxc = this.xc[cue], sxx = this.xx[cue];
         for (let i = 0; i < 3; i++) {
           sx[i] += x[i];
           sxd[i] += x[i] * d;
+          sxc[i] += x[i] * turn;
           for (let j = 0; j < 3; j++) sxx[3 * i + j] += x[i] * x[j];
         }
       }
       this.open(t, speed);
       return true;
     }
-    open(t, speed) { this.fix = [t, speed]; this.inside = 0; this.insideSums = [0, 0, 0, 0, 0, 0]; }
+    open(t, speed) { this.fix = [t, speed]; this.inside = 0; this.insideSums = new Array(9).fill(0); }
     up() { return unit(this.quietForce); }
     forward(up) {
       // the forward direction the speed changes tell (null when they do not)
@@ -255,20 +261,25 @@
       if (n < p.min_intervals) return null;
       const sdd = this.dd - this.d * this.d / n;
       if (sdd <= 0 || Math.sqrt(sdd / n) < p.min_speed_change) return null;
+      const scc = this.cc - this.c * this.c / n, sdc = this.dc - this.d * this.c / n;
+      const turns = scc > 0 && sdd * scc - sdc * sdc > 0;
       let best = null, bestR = -Infinity;
       for (let cue = 0; cue < 2; cue++) {
         const sx = this.x[cue], sxd = this.xd[cue].map((v, i) => v - sx[i] * this.d / n);
+        const sxc = this.xc[cue].map((v, i) => v - sx[i] * this.c / n);
         const sxx = this.xx[cue].map((v, k) => v - sx[Math.floor(k / 3)] * sx[k % 3] / n);
-        const w = horizontal(sxd, up), size = Math.sqrt(dot(w, w));
-        let quad = 0.0;
-        for (let i = 0; i < 3; i++) for (let j = 0; j < 3; j++) quad += w[i] * sxx[3 * i + j] * w[j];
-        const spread = size > 0 ? quad / (size * size) : 0.0;
-        if (spread <= 0) continue;
+        const w = horizontal(turns ? sxd.map((v, i) => v * scc - sxc[i] * sdc) : sxd, up), size = Math.sqrt(dot(w, w));
+        if (size === 0) continue;
         const u = [w[0] / size, w[1] / size, w[2] / size];
-        const r = dot(u, sxd) / Math.sqrt(spread * sdd);
+        let zd = dot(u, sxd), zz = 0.0, dd = sdd;
+        const zc = dot(u, sxc);
+        for (let i = 0; i < 3; i++) for (let j = 0; j < 3; j++) zz += u[i] * sxx[3 * i + j] * u[j];
+        if (turns) { zd -= zc * sdc / scc; zz -= zc * zc / scc; dd = sdd - sdc * sdc / scc; }
+        if (zz <= 0) continue;
+        const r = zd / Math.sqrt(zz * dd);
         if (r > bestR) { best = cue === 0 ? u : unit(cross(u, up)); bestR = r; }
       }
-      if (bestR <= 0 || (1.0 - bestR * bestR) ** ((n - 3) / 2) >= p.significance) return null;
+      if (bestR <= 0 || (1.0 - bestR * bestR) ** ((n - 4) / 2) >= p.significance) return null;
       return best;
     }
   }
