@@ -39,6 +39,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 
 from spotfree.errors import InputError
@@ -150,122 +151,91 @@ def rotation_angle(r: np.ndarray) -> float:
     return float(np.arccos(np.clip((np.trace(r) - 1) / 2, -1.0, 1.0)))
 
 
+MOUNT_STATE = np.dtype([
+    ("valid", "f8"), ("quiet", "f8"), ("force", "f8", 3), ("quiet_force", "f8", 3), ("lean", "f8", 3),
+    ("fix", "f8", 2), ("has_fix", "?"), ("inside", "f8"), ("inside_sums", "f8", 9),
+    ("n", "f8"), ("d", "f8"), ("dd", "f8"), ("c", "f8"), ("cc", "f8"), ("dc", "f8"),
+    ("x", "f8", (2, 3)), ("xd", "f8", (2, 3)), ("xc", "f8", (2, 3)), ("xx", "f8", (2, 3, 3)),
+])
+"""Record of :class:`MountStatistics`: sample counts and force sums (all valid, quiet), the leaky lean, the open
+interval (its starting fix ``(t, v)``, sample count and sums of force, lean and rotation rate), and the sums over
+closed intervals (``n``, ``d``, ``dd``, ``c``, ``cc``, ``dc``; per cue ``x``, ``xd``, ``xc``, ``xx``)."""
+
+
 class MountStatistics:
-    """Running sums of a ride for its mount (see the module docstring), one sample at a time.
+    """Running sums of a ride for its mount (see the module docstring), one sample or one block at a time.
 
     Per valid sample: the count and specific-force sum of all and of the quiet samples, the leaky lean integral,
     and the sums of the open speed-change interval; per closed interval, for the speed change ``d``, the turn ``c``
     and each cue ``x`` (mean specific force, mean lean; device frame): ``n``, the sums of ``d``, ``c``, ``d^2``,
-    ``c^2``, ``d c``, and of ``x``, ``x d``, ``x c``, ``x x^T``. Plain floats, in the order of ``MountStatistics``
-    in ``ride/static/pipeline.js``."""
+    ``c^2``, ``d c``, and of ``x``, ``x d``, ``x c``, ``x x^T``. One compiled kernel (:func:`_accumulate`) takes
+    a sample or a block; ``MountStatistics`` in ``ride/static/pipeline.js`` does the same operations in the same
+    order. ``state_`` is the :data:`MOUNT_STATE` record (a one-element array)."""
 
     def __init__(self, rate: float):
         self.rate = float(rate)
         self.lean_c = math.exp(-1.0 / (LEAN_TIME_CONSTANT * self.rate))
-        self.valid = 0
-        self.quiet = 0
-        self.force = [0.0, 0.0, 0.0]
-        self.quiet_force = [0.0, 0.0, 0.0]
-        self.lean = [0.0, 0.0, 0.0]
-        self.fix: tuple[float, float] | None = None
-        self.inside = 0
-        self.inside_sums = [0.0] * 9
-        self.n = 0
-        self.d = 0.0
-        self.dd = 0.0
-        self.c = 0.0
-        self.cc = 0.0
-        self.dc = 0.0
-        self.x = [[0.0] * 3, [0.0] * 3]
-        self.xd = [[0.0] * 3, [0.0] * 3]
-        self.xc = [[0.0] * 3, [0.0] * 3]
-        self.xx = [[0.0] * 9, [0.0] * 9]
+        self.state_ = np.zeros(1, MOUNT_STATE)
+        self._row = np.empty((1, 8))
+        self._closed = np.zeros(1, dtype=bool)
 
     def update(self, t: float, acc, gyr, speed: float = math.nan) -> bool:
         """Take one sample at ``t`` (s): ``acc`` (m/s^2, gravity included) and ``gyr`` (rad/s) device-frame
         3-vectors, ``speed`` (m/s) on a GPS fix, NaN otherwise. True when it closed a speed-change interval."""
-        a0, a1, a2 = float(acc[0]), float(acc[1]), float(acc[2])
-        w0, w1, w2 = float(gyr[0]), float(gyr[1]), float(gyr[2])
-        c, lean = self.lean_c, self.lean
-        if not all(math.isfinite(v) for v in (a0, a1, a2, w0, w1, w2)):
-            lean[0], lean[1], lean[2] = c * lean[0], c * lean[1], c * lean[2]
-            return False
-        step = 1.0 / self.rate
-        lean[0], lean[1], lean[2] = c * lean[0] + w0 * step, c * lean[1] + w1 * step, c * lean[2] + w2 * step
-        self.valid += 1
-        f = self.force
-        f[0] += a0; f[1] += a1; f[2] += a2  # noqa: E702
-        norm_a = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
-        if math.sqrt(w0 * w0 + w1 * w1 + w2 * w2) < QUIET_RATE and abs(norm_a - GRAVITY) < QUIET_FORCE:
-            self.quiet += 1
-            q = self.quiet_force
-            q[0] += a0; q[1] += a1; q[2] += a2  # noqa: E702
-        s = self.inside_sums
-        for k, v in enumerate((a0, a1, a2, lean[0], lean[1], lean[2], w0, w1, w2)):
-            s[k] += v
-        self.inside += 1
-        speed = float(speed)
-        if not math.isfinite(speed):
-            return False
-        if self.fix is None or t <= self.fix[0]:
-            self._open(t, speed)
-            return False
-        if t - self.fix[0] < MIN_INTERVAL:
-            return False
-        d = (speed - self.fix[1]) / (t - self.fix[0])
-        g = self.quiet_force if self.quiet > 0 else self.force
-        yaw = (g[0] * s[6] + g[1] * s[7] + g[2] * s[8]) / (self.inside * math.sqrt(g[0] * g[0] + g[1] * g[1]
-                                                                                     + g[2] * g[2]))
-        turn = 0.5 * (speed + self.fix[1]) * yaw
-        self.n += 1
-        self.d += d
-        self.dd += d * d
-        self.c += turn
-        self.cc += turn * turn
-        self.dc += d * turn
-        for cue in range(2):
-            x = [s[3 * cue + k] / self.inside for k in range(3)]
-            sx, sxd, sxc, sxx = self.x[cue], self.xd[cue], self.xc[cue], self.xx[cue]
-            for i in range(3):
-                sx[i] += x[i]
-                sxd[i] += x[i] * d
-                sxc[i] += x[i] * turn
-                for j in range(3):
-                    sxx[3 * i + j] += x[i] * x[j]
-        self._open(t, speed)
-        return True
+        row = self._row[0]
+        row[0], row[1:4], row[4:7], row[7] = t, acc, gyr, speed
+        self._accumulate(self._row, self._closed)
+        return bool(self._closed[0])
 
-    def _open(self, t: float, speed: float) -> None:
-        """Start the next interval at the fix ``(t, speed)``."""
-        self.fix = (t, speed)
-        self.inside = 0
-        self.inside_sums = [0.0] * 9
+    def update_block(self, rows: np.ndarray) -> np.ndarray:
+        """:meth:`update` for each row ``(t, ax, ay, az, gx, gy, gz, speed)`` of ``rows`` ``(n, 8)``; whether each
+        closed an interval ``(n,)``."""
+        rows = np.ascontiguousarray(rows, dtype=float)
+        closed = np.zeros(len(rows), dtype=bool)
+        self._accumulate(rows, closed)
+        return closed
+
+    def _accumulate(self, rows: np.ndarray, closed: np.ndarray) -> None:
+        _accumulate(self.state_, rows, closed, self.lean_c, 1.0 / self.rate, QUIET_RATE, QUIET_FORCE, GRAVITY,
+                    MIN_INTERVAL)
+
+    @property
+    def quiet(self) -> int:
+        """Quiet samples so far."""
+        return int(self.state_[0]["quiet"])
+
+    @property
+    def valid(self) -> int:
+        """Valid (finite) samples so far."""
+        return int(self.state_[0]["valid"])
 
     def up(self, min_quiet: float = MIN_QUIET) -> tuple[np.ndarray, bool]:
         """``(up, trusted)``: the unit vertical (device frame) from the quiet samples, or from all of them
         (``trusted`` False) when fewer than ``min_quiet`` of them are quiet."""
-        trusted = self.quiet > 0 and self.quiet >= min_quiet * self.valid
-        return _unit(np.array(self.quiet_force if trusted else self.force)), trusted
+        s = self.state_[0]
+        trusted = s["quiet"] > 0 and s["quiet"] >= min_quiet * s["valid"]
+        return _unit(s["quiet_force"] if trusted else s["force"]), trusted
 
     def forward(self, up: np.ndarray) -> tuple[np.ndarray | None, str, float]:
         """``(forward, source, r)`` from the speed changes (``forward`` a horizontal unit vector, device frame), or
         ``(None, '', r)`` with fewer than :data:`MIN_INTERVALS` changes, too little change or no significant ``r``
         (``r`` NaN when not computed)."""
-        if self.n < MIN_INTERVALS:
+        s = self.state_[0]
+        n = float(s["n"])
+        if n < MIN_INTERVALS:
             return None, "", math.nan
-        n = self.n
-        sdd = self.dd - self.d * self.d / n
+        sdd = s["dd"] - s["d"] * s["d"] / n
         if sdd <= 0 or math.sqrt(sdd / n) < MIN_SPEED_CHANGE:
             return None, "", math.nan
-        scc = self.cc - self.c * self.c / n
-        sdc = self.dc - self.d * self.c / n
+        scc = s["cc"] - s["c"] * s["c"] / n
+        sdc = s["dc"] - s["d"] * s["c"] / n
         turns = scc > 0 and sdd * scc - sdc * sdc > 0
         best = (None, "", -math.inf)
         for cue, name in enumerate(_CUES):
-            sx = np.array(self.x[cue])
-            sxd = np.array(self.xd[cue]) - sx * self.d / n
-            sxc = np.array(self.xc[cue]) - sx * self.c / n
-            sxx = np.array(self.xx[cue]).reshape(3, 3) - np.outer(sx, sx) / n
+            sx = s["x"][cue]
+            sxd = s["xd"][cue] - sx * s["d"] / n
+            sxc = s["xc"][cue] - sx * s["c"] / n
+            sxx = s["xx"][cue] - np.outer(sx, sx) / n
             w = _horizontal(sxd * scc - sxc * sdc if turns else sxd, up)
             size = float(np.linalg.norm(w))
             if size == 0:
@@ -319,6 +289,81 @@ class MountStatistics:
         return result
 
 
+@numba.njit(cache=True, nogil=True)
+def _accumulate(state, rows, closed, lean_c, step, quiet_rate, quiet_force, g, min_interval):
+    """:meth:`MountStatistics.update_block`: each row ``(t, ax, ay, az, gx, gy, gz, speed)`` into ``state[0]``."""
+    s = state[0]
+    lean, sums = s["lean"], s["inside_sums"]
+    for k in range(rows.shape[0]):
+        t, a0, a1, a2, w0, w1, w2, speed = rows[k]
+        closed[k] = False
+        if not (math.isfinite(a0) and math.isfinite(a1) and math.isfinite(a2) and math.isfinite(w0)
+                and math.isfinite(w1) and math.isfinite(w2)):
+            lean[0], lean[1], lean[2] = lean_c * lean[0], lean_c * lean[1], lean_c * lean[2]
+            continue
+        lean[0] = lean_c * lean[0] + w0 * step
+        lean[1] = lean_c * lean[1] + w1 * step
+        lean[2] = lean_c * lean[2] + w2 * step
+        s["valid"] += 1.0
+        f = s["force"]
+        f[0] += a0
+        f[1] += a1
+        f[2] += a2
+        norm_a = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+        if math.sqrt(w0 * w0 + w1 * w1 + w2 * w2) < quiet_rate and abs(norm_a - g) < quiet_force:
+            s["quiet"] += 1.0
+            q = s["quiet_force"]
+            q[0] += a0
+            q[1] += a1
+            q[2] += a2
+        values = (a0, a1, a2, lean[0], lean[1], lean[2], w0, w1, w2)
+        for j in range(9):
+            sums[j] += values[j]
+        s["inside"] += 1.0
+        if not math.isfinite(speed):
+            continue
+        fix = s["fix"]
+        if not s["has_fix"] or t <= fix[0]:
+            _open(s, t, speed)
+            continue
+        if t - fix[0] < min_interval:
+            continue
+        d = (speed - fix[1]) / (t - fix[0])
+        up = s["quiet_force"] if s["quiet"] > 0 else s["force"]
+        yaw = (up[0] * sums[6] + up[1] * sums[7] + up[2] * sums[8]) / (
+            s["inside"] * math.sqrt(up[0] * up[0] + up[1] * up[1] + up[2] * up[2]))
+        turn = 0.5 * (speed + fix[1]) * yaw
+        s["n"] += 1.0
+        s["d"] += d
+        s["dd"] += d * d
+        s["c"] += turn
+        s["cc"] += turn * turn
+        s["dc"] += d * turn
+        for cue in range(2):
+            x0 = sums[3 * cue] / s["inside"]
+            x1 = sums[3 * cue + 1] / s["inside"]
+            x2 = sums[3 * cue + 2] / s["inside"]
+            x = (x0, x1, x2)
+            for i in range(3):
+                s["x"][cue, i] += x[i]
+                s["xd"][cue, i] += x[i] * d
+                s["xc"][cue, i] += x[i] * turn
+                for j in range(3):
+                    s["xx"][cue, i, j] += x[i] * x[j]
+        _open(s, t, speed)
+        closed[k] = True
+
+
+@numba.njit(cache=True, nogil=True)
+def _open(s, t, speed):
+    """Start the next interval at the fix ``(t, speed)``."""
+    s["fix"][0] = t
+    s["fix"][1] = speed
+    s["has_fix"] = True
+    s["inside"] = 0.0
+    s["inside_sums"][:] = 0.0
+
+
 def top_edge_forward(up: np.ndarray) -> np.ndarray:
     """Forward (device frame, unit, horizontal) when the data do not tell: the horizontal part of ``y - z`` (the
     top edge of a phone lying flat, the back of one standing upright), of ``y + z`` when that vanishes."""
@@ -340,9 +385,7 @@ def estimate_mount(rec: Recording, choice: str = "auto") -> MountEstimate:
     stats = MountStatistics(rec.rate)
     speed = rec.channels.get("speed")
     speeds = np.full(len(rec), np.nan) if speed is None else speed
-    rows = np.column_stack([rec.time, rec.array(ACC_CHANNELS), rec.array(GYRO_CHANNELS), speeds]).tolist()
-    for t, a0, a1, a2, w0, w1, w2, v in rows:
-        stats.update(t, (a0, a1, a2), (w0, w1, w2), v)
+    stats.update_block(np.column_stack([rec.time, rec.array(ACC_CHANNELS), rec.array(GYRO_CHANNELS), speeds]))
     return stats.estimate(choice, f"{rec.source}: ", speed_given=speed is not None)
 
 
