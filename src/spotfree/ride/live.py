@@ -12,10 +12,9 @@ first samples (gravity at rest or cruising, then forward from the GPS speed chan
 nominal mount until it decides, then the mount it decided: the segment's samples so far (at most
 :data:`HISTORY_SECONDS`) are run again through the features and windows of the new mount, so that from then on
 features and labels are those of the causal :func:`~spotfree.signal.features.ride_features` with that mount, and
-no label is lost. Its reports (the mount, and whether it is unusual or
-uncertain) are events for the ride record (:meth:`LiveRide.pop_events`).
-The page runs the same tracker (``MountTracker`` in ``static/pipeline.js``) on the same samples, so it switches at
-the same sample.
+no label is lost. Its reports (the mount, and whether it is unusual or uncertain) are events for the ride record
+(:meth:`LiveRide.pop_events`). The page runs the same tracker (``MountTracker`` in ``static/pipeline.js``) on the
+same samples, so it switches at the same sample.
 
 :func:`pipeline_spec` is the same pipeline as numbers for the page's JavaScript copy (``static/pipeline.js``):
 filter coefficients, the mount tracker's parameters, the channel scales and the CRC_RLS residual operators
@@ -131,9 +130,7 @@ class LiveRide:
             rows = [self.update(r[0], r[1:4], r[4:7], r[9]) for r in table.tolist()]
             return np.array([f for f, _ in rows]), [label for _, label in rows]
         t = table[:, 0]
-        remounts = {} if self.mount.final else {
-            k: self.mount.used for k, r in enumerate(table[:, _IMU_COLUMNS].tolist())
-            if self.mount.update(t[k], r[:3], r[3:6], r[6])}
+        remounts = {} if self.mount.final else dict(self.mount.update_block(table[:, _TRACKED_COLUMNS]))
         feats = np.empty((len(table), len(FEATURE_COLUMNS)))
         labels: list[str | None] = []
         for rows, fresh in _split(segment_runs(t, self._time, self.max_gap), remounts):
@@ -161,6 +158,8 @@ def _split(runs: list[tuple[slice, bool]], starts) -> list[tuple[slice, bool]]:
 
 _IMU_COLUMNS = np.array([SAMPLE_COLUMNS.index(c) for c in ("ax", "ay", "az", "gx", "gy", "gz", "speed")])
 """Where :meth:`LiveRide.update_block` finds the IMU values and the GPS speed in a sample table."""
+_TRACKED_COLUMNS = np.array([SAMPLE_COLUMNS.index(c) for c in ("time", "ax", "ay", "az", "gx", "gy", "gz", "speed")])
+"""The sample-table columns the mount tracker takes (:meth:`~spotfree.signal.mount.MountTracker.update_block`)."""
 
 
 _TRACKER_PARAMETERS = ("QUIET_RATE", "QUIET_FORCE", "MIN_INTERVAL", "MIN_INTERVALS", "SIGNIFICANCE",

@@ -176,28 +176,23 @@ class MountStatistics:
         self.rate = float(rate)
         self.lean_c = math.exp(-1.0 / (LEAN_TIME_CONSTANT * self.rate))
         self.state_ = np.zeros(1, MOUNT_STATE)
-        self._row = np.empty((1, 8))
-        self._closed = np.zeros(1, dtype=bool)
 
     def update(self, t: float, acc, gyr, speed: float = math.nan) -> bool:
         """Take one sample at ``t`` (s): ``acc`` (m/s^2, gravity included) and ``gyr`` (rad/s) device-frame
         3-vectors, ``speed`` (m/s) on a GPS fix, NaN otherwise. True when it closed a speed-change interval."""
-        row = self._row[0]
-        row[0], row[1:4], row[4:7], row[7] = t, acc, gyr, speed
-        self._accumulate(self._row, self._closed)
-        return bool(self._closed[0])
+        return self.take(np.array([[t, *acc, *gyr, speed]]))[1]
 
-    def update_block(self, rows: np.ndarray) -> np.ndarray:
-        """:meth:`update` for each row ``(t, ax, ay, az, gx, gy, gz, speed)`` of ``rows`` ``(n, 8)``; whether each
-        closed an interval ``(n,)``."""
-        rows = np.ascontiguousarray(rows, dtype=float)
-        closed = np.zeros(len(rows), dtype=bool)
-        self._accumulate(rows, closed)
-        return closed
+    def update_block(self, rows: np.ndarray) -> None:
+        """:meth:`update` for each row ``(t, ax, ay, az, gx, gy, gz, speed)`` of ``rows`` ``(n, 8)``."""
+        self.take(rows)
 
-    def _accumulate(self, rows: np.ndarray, closed: np.ndarray) -> None:
-        _accumulate(self.state_, rows, closed, self.lean_c, 1.0 / self.rate, QUIET_RATE, QUIET_FORCE, GRAVITY,
-                    MIN_INTERVAL)
+    def take(self, rows: np.ndarray, quiet_target: float = math.inf, stop_on_close: bool = False,
+             until: float = math.inf) -> tuple[int, bool]:
+        """Take the rows ``(t, ax, ay, az, gx, gy, gz, speed)`` of ``rows`` ``(n, 8)`` up to the first after which
+        the quiet samples number ``quiet_target``, an interval closed (with ``stop_on_close``) or ``t >= until``
+        (s): ``(rows taken, whether the last closed an interval)``."""
+        return _accumulate(self.state_, np.ascontiguousarray(rows, dtype=float), self.lean_c, 1.0 / self.rate,
+                           QUIET_RATE, QUIET_FORCE, GRAVITY, MIN_INTERVAL, quiet_target, stop_on_close, until)
 
     @property
     def quiet(self) -> int:
@@ -290,68 +285,74 @@ class MountStatistics:
 
 
 @numba.njit(cache=True, nogil=True)
-def _accumulate(state, rows, closed, lean_c, step, quiet_rate, quiet_force, g, min_interval):
-    """:meth:`MountStatistics.update_block`: each row ``(t, ax, ay, az, gx, gy, gz, speed)`` into ``state[0]``."""
+def _accumulate(state, rows, lean_c, step, quiet_rate, quiet_force, g, min_interval, quiet_target, stop_on_close,
+                until):
+    """:meth:`MountStatistics.take`: rows ``(t, ax, ay, az, gx, gy, gz, speed)`` into ``state[0]``."""
     s = state[0]
-    lean, sums = s["lean"], s["inside_sums"]
     for k in range(rows.shape[0]):
-        t, a0, a1, a2, w0, w1, w2, speed = rows[k]
-        closed[k] = False
-        if not (math.isfinite(a0) and math.isfinite(a1) and math.isfinite(a2) and math.isfinite(w0)
-                and math.isfinite(w1) and math.isfinite(w2)):
-            lean[0], lean[1], lean[2] = lean_c * lean[0], lean_c * lean[1], lean_c * lean[2]
-            continue
-        lean[0] = lean_c * lean[0] + w0 * step
-        lean[1] = lean_c * lean[1] + w1 * step
-        lean[2] = lean_c * lean[2] + w2 * step
-        s["valid"] += 1.0
-        f = s["force"]
-        f[0] += a0
-        f[1] += a1
-        f[2] += a2
-        norm_a = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
-        if math.sqrt(w0 * w0 + w1 * w1 + w2 * w2) < quiet_rate and abs(norm_a - g) < quiet_force:
-            s["quiet"] += 1.0
-            q = s["quiet_force"]
-            q[0] += a0
-            q[1] += a1
-            q[2] += a2
-        values = (a0, a1, a2, lean[0], lean[1], lean[2], w0, w1, w2)
-        for j in range(9):
-            sums[j] += values[j]
-        s["inside"] += 1.0
-        if not math.isfinite(speed):
-            continue
-        fix = s["fix"]
-        if not s["has_fix"] or t <= fix[0]:
-            _open(s, t, speed)
-            continue
-        if t - fix[0] < min_interval:
-            continue
-        d = (speed - fix[1]) / (t - fix[0])
-        up = s["quiet_force"] if s["quiet"] > 0 else s["force"]
-        yaw = (up[0] * sums[6] + up[1] * sums[7] + up[2] * sums[8]) / (
-            s["inside"] * math.sqrt(up[0] * up[0] + up[1] * up[1] + up[2] * up[2]))
-        turn = 0.5 * (speed + fix[1]) * yaw
-        s["n"] += 1.0
-        s["d"] += d
-        s["dd"] += d * d
-        s["c"] += turn
-        s["cc"] += turn * turn
-        s["dc"] += d * turn
-        for cue in range(2):
-            x0 = sums[3 * cue] / s["inside"]
-            x1 = sums[3 * cue + 1] / s["inside"]
-            x2 = sums[3 * cue + 2] / s["inside"]
-            x = (x0, x1, x2)
-            for i in range(3):
-                s["x"][cue, i] += x[i]
-                s["xd"][cue, i] += x[i] * d
-                s["xc"][cue, i] += x[i] * turn
-                for j in range(3):
-                    s["xx"][cue, i, j] += x[i] * x[j]
+        closed = _sample(s, rows[k], lean_c, step, quiet_rate, quiet_force, g, min_interval)
+        if s["quiet"] >= quiet_target or (closed and stop_on_close) or rows[k, 0] >= until:
+            return k + 1, closed
+    return rows.shape[0], False
+
+
+@numba.njit(cache=True, nogil=True)
+def _sample(s, row, lean_c, step, quiet_rate, quiet_force, g, min_interval):
+    """One row into the record ``s``; True when it closed a speed-change interval."""
+    lean, sums = s["lean"], s["inside_sums"]
+    t, a0, a1, a2, w0, w1, w2, speed = row
+    if not (math.isfinite(a0) and math.isfinite(a1) and math.isfinite(a2) and math.isfinite(w0)
+            and math.isfinite(w1) and math.isfinite(w2)):
+        lean[0], lean[1], lean[2] = lean_c * lean[0], lean_c * lean[1], lean_c * lean[2]
+        return False
+    lean[0] = lean_c * lean[0] + w0 * step
+    lean[1] = lean_c * lean[1] + w1 * step
+    lean[2] = lean_c * lean[2] + w2 * step
+    s["valid"] += 1.0
+    f = s["force"]
+    f[0] += a0
+    f[1] += a1
+    f[2] += a2
+    norm_a = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+    if math.sqrt(w0 * w0 + w1 * w1 + w2 * w2) < quiet_rate and abs(norm_a - g) < quiet_force:
+        s["quiet"] += 1.0
+        q = s["quiet_force"]
+        q[0] += a0
+        q[1] += a1
+        q[2] += a2
+    values = (a0, a1, a2, lean[0], lean[1], lean[2], w0, w1, w2)
+    for j in range(9):
+        sums[j] += values[j]
+    s["inside"] += 1.0
+    if not math.isfinite(speed):
+        return False
+    fix = s["fix"]
+    if not s["has_fix"] or t <= fix[0]:
         _open(s, t, speed)
-        closed[k] = True
+        return False
+    if t - fix[0] < min_interval:
+        return False
+    d = (speed - fix[1]) / (t - fix[0])
+    up = s["quiet_force"] if s["quiet"] > 0 else s["force"]
+    yaw = (up[0] * sums[6] + up[1] * sums[7] + up[2] * sums[8]) / (
+        s["inside"] * math.sqrt(up[0] * up[0] + up[1] * up[1] + up[2] * up[2]))
+    turn = 0.5 * (speed + fix[1]) * yaw
+    s["n"] += 1.0
+    s["d"] += d
+    s["dd"] += d * d
+    s["c"] += turn
+    s["cc"] += turn * turn
+    s["dc"] += d * turn
+    for cue in range(2):
+        x = (sums[3 * cue] / s["inside"], sums[3 * cue + 1] / s["inside"], sums[3 * cue + 2] / s["inside"])
+        for i in range(3):
+            s["x"][cue, i] += x[i]
+            s["xd"][cue, i] += x[i] * d
+            s["xc"][cue, i] += x[i] * turn
+            for j in range(3):
+                s["xx"][cue, i, j] += x[i] * x[j]
+    _open(s, t, speed)
+    return True
 
 
 @numba.njit(cache=True, nogil=True)
@@ -403,10 +404,10 @@ class MountTracker:
 
     Until :data:`LIVE_QUIET_SECONDS` of quiet samples have come, the nominal mount is used. Then the vertical is
     known, and forward is taken from the GPS speed changes if they tell it (as offline), else from the phone's top
-    edge (or back); the mount decided is used if
-    it is unusual (:data:`USUAL_ANGLE`), else the nominal one. While forward is only assumed, each closed speed
-    change is tried again until the GPS speed tells; then the mount is final and the statistics stop. Whenever the
-    mount used changes, :meth:`update` says so, and the features start a new segment at that sample.
+    edge (or back); the mount decided is used if it is unusual (:data:`USUAL_ANGLE`), else the nominal one. While
+    forward is only assumed, each closed speed change is tried again until the GPS speed tells; then the mount is
+    final and the statistics stop. Whenever the mount used changes, :meth:`update` (:meth:`update_block`) says so
+    (where).
 
     ``reports`` collects ``(t, kind, detail)`` for the ride record (``detail`` at most 100 characters): each
     decision, of kind ``mount`` (usual: the nominal mount is used) or ``unusual-mount`` (the estimate is used), and,
@@ -430,25 +431,39 @@ class MountTracker:
 
     def update(self, t: float, acc, gyr, speed: float = math.nan) -> bool:
         """Take one sample (as :meth:`MountStatistics.update`); True when the mount used changes at it."""
-        if self.final:
-            return False
-        if self._start is None:
-            self._start = t
-        self._has_speed = self._has_speed or math.isfinite(speed)
-        closed = self.statistics.update(t, acc, gyr, speed)
-        changed = False
-        if self.stage == "nominal" and self.statistics.quiet >= LIVE_QUIET_SECONDS * self.rate:
-            changed = self._decide(t)
-        elif self.stage == "vertical" and closed and self.statistics.forward(self.statistics.up(0.0)[0])[0] is not None:
-            changed = self._decide(t)
-        if not self._doubted and not self.final and t - self._start >= UNCERTAIN_SECONDS:
-            self._doubted = True
-            self.reports.append((t, REPORT_KINDS[2], (
-                f"no {LIVE_QUIET_SECONDS:g} s at rest or cruising in {UNCERTAIN_SECONDS:g} s; nominal mount used"
-                if self.stage == "nominal" else
-                "GPS speed has not told forward; assumed: the top edge or back" if self._has_speed else
-                "no GPS speed to tell forward; assumed: the top edge or back")))
-        return changed
+        return bool(self.update_block(np.array([[t, *acc, *gyr, speed]])))
+
+    def update_block(self, rows: np.ndarray) -> list[tuple[int, np.ndarray]]:
+        """:meth:`update` for each row ``(t, ax, ay, az, gx, gy, gz, speed)`` of ``rows`` ``(n, 8)``: ``(row, mount
+        used from that row on)`` for each change, the statistics taken in one compiled call between decisions."""
+        changes = []
+        i, n = 0, len(rows)
+        while i < n and not self.final:
+            if self._start is None:
+                self._start = float(rows[i, 0])
+            quiet = LIVE_QUIET_SECONDS * self.rate if self.stage == "nominal" else math.inf
+            until = math.inf if self._doubted else self._start + UNCERTAIN_SECONDS
+            taken, closed = self.statistics.take(rows[i:], quiet, self.stage == "vertical", until)
+            k = i + taken - 1
+            t = float(rows[k, 0])
+            self._has_speed = self._has_speed or bool(np.isfinite(rows[i:k + 1, 7]).any())
+            i += taken
+            changed = False
+            if self.stage == "nominal" and self.statistics.quiet >= quiet:
+                changed = self._decide(t)
+            elif self.stage == "vertical" and closed and self.statistics.forward(self.statistics.up(0.0)[0])[0] \
+                    is not None:
+                changed = self._decide(t)
+            if changed:
+                changes.append((k, self.used))
+            if not self._doubted and not self.final and t - self._start >= UNCERTAIN_SECONDS:
+                self._doubted = True
+                self.reports.append((t, REPORT_KINDS[2], (
+                    f"no {LIVE_QUIET_SECONDS:g} s at rest or cruising in {UNCERTAIN_SECONDS:g} s; nominal mount "
+                    f"used" if self.stage == "nominal" else
+                    "GPS speed has not told forward; assumed: the top edge or back" if self._has_speed else
+                    "no GPS speed to tell forward; assumed: the top edge or back")))
+        return changes
 
     def _decide(self, t: float) -> bool:
         """Estimate now; True when the mount used changes."""
