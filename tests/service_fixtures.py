@@ -4,11 +4,13 @@ experiment, sample columns as JSON sends them, and devices enrolled as a phone i
 from __future__ import annotations
 
 import contextlib
+import itertools
 import math
 import socket
 import threading
 import time
 
+import numpy as np
 import pytest
 
 from classify_fixtures import rides, truth_model
@@ -28,6 +30,21 @@ def model(raw):
 def columns(rows) -> dict[str, list]:
     """Sample rows ``(n, len(SAMPLE_COLUMNS))`` as the JSON columns of a batch (None for NaN)."""
     return {name: [None if math.isnan(v) else float(v) for v in rows[:, j]] for j, name in enumerate(SAMPLE_COLUMNS)}
+
+
+def sample_and_block_runs(one, blocks, rows, sizes):
+    """Feed ``rows`` to the LiveRide ``one`` sample by sample and to ``blocks`` in blocks of the cycled ``sizes``:
+    ``(want, features, labels)``, ``want`` the ``(features, label)`` pairs of ``one``."""
+    want = [one.update(r[0], r[1:4], r[4:7], r[9]) for r in rows]
+    got_features, got_labels, k = [], [], 0
+    for size in itertools.cycle(sizes):
+        if k >= len(rows):
+            break
+        feats, labels = blocks.update_block(rows[k:k + size])
+        got_features.append(feats)
+        got_labels += labels
+        k += size
+    return want, np.vstack(got_features), got_labels
 
 
 def bearer(token: str) -> dict[str, str]:

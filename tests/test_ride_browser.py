@@ -11,6 +11,7 @@ import threading
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 playwright_api = pytest.importorskip("playwright.sync_api")
@@ -106,6 +107,29 @@ def test_phone_streams_and_labels_equal_server(server, browser):
         (w["kind"], pytest.approx(w["time"])) for w in page.evaluate("window.spotfree.state.localWarnings")
         if w["time"] <= remote_time(page)]
     page.screenshot(path=str(SHOTS / "phone.png"))
+    page.close()
+
+
+def test_an_upright_phone_finds_its_mount_with_the_server(server, browser):
+    """A phone standing upright in a holder: the page's mount tracker switches with the server's, so its labels
+    stay the server's; the page says the mount is unusual and the ride record has it."""
+    url, service, rows = server
+    upright = _mid_slot(rows)
+    q = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
+    upright[:, 1:4], upright[:, 4:7] = upright[:, 1:4] @ q.T, upright[:, 4:7] @ q.T
+    page = _started_phone(browser, url, service)
+    for k in range(0, 800, 40):
+        page.evaluate(MOTION, [_rows_js(upright[k:k + 40]), 1000.0])
+        page.wait_for_timeout(100)
+    page.evaluate(MOTION, [_rows_js(upright[800:801]), 1000.0])
+    page.wait_for_function("() => window.spotfree.state.serverLabels.length >= 790", timeout=20000)
+    remote = page.evaluate("window.spotfree.state.serverLabels")
+    assert page.evaluate("window.spotfree.state.localLabels")[:len(remote)] == remote
+    assert len(set(filter(None, remote))) > 1
+    assert page.evaluate("window.spotfree.state.pipeline.mount.stage") == "final"
+    assert "unusual: features use it" in page.inner_text("#mount")
+    kinds = [e.kind for e in service.store.events(page.evaluate("window.spotfree.state.rideId"))]
+    assert kinds[:2] == ["unusual-mount", "unusual-mount"]
     page.close()
 
 

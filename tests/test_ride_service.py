@@ -1,7 +1,6 @@
 """The live service's web API with FastAPI's TestClient: devices, rides, batches, refusals, rate, warnings, views,
 push, pipeline; and ``spotfree serve --simulate`` in a subprocess."""
 
-import itertools
 import json
 import math
 import shutil
@@ -14,7 +13,7 @@ pytest.importorskip("fastapi")
 from fastapi.testclient import TestClient  # noqa: E402
 
 from classify_fixtures import truth_model  # noqa: E402
-from service_fixtures import bearer, columns as _columns, enrol, model, raw  # noqa: E402,F401
+from service_fixtures import bearer, columns as _columns, enrol, model, raw, sample_and_block_runs  # noqa: E402,F401
 from spotfree.classify.batch import dictionary_classifier  # noqa: E402
 from spotfree.classify.stream import RideClassifier  # noqa: E402
 from spotfree.ride.api import create_app  # noqa: E402
@@ -24,6 +23,8 @@ from spotfree.ride import service as service_module  # noqa: E402
 from spotfree.ride.service import BACKLOG_SECONDS, RATE_FACTOR, RideService  # noqa: E402
 from spotfree.ride.sources import recording_rows  # noqa: E402
 from spotfree.ride.store import RideStore  # noqa: E402
+from spotfree.signal.frame import MOUNT  # noqa: E402
+from spotfree.signal.mount import REPORT_KINDS  # noqa: E402
 
 
 @pytest.fixture()
@@ -62,18 +63,10 @@ def test_live_ride_blocks_equal_sample_by_sample_across_gaps_and_nan(raw, model,
     rows[200:, 0] += 2.0  # a time gap longer than MAX_GAP: a new segment
     rows[350, 2] = np.nan  # a sample that is not finite: a gap of one sample
     clf = dictionary_classifier(model, method, causal=True)
-    one, blocks = LiveRide(model, clf), LiveRide(model, clf)
-    want = [one.update(r[0], r[1:4], r[4:7], r[9]) for r in rows]
-    got_features, got_labels, k = [], [], 0
-    for size in itertools.cycle([1, 5, 7, 3, 40]):
-        if k >= len(rows):
-            break
-        feats, labels = blocks.update_block(rows[k:k + size])
-        got_features.append(feats)
-        got_labels += labels
-        k += size
+    want, got_features, got_labels = sample_and_block_runs(LiveRide(model, clf), LiveRide(model, clf), rows,
+                                                          [1, 5, 7, 3, 40])
     assert got_labels == [label for _, label in want]
-    np.testing.assert_array_equal(np.vstack(got_features), np.array([f for f, _ in want]))
+    np.testing.assert_array_equal(got_features, np.array([f for f, _ in want]))
     assert got_labels[200] is None and got_labels[350] is None and got_labels[351] is None
     assert len(set(got_labels) - {None}) >= 2
 
@@ -242,7 +235,13 @@ def test_sudden_stops_warn_once_each_and_are_recorded(client, raw, fake):
     assert all(per_stop[stops.index(s)] == 1 for s in sudden) and max(per_stop) == 1
     assert sum(per_stop) == len(warnings)  # no warning away from a stop
     stored = client.get(f"/api/rides/{ride_id}", headers=client.operator).json()["events"]
-    assert [(e["kind"], e["start"]) for e in stored] == [("sudden-braking", w["onset"]) for w in warnings]
+    mounts = [e for e in stored if e["kind"] in REPORT_KINDS]
+    assert [(e["kind"], e["start"]) for e in stored if e not in mounts] == [
+        ("sudden-braking", w["onset"]) for w in warnings]
+    # the tablet lies flat: its mount is reported, usual, as soon as it is known, and again once GPS tells forward
+    assert [e["kind"] for e in mounts] == ["mount", "mount"] and mounts[0]["start"] < 5
+    assert "nominal used" in mounts[0]["detail"] and "GPS speed" in mounts[1]["detail"]
+    events = [e for e in events if e["kind"] not in REPORT_KINDS]
     assert len(events) == len(warnings) - 1 or len(events) == len(warnings)  # the last may end with the ride
     final = states[-1]
     assert final["distance"] > 50 and final["remaining"] < 20 and final["speed"] is not None
@@ -283,9 +282,10 @@ def test_serve_simulate_end_to_end(tmp_path, model):
             except httpx.TransportError:
                 continue
             if rides_listed:
-                events = httpx.get(f"{url}/api/rides/{rides_listed[-1]['ride_id']}", headers=operator).json()["events"]
+                events = [e for e in httpx.get(f"{url}/api/rides/{rides_listed[-1]['ride_id']}",
+                                               headers=operator).json()["events"] if e["kind"] not in REPORT_KINDS]
         assert rides_listed and rides_listed[-1]["vehicle"].startswith("simulated sudden-braking")
-        assert rides_listed[-1]["live"] and events and events[0]["kind"] == "sudden-braking"
+        assert rides_listed[-1]["live"] and events and events[-1]["kind"] == "sudden-braking"
         assert httpx.get(url + "/rider").status_code == 200
         assert httpx.get(url + "/api/rides").status_code == 401
         assert oct(token_file.stat().st_mode & 0o777) == "0o600"
@@ -430,20 +430,30 @@ def summary_model(raw):
     return truth_model(raw.select_experiment(1), representation="summary")
 
 
+UPRIGHT = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
+"""``v_device = UPRIGHT @ v_flat_device``: the simulated tablet stood upright in a holder, screen to the rider."""
+
+
 @pytest.mark.skipif(shutil.which("node") is None, reason="node is not installed")
-@pytest.mark.parametrize("orientation, method, reject, summary", [
-    ("default", "kcrc", None, False), ("paper", "kcrc", None, False), ("default", "crc", None, False),
-    ("default", "kcrc", 0.3, False), ("default", "kcrc", None, True)])
+@pytest.mark.parametrize("orientation, method, reject, summary, mount", [
+    ("default", "kcrc", None, False, None), ("paper", "kcrc", None, False, None),
+    ("default", "crc", None, False, None), ("default", "kcrc", 0.3, False, None),
+    ("default", "kcrc", None, True, None), ("default", "kcrc", None, False, UPRIGHT),
+    ("paper", "crc", None, False, UPRIGHT)], ids=["default", "paper", "crc", "reject", "summary", "upright",
+                                                  "upright-paper-crc"])
 def test_page_pipeline_labels_equal_server(tmp_path, raw, model, summary_model, orientation, method, reject,
-                                           summary):
+                                           summary, mount):
     if summary:
         model = summary_model
     model.orientation = orientation
     try:
         rows = _ride_rows(raw)
+        if mount is not None:
+            rows[:, 1:4], rows[:, 4:7] = rows[:, 1:4] @ mount.T, rows[:, 4:7] @ mount.T
         clf = dictionary_classifier(model, method, reject=reject)
         live = LiveRide(model, classifier=clf)
         server = [live.update(r[0], r[1:4], r[4:7], r[9])[1] for r in rows]
+        reports = live.mount.pop_reports()
         data = {"spec": pipeline_spec(model, clf), "rows": [[None if math.isnan(v) else v for v in r] for r in rows]}
     finally:
         model.orientation = "default"
@@ -452,11 +462,17 @@ def test_page_pipeline_labels_equal_server(tmp_path, raw, model, summary_model, 
 const P = require(process.argv[1]);
 const d = JSON.parse(require('fs').readFileSync(process.argv[2]));
 const p = new P.Pipeline(d.spec);
-console.log(JSON.stringify(d.rows.map((r) => p.update(r[0], r.slice(1, 4), r.slice(4, 7), r[9] === null ? NaN : r[9]).label)));
+const labels = d.rows.map((r) => p.update(r[0], r.slice(1, 4), r.slice(4, 7), r[9] === null ? NaN : r[9]).label);
+console.log(JSON.stringify({labels, used: p.mount.used, stage: p.mount.stage}));
 """
     from spotfree.ride.api import STATIC
 
     page = subprocess.run(["node", "-e", script, str(STATIC / "pipeline.js"), str(tmp_path / "in.json")],
                           capture_output=True, text=True, check=True)
-    assert json.loads(page.stdout) == server
+    answer = json.loads(page.stdout)
+    assert answer["labels"] == server
     assert len(set(server) - {None}) > 1  # the labels move: equality is not trivial
+    assert answer["stage"] == live.mount.stage == "final" and len(reports) == 2  # vertical, then GPS forward
+    np.testing.assert_allclose(answer["used"], live.mount.used, atol=1e-12)
+    if mount is not None:  # the page switched with the server (twice: the labels would differ otherwise)
+        assert not np.array_equal(live.mount.used, MOUNT)

@@ -64,3 +64,11 @@ def test_ride_features_of_a_track_say_plainly_that_motion_sensors_are_needed(tmp
     path, *_ = braking_track(tmp_path / "ride.gpx")
     with pytest.raises(InputError, match="GPX track holds GPS fixes only, no motion sensors"):
         ride_features(read_recording(path))
+
+
+def test_training_on_a_track_is_refused_in_one_line_that_names_the_motion_sensors(tmp_path):
+    path, *_ = braking_track(tmp_path / "ride.gpx")
+    result = CliRunner().invoke(app, ["train", "-o", str(tmp_path / "m.npz"), "--experiment", f"{path}=cruising"])
+    assert result.exit_code == 2 and result.stderr.count("error:") == 1
+    said = " ".join(result.stderr.split())
+    assert "no motion sensors" in said and "accelerometer and gyroscope" in said and "spotfree features" in said

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from spotfree.errors import InputError
 from spotfree.io import read_recording
-from spotfree.io.recording import Recording
+from spotfree.io.recording import GPS_CHANNELS, Recording
 from spotfree.limits import check_recording
 from spotfree.signal.body import body_features
 from spotfree.signal.features import DERIVED_CHANNELS, FEATURE_CHANNELS, ride_features
@@ -17,7 +17,8 @@ def feature_recording(spec: str, orientation: str = "default", rate: float = 20.
     """Read ``spec`` (``PATH`` or ``PATH@K``); a raw IMU log becomes, by ``features``, the ride features with the
     derived channels (:data:`~spotfree.signal.features.DERIVED_CHANNELS`: a phone on a vehicle's handlebar) or the
     body channels (:data:`~spotfree.signal.body.BODY_CHANNELS`: a phone in a pocket, a watch); any other log is used
-    as is.
+    as is, but a GPS-only log (a track: nothing for a model to learn from but where and how fast) is refused,
+    naming the motion sensors it lacks.
 
     ``meta['features']`` says which: ``"ride"`` (with ``meta['orientation']``), ``"body"`` or ``"channels"``.
     A log outside what a phone records is refused (:func:`spotfree.limits.check_recording`).
@@ -28,6 +29,8 @@ def feature_recording(spec: str, orientation: str = "default", rate: float = 20.
     check_recording(rec)
     if rec.has_imu and features == "body":
         return body_features(rec)
+    if not rec.has_imu and set(rec.names) <= set(GPS_CHANNELS):
+        rec.require_imu("a model's features; `spotfree features` gives a track's GPS features")
     if rec.has_imu:
         feats = ride_features(rec, orientation=orientation, derived=True)
         feats.meta.update(raw_meta=dict(rec.meta))

@@ -3,12 +3,22 @@
 :class:`LiveRide` runs the causal ride features (:class:`~spotfree.signal.features.FeatureStream`, derived
 channels included, for the operator's plot) and feeds the model's channels of them to
 :class:`~spotfree.classify.stream.RideClassifier` (``update_features``), so each sample is filtered once; the
-labels equal ``RideClassifier.update`` on the raw samples. A segment (filters, window buffer) starts afresh at a
-non-finite sample or a time step longer than ``max_gap`` s, as in :mod:`spotfree.classify.stream`.
+labels equal ``RideClassifier.update`` on the raw samples while the mount is the nominal one. A segment (filters,
+window buffer) starts afresh at a non-finite sample or a time step longer than ``max_gap`` s, as in
+:mod:`spotfree.classify.stream`.
+
+The mount: :class:`~spotfree.signal.mount.MountTracker` estimates the device-to-vehicle rotation from the ride's
+first samples (gravity at rest or cruising, then forward from the GPS speed changes); the features use the
+nominal mount until it decides, then the mount it decided: the segment's samples so far (at most
+:data:`HISTORY_SECONDS`) are run again through the features and windows of the new mount, so that from then on
+features and labels are those of the causal :func:`~spotfree.signal.features.ride_features` with that mount, and
+no label is lost. Its reports (the mount, and whether it is unusual or uncertain) are events for the ride record
+(:meth:`LiveRide.pop_events`). The page runs the same tracker (``MountTracker`` in ``static/pipeline.js``) on the
+same samples, so it switches at the same sample.
 
 :func:`pipeline_spec` is the same pipeline as numbers for the page's JavaScript copy (``static/pipeline.js``):
-filter coefficients, the channel scales and the CRC_RLS residual operators ``E_i = I - A_i P_i`` stacked row by
-row ``(C d, d)``, so the page keeps classifying when its connection drops.
+filter coefficients, the mount tracker's parameters, the channel scales and the CRC_RLS residual operators
+``E_i = I - A_i P_i`` stacked row by row ``(C d, d)``, so the page keeps classifying when its connection drops.
 """
 
 from __future__ import annotations
@@ -24,13 +34,19 @@ from spotfree.classify.stream import MAX_GAP, RideClassifier, segment_runs, star
 from spotfree.errors import InputError
 from spotfree.model import DictionaryModel
 from spotfree.representation import summary_tables
-from spotfree.ride.records import FEATURE_COLUMNS, SAMPLE_COLUMNS
+from spotfree.ride.records import FEATURE_COLUMNS, SAMPLE_COLUMNS, Event
 from spotfree.signal.butterworth import butter_lowpass
 from spotfree.signal.complementary import pi_complementary_design
 from spotfree.signal.features import LONG_CUTOFF, FeatureStream, lean_coefficients
+from spotfree.signal import mount as mount_tracking
 from spotfree.signal.frame import GRAVITY, MOUNT
+from spotfree.signal.mount import MountTracker
 from spotfree.signal.orientation import GravityPI
 from spotfree.signal.speed_aided import SpeedAidedParameters
+
+HISTORY_SECONDS = 120.0
+"""Seconds of the current segment held while the mount may still change, run again through the features of the
+new mount when it does."""
 
 PAGE_ORIENTATIONS = ("default", "paper")
 """Attitude filters the page's JavaScript pipeline implements."""
@@ -52,10 +68,38 @@ class LiveRide:
             raise InputError("the live service needs a model of ride features (trained on raw IMU logs)")
         self.model = model
         self.max_gap = max_gap
+        self.mount = MountTracker(model.rate)
         self._classifier = RideClassifier(model, classifier=classifier, max_gap=max_gap)
         self._features = FeatureStream(model.rate, model.orientation, derived=True)
         self._pick = np.array([FEATURE_COLUMNS.index(c) for c in model.channels])
         self._time: float | None = None
+        self._history: list[np.ndarray] = []
+        self._hold = int(round(HISTORY_SECONDS * model.rate))
+
+    def pop_events(self) -> list[Event]:
+        """The mount's reports since the last call (:class:`~spotfree.signal.mount.MountTracker`: kinds ``mount``,
+        ``unusual-mount``, ``uncertain-mount``) as events at the sample's time."""
+        return [Event(kind, t, t, detail) for t, kind, detail in self.mount.pop_reports()]
+
+    def _remount(self, mount: np.ndarray) -> None:
+        """Features and windows on ``mount``, from the start of the segment: the samples held are run again
+        through them (their labels dropped), so that the next sample is as if ``mount`` had been used all along."""
+        self._features = FeatureStream(self.model.rate, self.model.orientation, derived=True, mount=mount)
+        self._classifier.reset()
+        if self._history:
+            past = np.concatenate(self._history)[-self._hold:]
+            feats = self._features.update_block(past, _IMU_COLUMNS)
+            self._classifier.update_produced_block(feats, past[:, 0], [(slice(0, len(past)), True)])
+
+    def _hold_rows(self, rows: np.ndarray, switch_ahead: bool = False) -> None:
+        """Hold the sample rows just taken while the mount may still change (the last :data:`HISTORY_SECONDS`);
+        ``switch_ahead``: a later row of the block changes it (the tracker has seen the whole block)."""
+        if self.mount.final and not switch_ahead:
+            self._history = []
+            return
+        self._history.append(rows)
+        if sum(len(h) for h in self._history) > 2 * self._hold:
+            self._history = [np.concatenate(self._history)[-self._hold:]]
 
     def update(self, t: float, acc, gyr, speed: float = math.nan) -> tuple[np.ndarray, str | None]:
         """``(features, label)`` of one sample at ``t`` (s): ``acc`` (m/s^2, gravity included) and ``gyr``
@@ -65,35 +109,63 @@ class LiveRide:
         finite = all(math.isfinite(v) for v in values)
         previous, self._time = self._time, float(t)
         if not finite or starts_segment(previous, self._time, self.max_gap):
+            self._history = []
             self._features.reset()
+        if self.mount.update(self._time, acc, gyr, speed):
+            self._remount(self.mount.used)
         if not finite:
             nan = np.full(len(FEATURE_COLUMNS), np.nan)
             return nan, self._classifier.update_features(nan[self._pick], t)
         feats = self._features.update(acc, gyr, speed)
+        self._hold_rows(np.array([[self._time, *values, math.nan, math.nan, speed]]))
         return feats, self._classifier.update_features(feats[self._pick], t)
 
     def update_block(self, table: np.ndarray) -> tuple[np.ndarray, list[str | None]]:
         """:meth:`update` for every row of a sample table ``(n, 10)`` in
         :data:`~spotfree.ride.records.SAMPLE_COLUMNS` order (``time ax ay az gx gy gz lat lon speed``): features
-        ``(n, len(FEATURE_COLUMNS))`` and one label per row, from one compiled call per segment for the features
-        and one for the windows when the IMU values are finite."""
+        ``(n, len(FEATURE_COLUMNS))`` and one label per row, from one compiled call per segment (and mount) for
+        the features and one for the windows when the IMU values are finite."""
         table = np.asarray(table, dtype=float)
         if not math.isfinite(table[:, 1:7].sum()):  # NaN or infinity somewhere (or an overflow): sample by sample
             rows = [self.update(r[0], r[1:4], r[4:7], r[9]) for r in table.tolist()]
             return np.array([f for f, _ in rows]), [label for _, label in rows]
         t = table[:, 0]
-        runs = segment_runs(t, self._time, self.max_gap)
+        remounts = {} if self.mount.final else dict(self.mount.update_block(table[:, _TRACKED_COLUMNS]))
         feats = np.empty((len(table), len(FEATURE_COLUMNS)))
-        for rows, fresh in runs:
+        labels: list[str | None] = []
+        for rows, fresh in _split(segment_runs(t, self._time, self.max_gap), remounts):
             if fresh:
+                self._history = []
                 self._features.reset()
+            if rows.start in remounts:
+                self._remount(remounts[rows.start])
             feats[rows] = self._features.update_block(table[rows], _IMU_COLUMNS)
+            labels += self._classifier.update_produced_block(feats[rows], t[rows], [(slice(0, len(t[rows])), fresh)])
+            self._hold_rows(table[rows], any(k >= rows.stop for k in remounts))
         self._time = float(t[-1])
-        return feats, self._classifier.update_produced_block(feats, t, runs)
+        return feats, labels
+
+
+def _split(runs: list[tuple[slice, bool]], starts) -> list[tuple[slice, bool]]:
+    """``runs`` (:func:`~spotfree.classify.stream.segment_runs`) split before each row in ``starts`` (the pieces
+    go on the segment)."""
+    out = []
+    for rows, fresh in runs:
+        bounds = [rows.start, *(k for k in sorted(starts) if rows.start < k < rows.stop), rows.stop]
+        out += [(slice(a, b), fresh and a == rows.start) for a, b in zip(bounds, bounds[1:])]
+    return out
 
 
 _IMU_COLUMNS = np.array([SAMPLE_COLUMNS.index(c) for c in ("ax", "ay", "az", "gx", "gy", "gz", "speed")])
 """Where :meth:`LiveRide.update_block` finds the IMU values and the GPS speed in a sample table."""
+_TRACKED_COLUMNS = np.array([SAMPLE_COLUMNS.index(c) for c in ("time", "ax", "ay", "az", "gx", "gy", "gz", "speed")])
+"""The sample-table columns the mount tracker takes (:meth:`~spotfree.signal.mount.MountTracker.update_block`)."""
+
+
+_TRACKER_PARAMETERS = ("QUIET_RATE", "QUIET_FORCE", "MIN_INTERVAL", "MIN_INTERVALS", "SIGNIFICANCE",
+                       "MIN_SPEED_CHANGE", "USUAL_ANGLE", "LEAN_TIME_CONSTANT", "LIVE_QUIET_SECONDS",
+                       "UNCERTAIN_SECONDS")
+"""The constants of :mod:`spotfree.signal.mount` the page's ``MountTracker`` needs (sent lower-case)."""
 
 
 def _sections(sos: np.ndarray) -> dict:
@@ -106,7 +178,9 @@ def pipeline_spec(model: DictionaryModel, classifier=None) -> dict:
     """The model's streaming pipeline as JSON-ready numbers for ``static/pipeline.js`` (CRC_RLS or kernel CRC_RLS).
 
     Keys: ``classes``, ``channels``, ``pick`` (indices into :data:`FEATURE_COLUMNS`), ``rate`` (Hz), ``window``,
-    ``step``, ``scale``, ``normalisation``, ``affine``, ``max_gap`` (s), ``mount`` (device to vehicle axes),
+    ``step``, ``scale``, ``normalisation``, ``affine``, ``max_gap`` (s), ``mount`` (the nominal device to vehicle
+    axes, used until the ride's own is known), ``mount_tracker`` (the constants of :mod:`spotfree.signal.mount`,
+    lower-case), ``mount_history`` (:data:`HISTORY_SECONDS`),
     ``gravity`` (m/s^2), ``attitude`` (``kind`` and its parameters), ``lowpass`` and ``long_lowpass``
     (Butterworth sections), ``lean`` (``b``, ``a``, ``c``), ``speed_aided`` (noise densities), ``operator``
     (the ``(C d, d)`` residual operators, flat, row-major), ``reject`` (None when off), ``kernel`` (None for
@@ -159,6 +233,8 @@ def pipeline_spec(model: DictionaryModel, classifier=None) -> dict:
         "affine": model_affine(model),
         "max_gap": MAX_GAP,
         "mount": MOUNT.tolist(),
+        "mount_tracker": {name.lower(): float(getattr(mount_tracking, name)) for name in _TRACKER_PARAMETERS},
+        "mount_history": HISTORY_SECONDS,
         "gravity": GRAVITY,
         "attitude": attitude,
         "lowpass": _sections(butter_lowpass(model.rate)),

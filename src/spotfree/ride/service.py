@@ -1,17 +1,18 @@
 """The live ride service: devices stream samples, every ride is classified, assisted and recorded.
 
 :class:`RideService` is what the web API (:mod:`spotfree.ride.api`) calls. Per open ride it keeps a
-:class:`~spotfree.ride.live.LiveRide` (features and labels per sample) and an assistant (warnings, speed,
-distance, time to the destination). A batch of samples is taken in this order, so that a refused batch changes
-nothing: (1) the token must be the one the ride was started with (:class:`~spotfree.ride.store.AccessError`);
-(2) the batch is validated as the store validates it (:mod:`spotfree.ride.validation`, InputError); (3) features,
-labels and assistant run; (4) samples, features, labels and the events that ended are submitted to the store as
-one write, which its writer thread commits together with the other writes pending (group commit,
-:mod:`spotfree.ride.commit`); (5) once committed, the result is published to the views. The acknowledgement a
-device gets is sent after the commit: an acknowledged sample is on disk. :meth:`RideService.ingest_async` runs
-(1)-(4) on the event loop and awaits the commit without holding a thread. A commit that fails (a disk error) is
-reported to the device, but the ride's filters and assistant have taken the batch: end that ride and start a new
-one. Ending a ride closes the assistant's open episodes and records them.
+:class:`~spotfree.ride.live.LiveRide` (features and labels per sample) and an assistant (warnings, speed, distance,
+time to the destination). A batch of samples is taken in this order, so that a refused batch changes nothing: (1)
+the token must be the one the ride was started with (:class:`~spotfree.ride.store.AccessError`); (2) the batch is
+validated as the store validates it (:mod:`spotfree.ride.validation`, InputError); (3) features, labels and
+assistant run; (4) samples, features, labels and the events that ended (with the ride's mount events:
+:meth:`~spotfree.ride.live.LiveRide.pop_events`) are submitted to the store as one write, which its writer thread
+commits together with the other writes pending (group commit, :mod:`spotfree.ride.commit`); (5) once committed, the
+result is published to the views. The acknowledgement a device gets is sent after the commit: an acknowledged sample
+is on disk. :meth:`RideService.ingest_async` runs (1)-(4) on the event loop and awaits the commit without holding a
+thread. A commit that fails (a disk error) is reported to the device, but the ride's filters and assistant have
+taken the batch: end that ride and start a new one. Ending a ride closes the assistant's open episodes and records
+them.
 
 Credentials (:meth:`RideService.identify`): the operator token (its hash in the store, issued by
 :meth:`RideService.new_operator_token`) reads every ride and issues enrolment codes; a device token, got with
@@ -319,8 +320,9 @@ class RideService:
         acknowledgement once the batch is committed: ``count``, ``labels`` (one per sample), ``state`` (the
         assistant's figures after the last sample: :meth:`~spotfree.ride.assistant.Status.figures`),
         ``warnings`` (raised in this batch: ``kind``, ``onset``, ``time`` s) and ``events`` (ended in this batch:
-        ``kind``, ``start``, ``end`` s, ``detail``). ``check_rate=False`` skips the rate limit (for in-process
-        sources only)."""
+        ``kind``, ``start``, ``end`` s, ``detail``; kinds ``mount``, ``unusual-mount``, ``uncertain-mount``
+        for what the ride found of its mount).
+        ``check_rate=False`` skips the rate limit (for in-process sources only)."""
         ack, message = self._submit(token, ride_id, samples, check_rate, bool(self._watchers)).result()
         return self._acknowledge(ack, message, ride_id)
 
@@ -343,7 +345,7 @@ class RideService:
             n = len(table)
             feats, labels = ride.live.update_block(table)
             warnings = [vars(w) for w in ride.assistant.update_block(table[:, _ASSISTED].tolist(), labels)]
-            events = ride.assistant.pop_events()
+            events = ride.live.pop_events() + ride.assistant.pop_events()
             committed = self.store.submit_samples(token, ride_id, table, features=feats,
                                                   labels={self.model_name: labels}, events=events)
             ride.last_time = float(table[-1, 0])
@@ -402,8 +404,8 @@ class RideService:
 
     def _replay(self, ride_id: str, owner: str) -> _OpenRide:
         """The state of an open ride rebuilt from the store: its stored samples run through a new
-        :class:`LiveRide` and assistant in blocks (the same labels and episodes as when they came, since blocks
-        and single samples give the same results); the events that ended then are already stored and are
+        :class:`LiveRide` and assistant in blocks (the same mount, labels and episodes as when they came, since
+        blocks and single samples give the same results); the events that ended then are already stored and are
         dropped. The rate bucket starts full; the destination kept in the store is set again."""
         columns = self.store.samples(ride_id)
         table = np.column_stack([np.asarray(columns[c], dtype=float) for c in SAMPLE_COLUMNS])
@@ -413,6 +415,7 @@ class RideService:
             block = table[start:start + validation.MAX_BATCH]
             _, labels = ride.live.update_block(block)
             ride.assistant.update_block(block[:, _ASSISTED].tolist(), labels)
+            ride.live.pop_events()
             ride.assistant.pop_events()
         ride.last_time = float(table[-1, 0]) if len(table) else None
         destination = self.store.destination(ride_id)

@@ -72,6 +72,16 @@ function show(label, warning) {
   }
 }
 
+function showMount(mount) {
+  // what the page's mount tracker has found (the server records the same: spotfree.signal.mount.MountTracker)
+  if (mount.stage === showMount.stage) return;
+  showMount.stage = mount.stage;
+  const angle = (mount.angle * 180 / Math.PI).toFixed(0);
+  const used = mount.angle > mount.p.usual_angle ? "unusual: features use it" : "usual: the nominal mount is used";
+  $("mount").textContent = `mount: ${angle}° from flat with the top edge forward (${used})`
+    + (mount.stage === "vertical" ? "; forward assumed (top edge or back) until the GPS speed tells" : "");
+}
+
 function setOnline(on) {
   state.online = on;
   $("link").textContent = on ? "online" : "offline: classifying on the phone";
@@ -84,6 +94,7 @@ function sample(t, acc, gyr) {
   state.fix = null;
   const row = [t, ...acc, ...gyr, fix ? fix.lat : null, fix ? fix.lon : null, fix ? fix.speed : null];
   const out = state.pipeline.update(t, acc, gyr, fix && fix.speed !== null ? fix.speed : NaN);
+  showMount(state.pipeline.mount);
   state.localLabels.push(out.label);
   state.times.push(t);
   const warn = state.warner.update(t, out.label);

@@ -1,10 +1,10 @@
-// The server's streaming pipeline in the browser (spotfree.ride.live.pipeline_spec gives the numbers):
-// device-to-vehicle axes, attitude filter (GravityPI or the paper's PI filter), gravity-free level
-// accelerations through a 3rd-order Butterworth, lean, speed-aided longitudinal acceleration, the model's
-// channels scaled into a ring buffer, each due window represented (summary models), and CRC_RLS on it:
-// r_i = ||E_i y||, label = argmin_i r_i (kernel CRC_RLS: the same on the window's Nystroem features).
-// Same operations in the same order as spotfree.signal.* and spotfree.classify.stream, so labels are equal.
-// Units: m/s^2, rad/s, s; device frame of Android (x right, y up, z out of the screen).
+// The server's streaming pipeline in the browser (spotfree.ride.live.pipeline_spec gives the numbers): the ride's mount
+// (nominal until the tracker decides; a new segment where it changes), device-to-vehicle axes, attitude filter
+// (GravityPI or the paper's PI filter), gravity-free level accelerations through a 3rd-order Butterworth, lean,
+// speed-aided longitudinal acceleration, the model's channels scaled into a ring buffer, each due window represented
+// (summary models), and CRC_RLS on it: r_i = ||E_i y||, label = argmin_i r_i (kernel CRC_RLS: the same on the window's
+// Nystroem features). Same operations in the same order as spotfree.signal.* and spotfree.classify.stream, so labels
+// are equal. Units: m/s^2, rad/s, s; device frame of Android (x right, y up, z out of the screen).
 "use strict";
 
 (function (root) {
@@ -188,10 +188,151 @@
     }
   }
 
+
+  // ---- the mount (spotfree.signal.mount): running sums of the ride, and the live ride's decisions on them
+
+  function dot(u, v) { return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]; }
+  function cross(u, v) { return [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]; }
+  function unit(v) { const n = Math.sqrt(dot(v, v)); return [v[0] / n, v[1] / n, v[2] / n]; }
+  function horizontal(v, up) { const k = dot(v, up); return [v[0] - k * up[0], v[1] - k * up[1], v[2] - k * up[2]]; }
+
+  class MountStatistics {
+    // MountStatistics of spotfree.signal.mount: quiet-sample force sums, leaky lean, and per speed-change interval
+    // (GPS fixes at least min_interval s apart) the sums of d, c, d^2, c^2, d c and of x, x d, x c, x x^T of each
+    // cue x (the turn c the centripetal acceleration)
+    constructor(p, rate, g) {
+      this.p = p; this.rate = rate; this.g = g;
+      this.leanC = Math.exp(-1.0 / (p.lean_time_constant * rate));
+      this.valid = 0; this.quiet = 0; this.force = [0, 0, 0]; this.quietForce = [0, 0, 0]; this.lean = [0, 0, 0];
+      this.fix = null; this.inside = 0; this.insideSums = new Array(9).fill(0);
+      this.n = 0; this.d = 0.0; this.dd = 0.0; this.c = 0.0; this.cc = 0.0; this.dc = 0.0;
+      this.x = [[0, 0, 0], [0, 0, 0]]; this.xd = [[0, 0, 0], [0, 0, 0]]; this.xc = [[0, 0, 0], [0, 0, 0]];
+      this.xx = [new Array(9).fill(0), new Array(9).fill(0)];
+    }
+    update(t, acc, gyr, speed) {
+      // true when the sample closed a speed-change interval
+      const p = this.p, c = this.leanC, lean = this.lean;
+      const [a0, a1, a2] = acc, [w0, w1, w2] = gyr;
+      if (![a0, a1, a2, w0, w1, w2].every(Number.isFinite)) {
+        lean[0] = c * lean[0]; lean[1] = c * lean[1]; lean[2] = c * lean[2];
+        return false;
+      }
+      const step = 1.0 / this.rate;
+      lean[0] = c * lean[0] + w0 * step; lean[1] = c * lean[1] + w1 * step; lean[2] = c * lean[2] + w2 * step;
+      this.valid += 1;
+      const f = this.force;
+      f[0] += a0; f[1] += a1; f[2] += a2;
+      const normA = Math.sqrt(a0 * a0 + a1 * a1 + a2 * a2);
+      if (Math.sqrt(w0 * w0 + w1 * w1 + w2 * w2) < p.quiet_rate && Math.abs(normA - this.g) < p.quiet_force) {
+        this.quiet += 1;
+        const q = this.quietForce;
+        q[0] += a0; q[1] += a1; q[2] += a2;
+      }
+      const s = this.insideSums;
+      [a0, a1, a2, lean[0], lean[1], lean[2], w0, w1, w2].forEach((v, k) => { s[k] += v; });
+      this.inside += 1;
+      if (!Number.isFinite(speed)) return false;
+      if (this.fix === null || t <= this.fix[0]) { this.open(t, speed); return false; }
+      if (t - this.fix[0] < p.min_interval) return false;
+      const d = (speed - this.fix[1]) / (t - this.fix[0]);
+      const g = this.quiet > 0 ? this.quietForce : this.force;
+      const yaw = (g[0] * s[6] + g[1] * s[7] + g[2] * s[8]) / (this.inside * Math.sqrt(g[0] * g[0] + g[1] * g[1]
+        + g[2] * g[2]));
+      const turn = 0.5 * (speed + this.fix[1]) * yaw;
+      this.n += 1; this.d += d; this.dd += d * d; this.c += turn; this.cc += turn * turn; this.dc += d * turn;
+      for (let cue = 0; cue < 2; cue++) {
+        const x = [0, 1, 2].map((k) => s[3 * cue + k] / this.inside);
+        const sx = this.x[cue], sxd = this.xd[cue], sxc = this.xc[cue], sxx = this.xx[cue];
+        for (let i = 0; i < 3; i++) {
+          sx[i] += x[i];
+          sxd[i] += x[i] * d;
+          sxc[i] += x[i] * turn;
+          for (let j = 0; j < 3; j++) sxx[3 * i + j] += x[i] * x[j];
+        }
+      }
+      this.open(t, speed);
+      return true;
+    }
+    open(t, speed) { this.fix = [t, speed]; this.inside = 0; this.insideSums = new Array(9).fill(0); }
+    up() { return unit(this.quietForce); }
+    forward(up) {
+      // the forward direction the speed changes tell (null when they do not)
+      const p = this.p, n = this.n;
+      if (n < p.min_intervals) return null;
+      const sdd = this.dd - this.d * this.d / n;
+      if (sdd <= 0 || Math.sqrt(sdd / n) < p.min_speed_change) return null;
+      const scc = this.cc - this.c * this.c / n, sdc = this.dc - this.d * this.c / n;
+      const turns = scc > 0 && sdd * scc - sdc * sdc > 0;
+      let best = null, bestR = -Infinity;
+      for (let cue = 0; cue < 2; cue++) {
+        const sx = this.x[cue], sxd = this.xd[cue].map((v, i) => v - sx[i] * this.d / n);
+        const sxc = this.xc[cue].map((v, i) => v - sx[i] * this.c / n);
+        const sxx = this.xx[cue].map((v, k) => v - sx[Math.floor(k / 3)] * sx[k % 3] / n);
+        const w = horizontal(turns ? sxd.map((v, i) => v * scc - sxc[i] * sdc) : sxd, up), size = Math.sqrt(dot(w, w));
+        if (size === 0) continue;
+        const u = [w[0] / size, w[1] / size, w[2] / size];
+        let zd = dot(u, sxd), zz = 0.0, dd = sdd;
+        const zc = dot(u, sxc);
+        for (let i = 0; i < 3; i++) for (let j = 0; j < 3; j++) zz += u[i] * sxx[3 * i + j] * u[j];
+        if (turns) { zd -= zc * sdc / scc; zz -= zc * zc / scc; dd = sdd - sdc * sdc / scc; }
+        if (zz <= 0) continue;
+        const r = zd / Math.sqrt(zz * dd);
+        if (r > bestR) { best = cue === 0 ? u : unit(cross(u, up)); bestR = r; }
+      }
+      if (bestR <= 0 || (1.0 - bestR * bestR) ** ((n - 4) / 2) >= p.significance) return null;
+      return best;
+    }
+  }
+
+  function topEdgeForward(up) {
+    // the horizontal part of y - z (top edge flat, back upright), of y + z when that vanishes
+    for (const guess of [[0, 1, -1], [0, 1, 1]]) {
+      const h = horizontal(guess, up);
+      if (Math.sqrt(dot(h, h)) > 0.1) return unit(h);
+    }
+    return unit(horizontal([1, 0, 0], up));
+  }
+
+  class MountTracker {
+    // MountTracker of spotfree.signal.mount: the nominal mount until live_quiet_seconds of quiet samples, then the
+    // estimate (used when it is more than usual_angle from the nominal); forward from the top edge until the GPS
+    // speed tells it, then final. update() is true when the mount used changes at this sample.
+    constructor(p, rate, g, nominal) {
+      this.p = p; this.rate = rate; this.nominal = nominal;
+      this.statistics = new MountStatistics(p, rate, g);
+      this.used = nominal; this.estimated = null; this.angle = 0.0; this.stage = "nominal";
+    }
+    update(t, acc, gyr, speed) {
+      if (this.stage === "final") return false;
+      const stats = this.statistics;
+      const closed = stats.update(t, acc, gyr, speed);
+      if (this.stage === "nominal" && stats.quiet >= this.p.live_quiet_seconds * this.rate) return this.decide();
+      if (this.stage === "vertical" && closed && stats.forward(stats.up()) !== null) return this.decide();
+      return false;
+    }
+    decide() {
+      const up = this.statistics.up();
+      let forward = this.statistics.forward(up);
+      this.stage = forward === null ? "vertical" : "final";
+      if (forward === null) forward = topEdgeForward(up);
+      const estimated = [forward, cross(up, forward), up], M = this.nominal;
+      let trace = 0.0;
+      for (let i = 0; i < 3; i++) for (let j = 0; j < 3; j++) trace += estimated[i][j] * M[i][j];
+      this.angle = Math.acos(Math.min(Math.max((trace - 1) / 2, -1.0), 1.0));
+      const used = this.angle > this.p.usual_angle ? estimated : M;
+      const changed = used.some((row, i) => row.some((v, j) => v !== this.used[i][j]));
+      this.estimated = estimated;
+      this.used = used;
+      return changed;
+    }
+  }
+
   class FeatureStream {
-    // roll, pitch, pitch_rate, acc_x, acc_y, acc_z, lean, acc_long (spotfree.signal.features, derived=True)
-    constructor(spec) {
+    // roll, pitch, pitch_rate, acc_x, acc_y, acc_z, lean, acc_long (spotfree.signal.features, derived=True), on the
+    // device-to-vehicle axes mount (spec.mount, the nominal one, when not given)
+    constructor(spec, mount) {
       this.spec = spec;
+      this.mount = mount || spec.mount;
       const att = spec.attitude;
       this.attitude = att.kind === "paper" ? new PaperAttitude(att) : new GravityPI(att, spec.rate);
       this.lowpass = new Lowpass(spec.lowpass, 3);
@@ -204,7 +345,7 @@
       this.lean = 0.0; this.bias = 0.0;
     }
     update(acc, gyr, speed) {
-      const m = this.spec.mount, g = this.spec.gravity, L = this.spec.lean;
+      const m = this.mount, g = this.spec.gravity, L = this.spec.lean;
       const a0 = acc[0], a1 = acc[1], a2 = acc[2], w0 = gyr[0], w1 = gyr[1], w2 = gyr[2];
       const accV = [m[0][0] * a0 + m[0][1] * a1 + m[0][2] * a2, m[1][0] * a0 + m[1][1] * a1 + m[1][2] * a2,
         m[2][0] * a0 + m[2][1] * a1 + m[2][2] * a2];
@@ -227,6 +368,7 @@
     // one ride, sample by sample: update(t, acc, gyr, speed) -> {features, label}
     constructor(spec) {
       this.spec = spec;
+      this.mount = new MountTracker(spec.mount_tracker, spec.rate, spec.gravity, spec.mount);
       this.features = new FeatureStream(spec);
       const c = spec.channels.length, L = spec.window;
       this.d = c * L;
@@ -238,18 +380,38 @@
         this.normalisation = Float64Array.from(spec.kernel.normalisation);
       }
       this.time = null;
+      this.hold = Math.round(spec.mount_history * spec.rate);
+      this.history = [];
       this.resetSegment();
     }
-    resetSegment() { this.features.reset(); this.position = 0; this.count = 0; this.label = null; }
+    resetSegment() { this.features.reset(); this.history = []; this.resetWindows(); }
+    resetWindows() { this.position = 0; this.count = 0; this.label = null; }
+    remount(mount) {
+      // features and windows on the new mount from the start of the segment: the samples held run again through
+      // them, their labels dropped (spotfree.ride.live.LiveRide._remount)
+      this.features = new FeatureStream(this.spec, mount);
+      this.resetWindows();
+      for (const [, acc, gyr, speed] of this.history.slice(-this.hold)) {
+        this.push(this.features.update(acc, gyr, speed));
+      }
+    }
     update(t, acc, gyr, speed) {
       const values = [...acc, ...gyr];
       const finite = values.every(Number.isFinite);
+      speed = speed === null || speed === undefined ? NaN : speed;
       const previous = this.time;
       this.time = t;
       const jump = previous !== null && !(t - previous > 0 && t - previous <= this.spec.max_gap);
       if (jump || !finite) this.resetSegment();
+      if (this.mount.update(t, acc, gyr, speed)) this.remount(this.mount.used);
       if (!finite) return { features: null, label: null };
-      const feats = this.features.update(acc, gyr, speed === null || speed === undefined ? NaN : speed);
+      const feats = this.features.update(acc, gyr, speed);
+      if (this.mount.stage === "final") this.history = [];
+      else {
+        // held while the mount may still change: the last mount_history s
+        this.history.push([t, acc, gyr, speed]);
+        if (this.history.length > 2 * this.hold) this.history = this.history.slice(-this.hold);
+      }
       return { features: feats, label: this.push(feats) };
     }
     push(feats) {
@@ -375,6 +537,6 @@
     }
   }
 
-  root.spotfreePipeline = { Pipeline, FeatureStream, Resampler };
+  root.spotfreePipeline = { Pipeline, FeatureStream, MountTracker, Resampler };
   if (typeof module !== "undefined") module.exports = root.spotfreePipeline;
 })(typeof window !== "undefined" ? window : globalThis);

@@ -4,7 +4,7 @@
 const LABEL_COLOURS = {
   "cruising": "#2e933c", "normal-braking": "#f49d37", "sudden-braking": "#d7263d",
   "straight": "#2e933c", "gentle-turn": "#3a86ff", "sharp-turn": "#d7263d", "slalom": "#8338ec",
-  "unknown": "#9aa4ad",
+  "unknown": "#9aa4ad", "mount": "#9aa4ad", "unusual-mount": "#f49d37", "uncertain-mount": "#f49d37",
 };
 
 function labelColour(label) {
