@@ -1,6 +1,6 @@
 """Inclination error of every spotfree orientation option and its peers on four BROAD trials, in one run.
 
-    python benchmarks/broad_orientation.py [--rates native,20] [--out results/broad_orientation.md]
+    python benchmarks/broad_orientation.py [--rates native,20]
 
 For each trial (``../shared/data/broad``, see ``broad.py``) at the native 285.7 Hz and block-averaged by 14 to
 20.4 Hz, runs
@@ -14,17 +14,13 @@ For each trial (``../shared/data/broad``, see ``broad.py``) at the native 285.7 
 and prints one markdown table: inclination RMSE (deg, movement phase, valid reference) per trial, their mean,
 and samples per second (all trials' samples over all trials' wall time; noisy on a shared machine, compare
 ratios). A summary says on which trials the default beats each fixed-gain peer at 20 Hz, and the gap to vqf.
+Writes ``benchmarks/results/broad_orientation.md`` (command, machine, date, table).
 """
 
 from __future__ import annotations
 
 import argparse
-import contextlib
-import io
-import sys
 import time
-from datetime import datetime, timezone
-from pathlib import Path
 from typing import Callable
 
 import ahrs
@@ -33,8 +29,12 @@ import numpy as np
 import vqf
 
 import broad
+from machine import results_file
 from spotfree.signal.frame import GRAVITY, gravity_direction
 from spotfree.signal.orientation import estimate_attitude
+
+PACKAGES = ("numpy", "scipy", "numba", "ahrs", "imufusion", "vqf")
+"""The packages whose versions the results file names."""
 
 Runner = Callable[[broad.Trial], np.ndarray]
 """A method: trial -> estimated unit vertical ``(n, 3)`` in the body frame."""
@@ -136,24 +136,9 @@ def evaluate(trials: list[broad.Trial], runner: Runner) -> tuple[np.ndarray, flo
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rates", default="native,20", help="comma list of: native, 20")
-    parser.add_argument("--out", type=Path, default=None, help="also write the command, machine, date and output "
-                        "here (markdown), e.g. results/broad_orientation.md")
     args = parser.parse_args()
-    if args.out is not None:
-        with contextlib.redirect_stdout(io.StringIO()) as captured:
-            _table(args)
-        from machine import describe
-
-        PACKAGES = ("numpy", "scipy", "numba", "ahrs", "imufusion", "vqf")
-
-        text = (f"# BROAD orientation: every option and its peers\n\nCommand (from `benchmarks/`): `python "
-                f"{' '.join([Path(sys.argv[0]).name, *sys.argv[1:]])}`\n\nMachine: {describe(PACKAGES)}. Date: "
-                f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC.\n\n{captured.getvalue()}")
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(text)
-        print(text)
-        return
-    _table(args)
+    with results_file("broad_orientation", "BROAD orientation: every option and its peers", PACKAGES):
+        _table(args)
 
 
 def _table(args: argparse.Namespace) -> None:

@@ -8,21 +8,21 @@ paper quotes. "all cruising" is the majority-class reference. numba compiles aeo
 one training ride before anything is timed.
 
     python benchmarks/peers_speed.py [--seed 0] [--kernels 10000]
+
+Writes ``benchmarks/results/peers_speed.md`` (command, machine, date, table).
 """
 
 from __future__ import annotations
 
 import argparse
-import datetime
 import os
-import platform
 import time
 
 import numpy as np
-import sklearn
 import threadpoolctl
 from sklearn.metrics import balanced_accuracy_score
 
+from machine import results_file
 from spotfree.peers import ClaspPeer, MiniRocketPeer, NearestNeighbourPeer
 from spotfree.signal.features import ride_features
 from spotfree.sim.scenarios import simulate_scenario
@@ -72,21 +72,22 @@ def main():
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--kernels", type=int, default=10_000, help="MiniRocket features")
     args = parser.parse_args()
-    import aeon
+    with results_file("peers_speed", "Peers on the braking protocol: MiniRocket, 1-NN, ClaSP",
+                      ("numpy", "scikit-learn", "aeon")):
+        peers_table(args.seed, args.kernels)
 
-    cpu = next((line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo") if line.startswith("model name")),
-               platform.processor())
+
+def peers_table(seed: int, kernels: int) -> None:
+    """Print the protocol's sizes and one row per peer."""
     blas = [(i["internal_api"], i.get("architecture"), i["version"]) for i in threadpoolctl.threadpool_info()
             if i["user_api"] == "blas"]
-    print(f"date {datetime.date.today()}, {cpu}, {os.cpu_count()} cores, load average "
-          f"{os.getloadavg()[0]:.1f}; numpy {np.__version__}, scikit-learn {sklearn.__version__}, aeon "
-          f"{aeon.__version__}, BLAS {blas} (one thread inside the peers), OPENBLAS_CORETYPE="
-          f"{os.environ.get('OPENBLAS_CORETYPE', 'unset')}")
+    print(f"BLAS {blas} (one thread inside the peers), OPENBLAS_CORETYPE="
+          f"{os.environ.get('OPENBLAS_CORETYPE', 'unset')}.\n")
     start = time.perf_counter()
-    train, tests = protocol(args.seed)
-    print(f"simulator seed {args.seed}: {sum(len(r) for r in train)} training samples, {len(tests)} test rides, "
+    train, tests = protocol(seed)
+    print(f"simulator seed {seed}: {sum(len(r) for r in train)} training samples, {len(tests)} test rides, "
           f"{sum(len(r) for _, r in tests)} test samples (simulation and features {time.perf_counter() - start:.1f} s)")
-    warm_up(train, args.kernels)
+    warm_up(train, kernels)
     print()
     print("| peer | fit (s) | predict (s) | coverage | accuracy | balanced | normal-braking tests | "
           "sudden-braking tests | cruising tests | sudden in NB |")
@@ -98,8 +99,8 @@ def main():
     peers = [
         ("1-NN, causal", NearestNeighbourPeer()),
         ("1-NN, centred", NearestNeighbourPeer(alignment="centred")),
-        (f"MiniRocket {args.kernels} + ridge, causal", MiniRocketPeer(n_kernels=args.kernels)),
-        (f"MiniRocket {args.kernels} + ridge, centred", MiniRocketPeer(n_kernels=args.kernels, alignment="centred")),
+        (f"MiniRocket {kernels} + ridge, causal", MiniRocketPeer(n_kernels=kernels)),
+        (f"MiniRocket {kernels} + ridge, centred", MiniRocketPeer(n_kernels=kernels, alignment="centred")),
         ("ClaSP (min_score 0.7), centroid naming", ClaspPeer()),
         ("ClaSP (min_score 0.7), truth naming (upper bound)", ClaspPeer(naming="truth")),
         ("ClaSP (min_score 0.55), centroid naming", ClaspPeer(min_score=0.55)),

@@ -10,7 +10,8 @@ selection on held-out trials. ``ki`` is searched from 0.001 up, not from 0: BROA
 rest-phase estimator the bias, whereas a ride may start moving; the integral term must stay on.
 With ``--peers`` it sweeps the fixed gain of each peer of ``broad_orientation.py`` instead (ahrs Complementary,
 Mahony, Madgwick; imufusion) and prints each peer's best gain by mean RMSE, the "best" rows of that benchmark.
-Deterministic: no randomness, same output every run.
+Deterministic: no randomness, same output every run. Writes ``benchmarks/results/tune_orientation.md``
+(``tune_orientation_peers.md`` with ``--peers``): command, machine, date, table.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import numpy as np
 
 import broad
 import broad_orientation as peers
+from machine import results_file
 from spotfree.signal.frame import gravity_direction
 from spotfree.signal.orientation import GravityPI
 
@@ -81,8 +83,17 @@ def main() -> None:
     args = parser.parse_args()
     trials = [broad.block_average(broad.load_trial(name)) for name in broad.TRIALS]
     if args.peers:
-        sweep_peers(trials)
+        with results_file("tune_orientation_peers", "Peer gains: fixed-gain sweep on BROAD at 20.4 Hz",
+                          peers.PACKAGES):
+            sweep_peers(trials)
         return
+    with results_file("tune_orientation", "Default orientation gains: grid search on BROAD at 20.4 Hz",
+                      peers.PACKAGES):
+        grid_search(trials, args.top)
+
+
+def grid_search(trials: list[broad.Trial], top: int) -> None:
+    """Print the ``top`` points of :data:`GRID` by mean inclination RMSE over ``trials``."""
     rows = []
     for values in itertools.product(*GRID.values()):
         params = dict(zip(GRID, values))
@@ -91,7 +102,7 @@ def main() -> None:
     names = [name[:2] for name in broad.TRIALS]
     print("| " + " | ".join(GRID) + " | " + " | ".join(names) + " | mean |")
     print("|" + "---|" * (len(GRID) + len(names) + 1))
-    for params, rmse in rows[: args.top]:
+    for params, rmse in rows[:top]:
         cells = [f"{v:g}" for v in params.values()] + [f"{r:.2f}" for r in rmse] + [f"{rmse.mean():.2f}"]
         print("| " + " | ".join(cells) + " |")
 
