@@ -7,7 +7,7 @@ For each trial (``../shared/data/broad``, see ``broad.py``) at the native 285.7 
 
 * spotfree: ``paper`` (eq. 3, Kp 7.5924, Ki 20.7015), ``default`` (GravityPI), ``vqf`` (the backend);
 * ahrs 0.4: Complementary, Mahony, Madgwick (m/s^2 and rad/s), each at its default gain and at the fixed gain
-  that is best at 20 Hz over the four trials (mean RMSE; ``python benchmarks/tune_orientation.py --peers``);
+  that is best at 20 Hz over the four trials (mean RMSE; ``python benchmarks/tune_orientation.py``);
 * imufusion 1.3 (``Ahrs.update_no_magnetometer``; g and deg/s, NWU), default settings and best gain;
 * vqf 2.1: ``VQF`` (online, default parameters) and ``offlineVQF`` (non-causal, for reference);
 
@@ -41,7 +41,7 @@ Runner = Callable[[broad.Trial], np.ndarray]
 
 PEER_BEST_GAINS = {"Complementary": 0.8, "Mahony": (0.3, 1e-9), "Madgwick": 0.05, "imufusion": 0.2}
 """Best fixed gain of each peer at 20.4 Hz over the four trials (mean RMSE); Mahony as (k_P, k_I), k_I > 0
-because ahrs rejects 0. Found by ``tune_orientation.py --peers``."""
+because ahrs rejects 0. Found by ``tune_orientation.py``."""
 
 
 def spotfree(orientation: str) -> Runner:
