@@ -18,9 +18,14 @@ from pathlib import Path
 
 RESULTS = Path(__file__).resolve().parent / "results"
 """Folder of the current results files, one per benchmark (``BENCHMARKS.md`` indexes them)."""
+THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_CORETYPE")
+"""Environment variables that change how many threads the numeric libraries use, or which kernels; named in the
+machine line when set."""
 
 
 def describe(packages: tuple[str, ...] = ("numpy", "scipy", "scikit-learn")) -> str:
+    """One line: processor, cores, load average now, Python, the versions of ``packages`` and the
+    :data:`THREAD_VARIABLES` that are set."""
     cpu = next((line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo") if line.startswith("model name")),
                platform.machine())
     found = []
@@ -29,8 +34,9 @@ def describe(packages: tuple[str, ...] = ("numpy", "scipy", "scikit-learn")) -> 
             found.append(f"{p} {version(p)}")
         except PackageNotFoundError:
             found.append(f"{p} (not installed)")
+    threads = [f"{name}={os.environ[name]}" for name in THREAD_VARIABLES if name in os.environ]
     return (f"{cpu}, {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at the start (shared machine); "
-            f"Python {platform.python_version()}, {', '.join(found)}")
+            f"Python {platform.python_version()}, {', '.join(found)}" + (f"; {', '.join(threads)}" if threads else ""))
 
 
 class _Tee(io.TextIOBase):
