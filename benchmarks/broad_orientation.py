@@ -1,30 +1,26 @@
 """Inclination error of every spotfree orientation option and its peers on four BROAD trials, in one run.
 
-    python benchmarks/broad_orientation.py [--rates native,20] [--out results/broad_orientation.md]
+    python benchmarks/broad_orientation.py [--rates native,20]
 
 For each trial (``../shared/data/broad``, see ``broad.py``) at the native 285.7 Hz and block-averaged by 14 to
 20.4 Hz, runs
 
 * spotfree: ``paper`` (eq. 3, Kp 7.5924, Ki 20.7015), ``default`` (GravityPI), ``vqf`` (the backend);
 * ahrs 0.4: Complementary, Mahony, Madgwick (m/s^2 and rad/s), each at its default gain and at the fixed gain
-  that is best at 20 Hz over the four trials (mean RMSE; ``python benchmarks/tune_orientation.py --peers``);
+  that is best at 20 Hz over the four trials (mean RMSE; ``python benchmarks/tune_orientation.py``);
 * imufusion 1.3 (``Ahrs.update_no_magnetometer``; g and deg/s, NWU), default settings and best gain;
 * vqf 2.1: ``VQF`` (online, default parameters) and ``offlineVQF`` (non-causal, for reference);
 
 and prints one markdown table: inclination RMSE (deg, movement phase, valid reference) per trial, their mean,
 and samples per second (all trials' samples over all trials' wall time; noisy on a shared machine, compare
 ratios). A summary says on which trials the default beats each fixed-gain peer at 20 Hz, and the gap to vqf.
+Writes ``benchmarks/results/broad_orientation.md`` (command, machine, date, table).
 """
 
 from __future__ import annotations
 
 import argparse
-import contextlib
-import io
-import sys
 import time
-from datetime import datetime, timezone
-from pathlib import Path
 from typing import Callable
 
 import ahrs
@@ -33,16 +29,20 @@ import numpy as np
 import vqf
 
 import broad
+from machine import results_file
 from spotfree.signal.frame import gravity_direction
 from spotfree.signal.orientation import estimate_attitude
 from spotfree.units import GRAVITY
+
+PACKAGES = ("numpy", "scipy", "numba", "ahrs", "imufusion", "vqf")
+"""The packages whose versions the results file names."""
 
 Runner = Callable[[broad.Trial], np.ndarray]
 """A method: trial -> estimated unit vertical ``(n, 3)`` in the body frame."""
 
 PEER_BEST_GAINS = {"Complementary": 0.8, "Mahony": (0.3, 1e-9), "Madgwick": 0.05, "imufusion": 0.2}
 """Best fixed gain of each peer at 20.4 Hz over the four trials (mean RMSE); Mahony as (k_P, k_I), k_I > 0
-because ahrs rejects 0. Found by ``tune_orientation.py --peers``."""
+because ahrs rejects 0. Found by ``tune_orientation.py``."""
 
 
 def spotfree(orientation: str) -> Runner:
@@ -137,24 +137,9 @@ def evaluate(trials: list[broad.Trial], runner: Runner) -> tuple[np.ndarray, flo
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rates", default="native,20", help="comma list of: native, 20")
-    parser.add_argument("--out", type=Path, default=None, help="also write the command, machine, date and output "
-                        "here (markdown), e.g. results/broad_orientation.md")
     args = parser.parse_args()
-    if args.out is not None:
-        with contextlib.redirect_stdout(io.StringIO()) as captured:
-            _table(args)
-        from machine import describe
-
-        PACKAGES = ("numpy", "scipy", "numba", "ahrs", "imufusion", "vqf")
-
-        text = (f"# BROAD orientation: every option and its peers\n\nCommand (from `benchmarks/`): `python "
-                f"{' '.join([Path(sys.argv[0]).name, *sys.argv[1:]])}`\n\nMachine: {describe(PACKAGES)}. Date: "
-                f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC.\n\n{captured.getvalue()}")
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(text)
-        print(text)
-        return
-    _table(args)
+    with results_file("broad_orientation", "BROAD orientation: every option and its peers", PACKAGES):
+        _table(args)
 
 
 def _table(args: argparse.Namespace) -> None:

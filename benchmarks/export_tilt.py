@@ -7,8 +7,8 @@ For each Sensor Logger export (folder or zip) that holds Gravity.csv, reads the 
 compares its vertical with the one of the phone's gravity sensor (Gravity.csv, in Android's sign convention: iOS
 exports without "Standardise Units & Frames" are negated, as the reader does), both on the reader's grid. Prints
 one markdown row per export: format, duration, median and 95th-percentile angle (degrees) over the samples after
-the first 10 s, or why the export was refused (the one-line message a user would see). No data are stored here:
-the exports are the user's.
+the first 10 s, or why the export was refused (the one-line message a user would see), and writes the table to
+``benchmarks/results/export_tilt.md`` (command, machine, date). No data are stored here: the exports are the user's.
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from machine import results_file
 from spotfree.errors import SpotfreeError
 from spotfree.io import checks, describe, read_recording
 from spotfree.io.recording import ACC_CHANNELS, GYRO_CHANNELS
@@ -49,9 +50,15 @@ def main() -> None:
     parser.add_argument("exports", nargs="+", type=Path)
     parser.add_argument("--orientation", default="default")
     args = parser.parse_args()
+    with results_file("export_tilt", "Tilt of real phone exports against the phone's gravity sensor"):
+        tilt_table(args.exports, args.orientation)
+
+
+def tilt_table(exports: list[Path], orientation: str) -> None:
+    """Print one row per export (module docstring)."""
     print("| export | read as | median (deg) | p95 (deg) |")
     print("|---|---|---:|---:|")
-    for path in args.exports:
+    for path in exports:
         try:
             rec = read_recording(path)
             rec.require_imu("the tilt")
@@ -65,7 +72,7 @@ def main() -> None:
         angles = []
         for start, stop in rec.segments():
             rp = estimate_attitude(rec.array(ACC_CHANNELS)[start:stop], rec.array(GYRO_CHANNELS)[start:stop],
-                                   rec.rate, args.orientation)
+                                   rec.rate, orientation)
             up = gravity_direction(rp[:, 0], rp[:, 1])
             cos = np.sum(up * truth[start:stop], axis=1)
             keep = (rec.time[start:stop] - rec.time[start] >= SKIP) & np.isfinite(cos)

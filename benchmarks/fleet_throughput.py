@@ -2,14 +2,14 @@
 
 Generates a fleet (``--rides``, seed 0), ingests it into a SQLite store, then runs ``process_fleet`` with
 ``redo=True`` for each worker count (cluster start-up timed apart from processing) and reports each worker's
-peak resident memory (``ru_maxrss``). Usage: ``python benchmarks/fleet_throughput.py --rides 120``.
+peak resident memory (``ru_maxrss``). Usage: ``python benchmarks/fleet_throughput.py --rides 120``; writes
+``benchmarks/results/fleet_throughput.md`` (command, machine, date, table).
 """
 
 from __future__ import annotations
 
 import argparse
 import os
-import platform
 import resource
 import tempfile
 import time
@@ -17,6 +17,7 @@ from pathlib import Path
 
 from dask.distributed import Client, LocalCluster
 
+from machine import results_file
 from spotfree.fleet import generate_fleet, ingest_logs, process_fleet, read_manifest
 from spotfree.ride.default_model import default_model
 from spotfree.ride.store import RideStore
@@ -36,8 +37,17 @@ def main() -> None:
     with RideStore(store, synchronous="normal") as s:
         ingest_logs(s, read_manifest(folder / "logs" / "rides.csv", folder / "logs" / "riders.csv"))
     models = {"braking": default_model()}
-    print(f"machine: {platform.machine()}, {os.cpu_count()} cores, load avg {os.getloadavg()[0]:.1f}; "
-          f"{args.rides} rides")
+    with results_file("fleet_throughput", "Fleet processing throughput on a local Dask cluster",
+                      ("numpy", "dask", "distributed", "pyarrow")):
+        print(f"{args.rides} simulated rides of 30 riders (seed 0), SQLite store, one braking model.\n")
+        print("| workers | cluster start (s) | rides | samples | processing (s) | rides/s | samples/s | "
+              "vs 1 worker | peak RSS per worker (MiB) | load average after |")
+        print("|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|")
+        throughput(store, folder / "out", models)
+
+
+def throughput(store: str, out: Path, models: dict) -> None:
+    """Print one row per worker count (1, 2): ``process_fleet`` of every ride of ``store`` into ``out``."""
     base = None
     for workers in (1, 2):
         t0 = time.perf_counter()
@@ -45,16 +55,15 @@ def main() -> None:
                 Client(c) as client:
             start = time.perf_counter() - t0
             t1 = time.perf_counter()
-            report = process_fleet(store, folder / "out", models, scheduler=c.scheduler_address, redo=True)
+            report = process_fleet(store, out, models, scheduler=c.scheduler_address, redo=True)
             elapsed = time.perf_counter() - t1
             rss = list(client.run(_peak_rss_mib).values())
         samples = sum(int(r["samples"]) for r in report.rows)
         rate = len(report.processed) / elapsed
         base = base or rate
-        print(f"{workers} worker(s): cluster start {start:.1f} s; {len(report.processed)} rides, {samples} samples "
-              f"in {elapsed:.1f} s = {rate:.2f} rides/s, {samples / elapsed:.0f} samples/s "
-              f"({rate / base:.2f}x 1 worker); peak RSS per worker {', '.join(f'{m:.0f}' for m in rss)} MiB; "
-              f"load avg {os.getloadavg()[0]:.1f}")
+        print(f"| {workers} | {start:.1f} | {len(report.processed)} | {samples} | {elapsed:.1f} | {rate:.2f} | "
+              f"{samples / elapsed:.0f} | {rate / base:.2f}x | {', '.join(f'{m:.0f}' for m in rss)} | "
+              f"{os.getloadavg()[0]:.1f} |", flush=True)
 
 
 if __name__ == "__main__":

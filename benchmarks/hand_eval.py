@@ -4,17 +4,15 @@ Usage: python benchmarks/hand_eval.py [--train-people 8] [--test-people 6] [--se
        python benchmarks/hand_eval.py --grid     stage 1 alone for several channel sets and windows, scored on six
                                                  development people (seed 1, people 201..), not the test people
 Prints Markdown (accuracy per run, mode and stage, collars and observable onsets, gestures as events, where gestures
-are lost, confusion matrices, command latency, streaming speed; or the grid) for benchmarks/results/hand_eval.md and
-docs/hand.md.
+are lost, confusion matrices, command latency, streaming speed; or the grid) and writes it, under the command, the
+machine and the date, to ``benchmarks/results/hand_eval.md`` (``hand_eval_grid.md`` with ``--grid``).
 """
 
 from __future__ import annotations
 
 import argparse
-import datetime
 
-from classifier_timing import machine
-
+from machine import results_file
 from spotfree.evaluation.hand import evaluate_hand, hand_report, state_grid
 from spotfree.sim.hand import TRAINING_PEOPLE
 
@@ -29,16 +27,14 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--grid", action="store_true", help="compare stage-1 settings on development people")
     args = parser.parse_args()
-    command = "--grid" if args.grid else f"--test-people {args.test_people}"
-    print(f"`python benchmarks/hand_eval.py --train-people {args.train_people} {command} --seed {args.seed}`, "
-          f"{datetime.date.today()}, {machine()}")
-    print()
     if args.grid:
-        table = state_grid(GRID, args.train_people, seed=args.seed)
-        print(table.to_string(index=False, float_format=lambda x: f"{100 * x:.2f} %"))
+        with results_file("hand_eval_grid", "Hand recognition, stage 1: channel sets and windows on development "
+                          "people", preformatted=True):
+            table = state_grid(GRID, args.train_people, seed=args.seed)
+            print(table.to_string(index=False, float_format=lambda x: f"{100 * x:.2f} %"))
         return
-    ev = evaluate_hand(args.train_people, args.test_people, args.seed)
-    print(hand_report(ev))
+    with results_file("hand_eval", "Hand postures and gestures on held-out simulated people"):
+        print(hand_report(evaluate_hand(args.train_people, args.test_people, args.seed)))
 
 
 if __name__ == "__main__":

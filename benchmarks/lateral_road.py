@@ -7,17 +7,17 @@ own scenario (three held-out riders) are labelled causally and scored per true c
 ``--test-seed``, which the grid never sees. Each row: the causal labels, then the same after the offline segment
 vote at the spec's penalty (:mod:`spotfree.votes.segments`).
 
-Run: ``python benchmarks/lateral_road.py [--dev-seeds 100] [--test-seed 0]``.
+Run: ``python benchmarks/lateral_road.py [--dev-seeds 100] [--test-seed 0]``; writes
+``benchmarks/results/lateral_road.md`` (command, machine, date, output).
 """
 
 from __future__ import annotations
 
 import argparse
-import datetime
-import os
 import time
 import warnings
 
+from machine import results_file
 from spotfree.evaluation.lateral_road import MODELS, spec_split, train_and_score
 from spotfree.sim.scenarios import CLASSES
 
@@ -43,27 +43,32 @@ def main() -> None:
     parser.add_argument("--models", nargs="+", default=list(MODELS))
     args = parser.parse_args()
     warnings.simplefilter("ignore")
-    print(f"# lateral_road {datetime.date.today()}: {os.cpu_count()} cores (shared), load average "
-          f"{os.getloadavg()[0]:.1f}")
-    for name in args.models:
-        spec = MODELS[name]
-        print(f"\n{name}: per-class accuracy in the order {', '.join(CLASSES[spec.scenario])}")
-        channel_sets, windows = GRID[name]
-        for seed in args.dev_seeds:
-            data = spec_split(spec, seed)
-            print(f"declared per training experiment: {[classes for _, classes in data.training]}")
-            for channels in channel_sets:
-                for window in windows:
-                    start = time.perf_counter()
-                    result = train_and_score(spec, data, seed, channels=channels, window=window)
-                    print(row(name, seed, channels, window, result, time.perf_counter() - start), flush=True)
-        data = spec_split(spec, args.test_seed)
-        start = time.perf_counter()
-        result = train_and_score(spec, data, args.test_seed)
-        print("test seed, chosen spec:")
-        print(row(name, args.test_seed, spec.channels, spec.window, result, time.perf_counter() - start))
-        print(f"  samples per class: {', '.join(f'{c} {s.correct}/{s.total}' for c, s in result.per_class.items())}")
-        print(f"  model classes: {', '.join(map(str, result.model.classes))}; warnings: {result.warnings}")
+    with results_file("lateral_road", "Lateral and road-surface models: grid on development seeds, test seed",
+                      preformatted=True):
+        for name in args.models:
+            score_model(name, args.dev_seeds, args.test_seed)
+
+
+def score_model(name: str, dev_seeds: list[int], test_seed: int) -> None:
+    """Print the grid rows of model ``name`` on ``dev_seeds``, then its chosen spec on ``test_seed``."""
+    spec = MODELS[name]
+    print(f"\n{name}: per-class accuracy in the order {', '.join(CLASSES[spec.scenario])}")
+    channel_sets, windows = GRID[name]
+    for seed in dev_seeds:
+        data = spec_split(spec, seed)
+        print(f"declared per training experiment: {[classes for _, classes in data.training]}")
+        for channels in channel_sets:
+            for window in windows:
+                start = time.perf_counter()
+                result = train_and_score(spec, data, seed, channels=channels, window=window)
+                print(row(name, seed, channels, window, result, time.perf_counter() - start), flush=True)
+    data = spec_split(spec, test_seed)
+    start = time.perf_counter()
+    result = train_and_score(spec, data, test_seed)
+    print("test seed, chosen spec:")
+    print(row(name, test_seed, spec.channels, spec.window, result, time.perf_counter() - start))
+    print(f"  samples per class: {', '.join(f'{c} {s.correct}/{s.total}' for c, s in result.per_class.items())}")
+    print(f"  model classes: {', '.join(map(str, result.model.classes))}; warnings: {result.warnings}")
 
 
 if __name__ == "__main__":

@@ -76,9 +76,6 @@ def _vqf_roll_pitch(acc: np.ndarray, gyr: np.ndarray):
 
     return VQFAttitude(20.0).run(acc, gyr).T
 
-PACKAGES = ("numpy", "scipy", "numba", "ahrs", "imufusion", "vqf")
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results" / "orientation_leave_trials_out.md")
@@ -86,7 +83,7 @@ def main() -> None:
     started = datetime.now(timezone.utc)
     header = ["# Default orientation gains by leave-trials-out on BROAD (20.4 Hz)", "",
               f"Command (from `benchmarks/`): `python {' '.join([Path(sys.argv[0]).name, *sys.argv[1:]])}`", "",
-              f"Machine: {describe(PACKAGES)}. Date: {started:%Y-%m-%d %H:%M} UTC.", "",
+              f"Machine: {describe(peers.PACKAGES)}. Date: {started:%Y-%m-%d %H:%M} UTC.", "",
               "Score: inclination RMSE in degrees (movement phase, valid optical reference), four BROAD trials "
               "(Laidig et al. 2021, CC BY 4.0) block-averaged by 14 to 20.4 Hz. Grid of the default filter: "
               + ", ".join(f"`{k}` {v}" for k, v in tune.GRID.items()) + "."]

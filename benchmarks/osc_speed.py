@@ -20,23 +20,24 @@ tiny warm-up fit that loads the compiled kernels; memory = the process's peak re
 * ``sklearn-rbf`` / ``sklearn-knn``: ``sklearn.cluster.SpectralClustering`` on the raw windows (RBF kernel with
   the median heuristic for gamma; 10-nearest-neighbour graph), k-means labels with a fixed seed.
 
-Run: ``python benchmarks/osc_speed.py`` (all cases; about 20 minutes on 2 cores) or
-``python benchmarks/osc_speed.py --case osc --n 1300`` (one case, JSON on stdout).
+Run: ``python benchmarks/osc_speed.py`` (all cases; about 20 minutes on 2 cores; writes
+``benchmarks/results/osc_speed.md``: command, machine, date, table) or ``python benchmarks/osc_speed.py --case osc
+--n 1300`` (one case, JSON on stdout).
 """
 
 from __future__ import annotations
 
 import argparse
-import datetime
 import json
 import os
-import platform
 import resource
 import subprocess
 import sys
 import time
 
 import numpy as np
+
+from machine import results_file
 
 REGIMES = 4
 WINDOW = 20
@@ -211,31 +212,22 @@ def measure(case: str, n: int, seed: int) -> dict:
     return json.loads(completed.stdout.strip().splitlines()[-1])
 
 
-def machine() -> str:
-    model = next(
-        (line.split(":", 1)[1].strip() for line in subprocess.run(
-            ["lscpu"], capture_output=True, text=True).stdout.splitlines() if line.startswith("Model name")),
-        platform.processor(),
-    )
-    return f"{model}, {os.cpu_count()} cores, Python {platform.python_version()}, numpy {np.__version__}"
-
-
 def main() -> None:
     seed = 0
-    print(f"# osc_speed: {datetime.date.today()}, {machine()}, load average {os.getloadavg()}", flush=True)
-    rows = []
-    for n in SIZES:
-        for case in ("osc", "ssc", "sklearn-knn", "sklearn-rbf"):
-            rows.append(measure(case, n, seed))
-            print(json.dumps(rows[-1]), flush=True)
-    for n in REFERENCE_SIZES:
-        rows.append(measure("reference", n, seed))
-        print(json.dumps(rows[-1]), flush=True)
-    print(f"# load average after: {os.getloadavg()}")
-    print()
-    print(table(rows))
-    print()
-    print(reference_summary(rows))
+    with results_file("osc_speed", "Ordered Subspace Clustering: speed against the published ADMM and scikit-learn",
+                      ("numpy", "scipy", "scikit-learn", "numba")):
+        rows = []
+        for n in SIZES:
+            for case in ("osc", "ssc", "sklearn-knn", "sklearn-rbf"):
+                rows.append(measure(case, n, seed))
+                print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
+        for n in REFERENCE_SIZES:
+            rows.append(measure("reference", n, seed))
+            print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
+        print(f"Load average after the runs: {os.getloadavg()[0]:.1f}.\n")
+        print(table(rows))
+        print()
+        print(reference_summary(rows))
 
 
 def table(rows: list[dict]) -> str:

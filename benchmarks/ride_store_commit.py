@@ -3,18 +3,20 @@
 one transaction each, as the service writes a phone's batch.
 
     python benchmarks/ride_store_commit.py [--batches 300] [--postgres URL]
+
+Writes ``benchmarks/results/ride_store_commit.md`` (command, machine, date, table).
 """
 
 from __future__ import annotations
 
 import argparse
-import platform
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
+from machine import results_file
 from spotfree.ride.records import FEATURE_COLUMNS
 from spotfree.ride.store import RideStore
 
@@ -46,17 +48,17 @@ def main() -> None:
     parser.add_argument("--batches", type=int, default=300)
     parser.add_argument("--postgres", default=None)
     args = parser.parse_args()
-    print(f"machine: {platform.machine()}, {platform.python_implementation()} {platform.python_version()}; "
-          f"{args.batches} batches of {SAMPLES} samples, one commit each")
-    print("| store | batches/s | samples/s | median ms/batch |")
-    print("|---|---:|---:|---:|")
-    with tempfile.TemporaryDirectory(dir=Path.cwd()) as folder:
-        for synchronous in ("full", "normal"):
-            rate, median = run(str(Path(folder) / f"{synchronous}.db"), synchronous, args.batches)
-            print(f"| SQLite WAL, synchronous={synchronous} | {rate:.0f} | {rate * SAMPLES:.0f} | {median:.2f} |")
-    if args.postgres:
-        rate, median = run(args.postgres, "full", args.batches)
-        print(f"| PostgreSQL (synchronous_commit=on) | {rate:.0f} | {rate * SAMPLES:.0f} | {median:.2f} |")
+    with results_file("ride_store_commit", "Ride store: acknowledged write rate", ("numpy", "psycopg")):
+        print(f"{args.batches} batches of {SAMPLES} samples, one commit each.\n")
+        print("| store | batches/s | samples/s | median ms/batch |")
+        print("|---|---:|---:|---:|")
+        with tempfile.TemporaryDirectory(dir=Path.cwd()) as folder:
+            for synchronous in ("full", "normal"):
+                rate, median = run(str(Path(folder) / f"{synchronous}.db"), synchronous, args.batches)
+                print(f"| SQLite WAL, synchronous={synchronous} | {rate:.0f} | {rate * SAMPLES:.0f} | {median:.2f} |")
+        if args.postgres:
+            rate, median = run(args.postgres, "full", args.batches)
+            print(f"| PostgreSQL (synchronous_commit=on) | {rate:.0f} | {rate * SAMPLES:.0f} | {median:.2f} |")
 
 
 if __name__ == "__main__":

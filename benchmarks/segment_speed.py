@@ -5,20 +5,19 @@ the lateral model's yaw rate; penalty 4, shortest segment 3 samples. At 20 Hz, 1
 (65 s), 72,000 an hour. Each time is the best of ``--repeats`` runs (ruptures: one run above 5,000 samples); both
 must return the same breakpoints.
 
-Run: ``python benchmarks/segment_speed.py [--sizes 1300 5000 20000 72000] [--repeats 3]``.
+Run: ``python benchmarks/segment_speed.py [--sizes 1300 5000 20000 72000] [--repeats 3]``; writes
+``benchmarks/results/segment_speed.md`` (command, machine, date, table).
 """
 
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import time
-from datetime import datetime, timezone
 
 import numpy as np
 import ruptures
 
+from machine import results_file
 from spotfree.votes.segments import MIN_SIZE, change_points
 
 PENALTY = 4.0
@@ -46,18 +45,23 @@ def main() -> None:
     parser.add_argument("--sizes", type=int, nargs="+", default=[1300, 5000, 20000, 72000])
     parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args()
-    print(f"# segment_speed {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; {platform.machine()}, "
-          f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}; ruptures {ruptures.__version__}")
+    with results_file("segment_speed", "Change points for the segment vote: compiled PELT against ruptures",
+                      ("numpy", "numba", "ruptures")):
+        table(args.sizes, args.repeats)
+
+
+def table(sizes: list[int], repeats: int) -> None:
+    """Print one row per signal length: segments found, both times, their ratio, equal breakpoints."""
     change_points(signal(100, np.random.default_rng(0)), PENALTY)  # compile
     print("| samples | segments | spotfree (ms) | ruptures (ms) | ratio | same breakpoints |")
     print("|---:|---:|---:|---:|---:|---|")
     rng = np.random.default_rng(0)
-    for n in args.sizes:
+    for n in sizes:
         x = signal(n, rng)
-        ours, ends = best_of(args.repeats, lambda: change_points(x, PENALTY))
+        ours, ends = best_of(repeats, lambda: change_points(x, PENALTY))
         if n <= RUPTURES_UP_TO:
             pelt = ruptures.Pelt(model="l2", min_size=MIN_SIZE, jump=1).fit(x)
-            theirs, reference = best_of(args.repeats if n <= 5000 else 1, lambda: pelt.predict(pen=PENALTY))
+            theirs, reference = best_of(repeats if n <= 5000 else 1, lambda: pelt.predict(pen=PENALTY))
             cells = f"{1e3 * theirs:.0f} | {theirs / ours:.0f} | {np.array_equal(ends, reference)}"
         else:
             cells = "- | - | -"

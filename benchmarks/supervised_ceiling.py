@@ -24,19 +24,20 @@ tests, so that spotfree's spotting-free figures can be read against it:
     python benchmarks/supervised_ceiling.py [--model braking] [--seeds 0 1] [--channels acc_long,pitch_rate]
                                             [--riders protocol|many] [--contexts 20:0,40:0,20:20]
                                             [--stride 2] [--summary]
+
+Writes ``benchmarks/results/supervised_ceiling_<model>.md`` (``_many`` appended with ``--riders many``): command,
+machine, date, table.
 """
 
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import time
-from datetime import datetime, timezone
 
 import numpy as np
 from sklearn.ensemble import HistGradientBoostingClassifier
 
+from machine import results_file
 from spotfree.signal.features import ride_features
 from spotfree.sim.scenarios import CLASSES, simulate_scenario
 
@@ -110,13 +111,20 @@ def main() -> None:
     parser.add_argument("--summary", action="store_true",
                         help="add each channel's mean and standard deviation over the context")
     args = parser.parse_args()
+    name = f"supervised_ceiling_{args.model}" + ("_many" if args.riders == "many" else "")
+    start = time.perf_counter()
+    with results_file(name, f"Supervised ceiling of the {args.model} model's labels"):
+        ceiling(args)
+        print(f"\nWall time {time.perf_counter() - start:.0f} s.")
+
+
+def ceiling(args: argparse.Namespace) -> None:
+    """Print the table of one run: a row per context."""
     channels = tuple((args.channels or CHANNELS[args.model]).split(","))
     groups = BRAKING if args.model == "braking" else CLASSES[args.model]
-    print(f"# supervised_ceiling {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; {platform.machine()}, "
-          f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}; Python {platform.python_version()}")
-    print(f"# model {args.model}; channels {','.join(channels)}; training riders: {args.riders}; test seeds "
-          f"{args.seeds}; taps every {args.stride} samples{' + context mean, std' if args.summary else ''}")
-    print(f"# columns: per {'scenario' if args.model == 'braking' else 'true class'}, then all")
+    print(f"Model {args.model}; channels {','.join(channels)}; training riders: {args.riders}; test seeds "
+          f"{args.seeds}; taps every {args.stride} samples{' + context mean, std' if args.summary else ''}; "
+          f"columns: per {'scenario' if args.model == 'braking' else 'true class'}, then all. Accuracy in %.\n")
     print(f"| context (before:after) | training | {' | '.join(groups)} | all tests | all, away from changes | "
           "errors within 0.25 s of a change |")
     print("|---|---|" + "---:|" * (len(groups) + 3))
@@ -150,6 +158,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    start = time.perf_counter()
     main()
-    print(f"\n# wall time {time.perf_counter() - start:.0f} s")

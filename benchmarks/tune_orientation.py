@@ -1,27 +1,28 @@
-"""Grid search of the default orientation filter's gains on the four BROAD trials at ~20 Hz.
+"""Fixed-gain sweep of the orientation peers on the four BROAD trials at ~20 Hz, and the default filter's grid.
 
-    python benchmarks/tune_orientation.py [--top 10] [--peers]
+    python benchmarks/tune_orientation.py
 
-Runs :class:`spotfree.signal.orientation.GravityPI` on every trial block-averaged by 14 (20.41 Hz) for each point
-of a small grid over ``kp, ki, acc_scale, rate_scale, max_error, acc_tau, motion_tau`` (the rest-detection
-constants stay at their physical defaults) and prints the best points by mean inclination RMSE (degrees, movement
-phase) as a markdown table. The defaults are chosen by ``orientation_leave_trials_out.py``, which scores this
-selection on held-out trials. ``ki`` is searched from 0.001 up, not from 0: BROAD trials start with 30-45 s of rest, which hands the
-rest-phase estimator the bias, whereas a ride may start moving; the integral term must stay on.
-With ``--peers`` it sweeps the fixed gain of each peer of ``broad_orientation.py`` instead (ahrs Complementary,
-Mahony, Madgwick; imufusion) and prints each peer's best gain by mean RMSE, the "best" rows of that benchmark.
-Deterministic: no randomness, same output every run.
+Sweeps the fixed gain of each peer of ``broad_orientation.py`` (ahrs Complementary, Mahony, Madgwick; imufusion:
+:data:`PEER_GRID`) on every trial block-averaged by 14 (20.41 Hz) and prints every gain's inclination RMSE (degrees,
+movement phase) per trial, best mean first within each peer: the "best" rows of ``broad_orientation.py``. Writes
+``benchmarks/results/tune_orientation.md`` (command, machine, date, table). Deterministic.
+
+:data:`GRID` is the grid of :class:`spotfree.signal.orientation.GravityPI`'s gains over ``kp, ki, acc_scale,
+rate_scale, max_error, acc_tau, motion_tau`` (the rest-detection constants stay at their physical defaults) from
+which ``orientation_leave_trials_out.py`` chooses the default on tuning trials and scores it on held-out ones.
+``ki`` is searched from 0.001 up, not from 0: BROAD trials start with 30-45 s of rest, which hands the rest-phase
+estimator the bias, whereas a ride may start moving; the integral term must stay on.
 """
 
 from __future__ import annotations
 
 import argparse
-import itertools
 
 import numpy as np
 
 import broad
 import broad_orientation as peers
+from machine import results_file
 from spotfree.signal.frame import gravity_direction
 from spotfree.signal.orientation import GravityPI
 
@@ -75,25 +76,10 @@ def sweep_peers(trials: list[broad.Trial]) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--top", type=int, default=10, help="rows to print")
-    parser.add_argument("--peers", action="store_true", help="sweep the peers' fixed gains instead")
-    args = parser.parse_args()
+    argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args()
     trials = [broad.block_average(broad.load_trial(name)) for name in broad.TRIALS]
-    if args.peers:
+    with results_file("tune_orientation", "Peer gains: fixed-gain sweep on BROAD at 20.4 Hz", peers.PACKAGES):
         sweep_peers(trials)
-        return
-    rows = []
-    for values in itertools.product(*GRID.values()):
-        params = dict(zip(GRID, values))
-        rows.append((params, score(trials, **params)))
-    rows.sort(key=lambda row: row[1].mean())
-    names = [name[:2] for name in broad.TRIALS]
-    print("| " + " | ".join(GRID) + " | " + " | ".join(names) + " | mean |")
-    print("|" + "---|" * (len(GRID) + len(names) + 1))
-    for params, rmse in rows[: args.top]:
-        cells = [f"{v:g}" for v in params.values()] + [f"{r:.2f}" for r in rmse] + [f"{rmse.mean():.2f}"]
-        print("| " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":
