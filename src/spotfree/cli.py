@@ -280,7 +280,7 @@ def _train(output: Path, experiment: list[str], channels: Optional[str], window:
                       " ".join(f"{c} {k}" for c, k in rec["windows"].items()))
     out.print(table)
     out.print("columns per class: " + ", ".join(f"{c} {k}" for c, k in model.summary["columns_per_class"].items()))
-    out.print("windows renamed per round: " + (", ".join(f"{100 * h:.1f} %" for h in learner.history_) or "none"))
+    out.print("names moved per round: " + (", ".join(f"{100 * h:.1f} %" for h in learner.history_) or "none"))
     for warning in learner.warnings_:
         err.print(f"[bold yellow]warning:[/] {warning}", markup=True)
     if figure is not None:

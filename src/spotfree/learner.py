@@ -8,30 +8,25 @@ Method (``docs/training.md`` has the derivation and the references):
    default ``summary``: level, spread and band powers per channel); a ``summary`` is standardised over all
    training windows, a ``hankel`` window kept as the channel scales leave it (so that the streaming classifiers run
    it in compiled code, as they run the paper's).
-2. **Evidence of presence.** A recording ``r`` is a bag of windows whose classes lie in its declared set ``S_r``
-   (multiple-instance learning): a window of class ``c`` lies only in bags that declare ``c``, and in bags that
-   declare ``d`` as often as ``c`` comes with ``d``. One forest of extremely randomised trees, an output per class
-   ``d``, learns from every window whether its recording declares ``d``: ``rho_d(x) = P(d in S | x)``, cross-fitted
-   on two folds of alternating short blocks. The sets give how often a window of ``c`` lies in a bag declaring
-   ``d``, ``pi_{d|c}`` (each recording's windows shared equally among its declared classes; ``pi_{c|c} = 1``). A
-   window's evidence for ``c`` is how well its presence pattern matches that of ``c``:
+2. **Partial labels.** A recording ``r`` is a bag of windows whose classes lie in its declared set ``S_r``: each
+   window is a partial-label example (Cour, Sapp and Taskar, JMLR 2011), its candidates ``S_r``. Every window starts
+   with soft names ``w(c) = 1 / |S_r|`` over its candidates (times the prior, when there is one).
+3. **Rounds.** For ``rounds`` rounds, a classifier (extremely randomised trees) is fitted on the windows with their
+   soft names as sample weights, each class's weights summing alike, cross-fitted so that no window is scored by a
+   model that saw it (two folds of alternating :data:`BLOCK_SECONDS` blocks). Its balanced posterior ``p(c | x)``
+   gives the new names, restricted to the candidates and sharpened:
 
-       log s_c(x) = sum_d [rho_d(x) log pi_{d|c} + (1 - rho_d(x)) log(1 - pi_{d|c})]   (normalised over c)
+       w(c) = p(c | x)^t pr(c)^t / sum_{d in S_r} p(d | x)^t pr(d)^t     for c in S_r, 0 elsewhere   (t = SHARPEN)
 
-   over the classes ``d`` declared by some but not all recordings. A class that always comes with another (a hard
-   stop only in recordings that also declare a soft one) is told apart by the bags that have the other without it.
-   Every window starts with ``log q(c) = log s_c(x)`` over ``c in S_r`` (``-inf`` outside it).
-3. **Relabelling.** The windows of each recording are decoded into runs (:func:`decode_runs`): the class sequence
-   inside ``S_r`` that maximises ``sum_i log q_i(z_i)`` minus ``smoothing * rate / step`` per change of class, in
-   which every declared class occurs (a class lasts longer than one window; every declared class finds its windows).
-   Then, for ``rounds`` rounds, a classifier (extremely randomised trees, each class weighing alike) is fitted on at
-   most ``FIT_WINDOWS`` windows of each class, cross-fitted so that no window is scored by a model that saw it (two
-   folds of alternating time blocks); ``log q = log p(c | x) + log s_c(x)`` (its balanced posterior and the evidence
-   of presence of step 2, which keeps the contrast between bags with and without a class in every round),
-   restricted to ``S_r``, and the windows are decoded again. The balanced posterior, not the recording's class shares, decides: a class
-   declared in one recording only would otherwise keep whatever it first took there, where the likelihood alone
-   cannot tell (a class that is a copy of another plus its own windows explains the data as well). The rounds stop
-   early when fewer than 0.2 % of the windows change.
+   (``pr``: the prior, 1 without one). This is the progressive identification of true labels of Lv et al.
+   (ICML 2020), with a forest for the network. A motion that occurs in bags of two classes goes to the one declared
+   wherever that motion occurs: a window of walking in bags declaring walking and turning, and in bags declaring
+   walking but not turning, weighs more on walking than on turning; the sharpening makes the soft names harden over
+   the rounds. Weighing each class alike keeps a class declared in few recordings from being absorbed by one
+   declared in many. The rounds stop early when the names move by less than :data:`CHANGED` (mean total variation).
+   Then the windows of each recording are decoded into runs (:func:`decode_runs`): the class sequence inside
+   ``S_r`` that maximises ``sum_i log w_i(z_i)`` minus ``smoothing * rate / step`` per change of class, in which every
+   declared class occurs (a class lasts longer than one window; every declared class finds its windows).
 4. **Dictionary.** Per class, the windows whose posterior margin is at or above the class's median, at most
    ``max_columns`` of them spread evenly over time, become the dictionary's columns: windows that straddle a change
    stay eligible, so that the dictionary also holds a class's onsets and ends, which the test windows show as
@@ -39,8 +34,8 @@ Method (``docs/training.md`` has the derivation and the references):
    (:class:`~spotfree.classify.kcrc.KernelCRCClassifier`).
 
 Domain knowledge enters only through ``prior``: an object whose ``log_prior(recording, centres, classes)`` returns an
-``(m, C)`` array added to ``log q`` of the windows centred at sample indices ``centres`` in every step; the generic
-learner knows nothing of any domain.
+``(m, C)`` array, ``log pr``, for the windows centred at sample indices ``centres``, multiplied into the names at the
+start and in every round; the generic learner knows nothing of any domain.
 
 The learner's cost is linear in the number of windows: the forests are fitted on at most ``FIT_WINDOWS`` windows
 per class, and every other step is a pass over the windows.
@@ -64,18 +59,15 @@ from spotfree.representation import REPRESENTATIONS, represent
 from spotfree.windows import ChannelScaling, recording_windows
 
 FIT_WINDOWS = 2000
-"""Most windows per class the classifier of a round is fitted on (and, times the classes, the presence forest)."""
+"""Most windows per class the forests of the rounds are fitted on (times the classes: the same windows every round,
+drawn at random among all)."""
 CHANGED = 0.002
-"""Share of windows whose name changes below which the rounds stop."""
-BLOCK_SECONDS = 5.0
-"""Length of the time blocks that alternate between the two cross-fitting folds of the relabelling rounds."""
-PRESENCE_BLOCK_SECONDS = 2.0
-"""Length of the alternating blocks of the presence forest's folds: short, so that a class that occurs in a few short
-runs still has windows in both folds (a forest that saw none of a class's windows cannot find them)."""
-PATTERN_FLOOR = 0.2
-"""Bounds ``[PATTERN_FLOOR, 1 - PATTERN_FLOOR]`` of the co-declaration shares ``pi_{d|c}``: the forest's ``rho_d`` is
-an average over similar windows (a window that straddles a change, a motion that also occurs elsewhere), so that a
-window of ``c`` may seem to lie in a bag without ``c``; the bound keeps one output from vetoing a class."""
+"""Mean total variation of the soft names between two rounds below which the rounds stop."""
+BLOCK_SECONDS = 2.0
+"""Length of the time blocks that alternate between the two cross-fitting folds: short, so that a class that occurs
+in a few short runs still has windows in both folds (a forest that saw none of a class's windows cannot find them)."""
+SHARPEN = 2.0
+"""Exponent ``t`` of the posterior in each round's names: above 1 the soft names harden over the rounds."""
 SEPARABLE = 0.3
 """Ratio of a class's mean cross-fitted posterior on windows of recordings without it to that on its own windows
 from which the summary warns."""
@@ -87,7 +79,7 @@ AFFINE = 6.0
 window is then represented by an affine combination of columns, which CRC_RLS needs once a class holds as many columns
 as a window has values (every class then spans every window); the kernel's distances do not change."""
 LEAF = 8
-"""Fewest windows in a leaf of the relabelling trees: a posterior averages several windows, so that a few wrong
+"""Fewest windows in a leaf of the trees of the rounds: a posterior averages several windows, so that a few wrong
 names among the training windows do not decide a leaf."""
 
 
@@ -122,7 +114,8 @@ class SetSupervisedLearner(BaseEstimator):
     representation : {"summary", "hankel"}
         What the dictionary holds of a window (:mod:`spotfree.representation`).
     rounds : int
-        Most relabelling rounds (step 3); 0 keeps the names decoded from the evidence of presence.
+        Most rounds of step 3; 0 decodes the starting names (uniform over each set, or the prior): a model whose
+        names nothing in the data decided.
     smoothing : float
         Seconds of windows whose log-posterior a change of class must gain to be made (the switching cost of
         :func:`decode_runs`); the dictionary's margins are averaged over as many windows.
@@ -148,7 +141,7 @@ class SetSupervisedLearner(BaseEstimator):
     classifier_, causal_classifier_ : KernelCRCClassifier
         Fitted on the dictionary's columns and on its causal columns (offline and live labels).
     history_ : list of float
-        Share of windows whose name changed, per round.
+        Mean total variation of the soft names between rounds, per round.
     warnings_ : list of str
     """
 
@@ -190,21 +183,24 @@ class SetSupervisedLearner(BaseEstimator):
         mask = allowed[data.recording]
         prior = self._log_prior(recordings, data)
 
-        log_s, rho = self._presence(X, mask, data, rng)
-        log_q = np.where(mask, log_s + prior, -np.inf)
-        labels = self._decide(log_q, data, allowed)
+        fitted = np.arange(len(X))
+        if len(X) > FIT_WINDOWS * n_classes:  # the same windows in every round, so that the rounds can settle
+            fitted = np.sort(rng.choice(len(X), FIT_WINDOWS * n_classes, replace=False))
+        log_q = np.where(mask, prior, -np.inf)
+        weights = _normalised(log_q)
         self.history_ = []
         for _ in range(self.rounds):
-            log_p = self._cross_fitted(X, labels, data, rng)
-            log_q = np.where(mask, log_p + log_s + prior, -np.inf)
-            new = self._decide(log_q, data, allowed)
-            changed = float(np.mean(new != labels))
-            labels = new
+            log_p = self._cross_fitted(X, weights, data, fitted)
+            log_q = np.where(mask, SHARPEN * (log_p + prior), -np.inf)
+            new = _normalised(log_q)
+            changed = 0.5 * float(np.abs(new - weights).sum(axis=1).mean())
+            weights = new
             self.history_.append(changed)
             if changed < CHANGED:
                 break
+        labels = self._decide(np.log(np.maximum(weights, 1e-300)), data, allowed)
         if self.rounds:
-            self._warn_inseparable(log_p, rho, labels, mask)
+            self._warn_inseparable(log_p, labels, mask)
         margin = _margins(self._smoothed(log_q, data), labels)
         self.model_ = self._dictionary(X, labels, margin, data, channels, scaling, offset, scale, sets, recordings)
         names = np.asarray(self.classes_, dtype=object)
@@ -312,101 +308,50 @@ class SetSupervisedLearner(BaseEstimator):
         average."""
         return float(self.smoothing * self.rate_ / self.step)
 
-    def _warn_inseparable(self, log_p: np.ndarray, rho: np.ndarray, labels: np.ndarray, mask: np.ndarray) -> None:
+    def _warn_inseparable(self, log_p: np.ndarray, labels: np.ndarray, mask: np.ndarray) -> None:
         """Warn about a class whose windows are not told apart from what happens without it: a classifier which did
         not see the windows gives it, on average, at least :data:`SEPARABLE` times as much on the windows of
-        recordings that do not declare it as on its own windows; or, by the evidence of presence, its own windows
-        seem to lie in recordings without it nearly as often as the other windows of the recordings that declare it,
-        ``1 - mean rho_c(own) >= (1 - SEPARABLE) (1 - mean rho_c(others))`` (cross-fitted on
-        short blocks, this also holds for a class whose windows one fold of the rounds holds alone, whose posterior
-        was fitted on them); or it names fewer windows than :data:`LEAF`."""
+        recordings that do not declare it as on its own windows; or it names fewer windows than :data:`LEAF`."""
         p = np.exp(log_p)
         for c, name in enumerate(self.classes_):
             own, elsewhere = labels == c, ~mask[:, c]
             if not own.any() or not elsewhere.any():
                 continue
-            others = mask[:, c] & ~own
-            known = np.isfinite(rho[:, c])
-            alone, besides = (1.0 - np.mean(rho[own & known, c]) if (own & known).any() else 0.0,
-                              1.0 - np.mean(rho[others & known, c]) if (others & known).any() else 0.0)
             if own.sum() < LEAF:
                 reason = f"it names only {int(own.sum())} windows, fewer than a leaf of the trees holds"
             elif p[elsewhere, c].mean() >= SEPARABLE * p[own, c].mean():
                 reason = (f"its windows get it {p[own, c].mean():.2f} on average, windows of recordings without it "
                           f"{p[elsewhere, c].mean():.2f}")
-            elif besides > 0 and alone >= (1.0 - SEPARABLE) * besides:
-                reason = (f"by the evidence of presence its windows seem to lie in recordings without it {alone:.2f} "
-                          f"of the time, the other windows of its recordings {besides:.2f}")
             else:
                 continue
             self.warnings_.append(f"class {name} is not told apart from what happens without it ({reason}); check "
                                   "that it happens in the recordings that declare it")
 
-    def _folds(self, data: _Windows, seconds: float = BLOCK_SECONDS) -> np.ndarray:
+    def _folds(self, data: _Windows) -> np.ndarray:
         """Cross-fitting fold (0 or 1) of every window: alternating :data:`BLOCK_SECONDS` blocks of each recording,
         the first block's fold alternating between recordings."""
-        block = max(1, int(round(seconds * self.rate_ / self.step)))
+        block = max(1, int(round(BLOCK_SECONDS * self.rate_ / self.step)))
         position = np.arange(len(data.X)) - data.offsets[data.recording]
         return (data.recording + position // block) % 2
 
-    def _presence(self, X: np.ndarray, mask: np.ndarray, data: _Windows, rng: np.random.Generator) -> np.ndarray:
-        """``log s_c(x)`` of every window (module docstring, step 2), from a forest that did not see the window's
-        :data:`PRESENCE_BLOCK_SECONDS` block (0 where no class is declared by some but not all of the forest's
-        windows), and ``rho_c(x)`` (NaN for a class not among the forest's outputs)."""
-        n_classes = len(self.classes_)
-        declared_by = mask[data.offsets[:-1]]  # (R, C): the recordings' sets
-        share = declared_by * (np.diff(data.offsets) / declared_by.sum(axis=1))[:, None]  # windows of c in r
-        pattern = (share.T @ declared_by) / np.maximum(share.sum(axis=0)[:, None], 1e-12)  # pi_{d|c}, (C, C)
-        pattern = np.clip(pattern, PATTERN_FLOOR, 1.0 - PATTERN_FLOOR)
-        fold = self._folds(data, PRESENCE_BLOCK_SECONDS)
-        log_s = np.zeros((len(X), n_classes))
-        presence = np.full((len(X), n_classes), np.nan)
-        for f in (0, 1):
-            held = fold == f
-            if not held.any():
-                continue
-            train = np.flatnonzero(~held) if (~held).any() else np.arange(len(X))  # one fold only: no hold-out
-            if len(train) > FIT_WINDOWS * n_classes:
-                train = np.sort(rng.choice(train, FIT_WINDOWS * n_classes, replace=False))
-            declared = mask[train]
-            informative = np.flatnonzero(declared.any(axis=0) & ~declared.all(axis=0))
-            if not len(informative):
-                continue
-            targets = declared[:, informative].astype(int)
-            model = ExtraTreesClassifier(n_estimators=100, min_samples_leaf=LEAF, max_features="sqrt", n_jobs=-1,
-                                         random_state=self.seed).fit(X[train], targets[:, 0] if len(informative) == 1
-                                                                     else targets)
-            model.n_jobs = 1  # the threads of predict_proba add the trees up in any order: not reproducible
-            proba = model.predict_proba(X[held])
-            proba = proba if isinstance(proba, list) else [proba]
-            rho = np.column_stack([p[:, 1] for p in proba])  # P(d in S | x); each output's classes_ is [0, 1]
-            presence[np.ix_(held, informative)] = rho
-            pi = pattern[:, informative]
-            ll = rho @ np.log(pi).T + (1.0 - rho) @ np.log(1.0 - pi).T  # (m, C)
-            log_s[held] = ll - np.logaddexp.reduce(ll, axis=1, keepdims=True)
-        return log_s, presence
-
-    def _cross_fitted(self, X: np.ndarray, labels: np.ndarray, data: _Windows,
-                      rng: np.random.Generator) -> np.ndarray:
-        """``log p(c | x)`` of every window from a classifier that did not see it (or, for a class that only one
-        fold holds, saw only that class's windows of its own fold)."""
+    def _cross_fitted(self, X: np.ndarray, weights: np.ndarray, data: _Windows, fitted: np.ndarray) -> np.ndarray:
+        """Balanced ``log p(c | x)`` of every window from a forest fitted on the soft names ``weights`` ``(n, C)`` of
+        the windows ``fitted`` of the other fold."""
         n_classes = len(self.classes_)
         fold = self._folds(data)
         log_p = np.empty((len(X), n_classes))
         for f in (0, 1):
-            if not np.any(fold == f):
+            held = fold == f
+            if not held.any():
                 continue
-            train = fold != f if np.any(fold != f) else np.ones(len(X), dtype=bool)  # one fold only: no hold-out
-            missing = np.setdiff1d(np.unique(labels), np.unique(labels[train]))
-            train |= np.isin(labels, missing)
-            rows = _balanced_sample(labels, train, n_classes, rng)
+            train = fitted[~held[fitted]] if (~held[fitted]).any() else fitted  # one fold only: no hold-out
+            rows, classes, sample_weight = _candidate_rows(weights, train)
             model = ExtraTreesClassifier(n_estimators=100, min_samples_leaf=LEAF, max_features="sqrt", n_jobs=-1,
-                                         class_weight="balanced",
-                                         random_state=self.seed).fit(X[rows], labels[rows])
+                                         random_state=self.seed).fit(X[rows], classes, sample_weight=sample_weight)
             model.n_jobs = 1  # the threads of predict_proba add the trees up in any order: not reproducible
-            proba = np.full((int(np.sum(fold == f)), n_classes), 1e-3 / n_classes)
-            proba[:, model.classes_] += model.predict_proba(X[fold == f])
-            log_p[fold == f] = np.log(proba / proba.sum(axis=1, keepdims=True))
+            proba = np.full((int(held.sum()), n_classes), 1e-3 / n_classes)
+            proba[:, model.classes_] += model.predict_proba(X[held])
+            log_p[held] = np.log(proba / proba.sum(axis=1, keepdims=True))
         return log_p
 
     def _dictionary(self, X, labels, margin, data, channels, scaling, offset, scale, sets, recordings):
@@ -464,13 +409,20 @@ def _margins(log_q: np.ndarray, labels: np.ndarray) -> np.ndarray:
     return own - other.max(axis=1)
 
 
-def _balanced_sample(labels: np.ndarray, eligible: np.ndarray, n_classes: int, rng: np.random.Generator) -> np.ndarray:
-    """At most :data:`FIT_WINDOWS` eligible windows of each class, drawn at random."""
-    rows = []
-    for c in range(n_classes):
-        idx = np.flatnonzero(eligible & (labels == c))
-        rows.append(idx if len(idx) <= FIT_WINDOWS else rng.choice(idx, FIT_WINDOWS, replace=False))
-    return np.sort(np.concatenate(rows))
+def _normalised(log_q: np.ndarray) -> np.ndarray:
+    """``exp(log_q)`` normalised per row (rows of ``-inf`` but the finite entries)."""
+    w = np.exp(log_q - log_q.max(axis=1, keepdims=True))
+    return w / w.sum(axis=1, keepdims=True)
+
+
+def _candidate_rows(weights: np.ndarray, windows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The rows, classes and sample weights a round's forest is fitted on: each of ``windows`` once per class ``c``
+    with ``weights[:, c] > 0``, weighing ``weights[:, c]``, each class's weights scaled to sum to 1."""
+    rows, classes = np.nonzero(weights[windows] > 1e-6)
+    rows = windows[rows]
+    sample_weight = weights[rows, classes]
+    totals = np.bincount(classes, weights=sample_weight, minlength=weights.shape[1])
+    return rows, classes, sample_weight / totals[classes]
 
 
 def _pick(labels: np.ndarray, margin: np.ndarray, n_classes: int, max_columns: int) -> tuple[np.ndarray, np.ndarray]:
