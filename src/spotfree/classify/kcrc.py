@@ -189,14 +189,18 @@ class KernelCRCClassifier(ResidualClassifier):
 
 
 def _kernel(X: np.ndarray, landmarks: np.ndarray, gamma: float) -> np.ndarray:
-    """``exp(-gamma ||x - l||^2)`` for every row ``x`` of ``X`` and row ``l`` of ``landmarks`` (in place on one
-    matrix product)."""
-    k = X @ landmarks.T
-    k *= -2.0
-    k += np.einsum("ij,ij->i", X, X)[:, None]
-    k += np.einsum("ij,ij->i", landmarks, landmarks)
-    np.maximum(k, 0.0, out=k)
-    k *= -gamma
+    """``exp(-gamma ||x - l||^2)`` for every row ``x`` of ``X`` and row ``l`` of ``landmarks``: the exponent of all pairs
+    from one matrix product, ``[x, ||x||^2, 1] . [2 gamma l, -gamma, -gamma ||l||^2]``, kept <= 0, then exp in place."""
+    left = np.empty((len(X), X.shape[1] + 2))
+    left[:, :-2] = X
+    left[:, -2] = np.einsum("ij,ij->i", X, X)
+    left[:, -1] = 1.0
+    right = np.empty((len(landmarks), landmarks.shape[1] + 2))
+    np.multiply(landmarks, 2.0 * gamma, out=right[:, :-2])
+    right[:, -2] = -gamma
+    right[:, -1] = -gamma * np.einsum("ij,ij->i", landmarks, landmarks)
+    k = left @ right.T
+    np.minimum(k, 0.0, out=k)
     return np.exp(k, out=k)
 
 
