@@ -23,21 +23,24 @@ the eigenvalues of ``K_LL`` above ``1e-10`` of the largest) and each class's is 
     F_i = U_i^T E_i K_LL^{-1/2}                                   ((f, m); ||F_i k(L, y)|| = ||phi(y) - Phi_i x_i||)
 
 ``U_i`` orthogonal: the eigenvectors of ``R_i R_i^T``, largest first, ``R_i = E_i phi(A)`` the class-``i`` residuals of
-the atoms, so that the first rows of ``F_i`` carry most of a residual. The first :data:`HEAD` rows of every class
-bound its squared residual from below; the class of the least bound is completed, then only the classes whose bound
-does not exceed its residual (a sum of squares only grows, so the argmin is exact). In batch a chunk of windows takes
-matrix products (BLAS): the kernel rows from ``Y L^T`` (``||y - l||^2 = ||y||^2 + ||l||^2 - 2 y.l``); those rows times
-the head rows of every class, with the rows of ``K_LL^{-1/2}`` appended when the part outside is needed (rejection);
-then, per class, the windows that need its remaining rows times those rows. :meth:`~KernelCRCClassifier.
-decision_function` completes every class. Chunks go to threads as in CRC_RLS. A window costs ``m d`` multiply-adds for
-the kernel row, ``C h m`` for the bounds, ``(f - h) m`` per completed class and ``f m`` for the part outside; without
-pruning ``C f m``. Streaming (:meth:`KernelCRCClassifier.predict_one`, the ring step) does the same in one compiled
-call (:func:`~spotfree.classify.kernels.kernel_window`), abandoning a class as soon as its sum exceeds the best.
-Float32 is not offered: ``K_LL^{-1/2}`` amplifies rounding by its largest singular value (thousands on ride models),
-and in single precision labels of the ride models changed. Landmarks are taken per
-class, in proportion to its atoms (at least one), by farthest-point sampling of its atoms (all of them when it has
-no more; deterministic, so every process labels alike);
-``gamma = gamma_scale / median_{j<l} ||a_j - a_l||^2``, so the kernel does not depend on the windows' units.
+the atoms, so that the first rows of ``F_i`` carry most of a residual. The first ``h`` (:data:`HEAD`) rows of every
+class bound its squared residual from below; the class of the least bound is completed, then only the classes whose
+bound does not exceed its residual (a sum of squares only grows, so the argmin is exact).
+
+In batch a chunk of windows takes matrix products (BLAS): the kernel rows' exponents ``-gamma ||y - l||^2`` from
+``[y, ||y||^2, 1]`` times ``[2 gamma l, -gamma, -gamma ||l||^2]``; those rows times the head rows of every class, with
+the rows of ``K_LL^{-1/2}`` appended when the part outside is needed (rejection); then, per class, the windows that
+need its remaining rows times those rows (``decision_function`` completes every class). Chunks go to threads as in
+CRC_RLS. A window costs ``m (d + 2)`` multiply-adds for the kernel row, ``C h m`` for the bounds, ``(f - h) m`` per
+completed class and ``f m`` for the part outside, against ``C f m`` without the bounds. Streaming
+(:meth:`KernelCRCClassifier.predict_one`, the ring step) does the same in one compiled call
+(:func:`~spotfree.classify.kernels.kernel_window`), abandoning a class as soon as its sum exceeds the best. Float32 is
+not offered: ``K_LL^{-1/2}`` amplifies rounding by its largest singular value, large when landmarks lie close together
+(``K_LL`` near singular), enough to change labels.
+
+Landmarks are taken per class, in proportion to its atoms (at least one), by farthest-point sampling of its atoms (all
+of them when it has no more; deterministic, so every process labels alike); ``gamma = gamma_scale / median_{j<l}
+||a_j - a_l||^2``, so the kernel does not depend on the windows' units.
 
 Compared with CRC_RLS, a normal stop no longer matches a scaled-down sudden stop. The number of landmarks is a
 model's (``parameters["landmarks"]``, set by training; 32 for models without it).
@@ -189,8 +192,8 @@ class KernelCRCClassifier(ResidualClassifier):
 
 
 def _kernel(X: np.ndarray, landmarks: np.ndarray, gamma: float) -> np.ndarray:
-    """``exp(-gamma ||x - l||^2)`` for every row ``x`` of ``X`` and row ``l`` of ``landmarks``: the exponent of all pairs
-    from one matrix product, ``[x, ||x||^2, 1] . [2 gamma l, -gamma, -gamma ||l||^2]``, kept <= 0, then exp in place."""
+    """``exp(-gamma ||x - l||^2)`` for every row ``x`` of ``X`` and row ``l`` of ``landmarks``: the exponents of all
+    pairs from one matrix product, ``[x, ||x||^2, 1] . [2 gamma l, -gamma, -gamma ||l||^2]``, kept <= 0, then exp in place."""
     left = np.empty((len(X), X.shape[1] + 2))
     left[:, :-2] = X
     left[:, -2] = np.einsum("ij,ij->i", X, X)
@@ -205,8 +208,8 @@ def _kernel(X: np.ndarray, landmarks: np.ndarray, gamma: float) -> np.ndarray:
 
 
 def _rotation(images: np.ndarray) -> np.ndarray:
-    """The orthogonal ``U`` ``(f, f)`` whose columns are the eigenvectors of ``images images^T`` (``images`` ``(f, n)``),
-    largest eigenvalue first: the directions that carry most of the images' squared norm."""
+    """The orthogonal ``U`` ``(f, f)`` whose columns are the eigenvectors of ``images images^T`` (``images``
+    ``(f, n)``), largest eigenvalue first: the directions that carry most of the images' squared norm."""
     return np.linalg.eigh(images @ images.T)[1][:, ::-1]
 
 
