@@ -126,6 +126,17 @@ def classifier_rows(models: dict, windows: dict, n_windows: int, repeats: int) -
     return out
 
 
+def multiply_adds(clf, windows: np.ndarray) -> float:
+    """Multiply-adds per window of ``clf.predict`` on ``windows``: ``C d^2`` for CRC_RLS; for kernel CRC_RLS the kernel
+    row ``m (d + 2)``, the bounds ``C h m`` and ``(f - h) m`` per completed class, counted on these windows (the
+    classes its ranking leaves finite)."""
+    if not hasattr(clf, "head_"):
+        return len(clf.classes_) * windows.shape[1] ** 2
+    m, f, h = len(clf.landmarks_), len(clf.normalisation_), clf.head_
+    completed = np.isfinite(clf._ranked(windows, False)[0]).sum(axis=1).mean()
+    return m * (windows.shape[1] + 2) + len(clf.classes_) * h * m + completed * (f - h) * m
+
+
 def per_sample_rows(models: dict, samples: list, passes: int) -> dict[str, np.ndarray]:
     """Microseconds per ``MultiModelStream.update`` for each method, ``passes`` interleaved passes after one untimed
     pass."""
@@ -184,7 +195,7 @@ def main() -> None:
         rides = simulate_scenario("lateral", repeats=2, seed=7)
         per_sample = per_sample_rows(models, raw_samples(rides), args.passes)
         differ = stream_cost(models, rides).differing
-        lines += report(models, rows, per_sample, differ, len(rides), old, args.baseline)
+        lines += report(models, windows, rows, rates[1], per_sample, differ, len(rides), old, args.baseline)
     text = "\n".join(lines)
     print(text)
     command = " ".join(["python", "benchmarks/crc_speed.py", *sys.argv[1:]])
@@ -193,15 +204,19 @@ def main() -> None:
                        f"- date: {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC\n\n{text}\n")
 
 
-def report(models: dict, rows: dict, per_sample: dict, differ: int, n_samples: int, old: dict | None,
-           revision: str | None) -> list[str]:
-    """The tables and the goals, as lines of Markdown."""
-    lines = []
+def report(models: dict, windows: dict, rows: dict, gemm: float, per_sample: dict, differ: int, n_samples: int,
+           old: dict | None, revision: str | None) -> list[str]:
+    """The tables and the goals, as lines of Markdown; ``gemm``: the machine's GFLOP/s on one thread."""
+    lines, ceilings = [], []
     for name, model in models.items():
         clf = dictionary_classifier(model, "kcrc", causal=True)
+        work = {method: multiply_adds(dictionary_classifier(model, method, causal=True), windows[name])
+                for method in METHODS}
         lines.append(f"model {name}: {model.representation} windows of {model.window} samples, d = "
                      f"{rows[name]['kcrc']['d']}, {model.dictionary.shape[1]} columns, {len(model.classes)} classes; "
-                     f"kernel CRC_RLS: {len(clf.landmarks_)} landmarks, {len(clf.normalisation_)} features")
+                     f"kernel CRC_RLS: {len(clf.landmarks_)} landmarks, {len(clf.normalisation_)} features, "
+                     f"{work['kcrc']:,.0f} multiply-adds per window in predict; CRC_RLS {work['crc']:,.0f}")
+        ceilings.append(f"{name} kcrc {gemm * 1e9 / 2 / work['kcrc']:,.0f}, crc {gemm * 1e9 / 2 / work['crc']:,.0f}")
     head = "| " + " | ".join(["model", "method", "batch windows/s, 1 thread", "batch windows/s, 2 threads",
                               "batch windows per CPU-second, 1 thread", "live median us/window",
                               "live p99 us/window"]) + " |"
@@ -244,6 +259,8 @@ def report(models: dict, rows: dict, per_sample: dict, differ: int, n_samples: i
               f"{met(slowest < LIVE_GOAL_US)}",
               f"- goal three models < {SAMPLE_GOAL_US:g} us median per raw sample (kcrc): {sample:.1f} us, "
               f"{met(sample < SAMPLE_GOAL_US)} (crc: {np.median(per_sample['crc']):.1f} us)",
+              f"- ceiling of one core at this run's one-thread GEMM rate ({gemm:.0f} GFLOP/s) for the multiply-adds "
+              f"above, windows/s: {'; '.join(ceilings)}",
               "- kcrc predict vs predict_one, windows with differing labels: "
               + ", ".join(f"{n} {f['differ']}" for n, f in kcrc.items()),
               f"- stream labels differing from the batch table (3 models x {n_samples} samples): {differ}"]
