@@ -55,6 +55,30 @@ def test_predict_one_equals_predict(landmarks):
         clf.predict_one(test[0, :-1])
 
 
+def test_labels_are_the_least_residuals_although_classes_are_pruned():
+    # three amplitudes of one shape; windows between them and of another shape, so that bounds are close
+    rng = np.random.default_rng(5)
+    shape = np.sin(np.linspace(0, np.pi, 30))
+    atoms = np.vstack([np.outer(a * rng.uniform(0.8, 1.2, 40), shape) for a in (1.0, 2.0, 3.0)])
+    atoms += 0.05 * rng.normal(size=atoms.shape)
+    labels = np.repeat(["one", "two", "three"], 40)
+    windows = np.vstack([np.outer(rng.uniform(0.5, 3.5, 300), shape) + 0.05 * rng.normal(size=(300, 30)),
+                         rng.normal(size=(50, 30))])
+    for reject in (None, 0.5):
+        clf = KernelCRCClassifier(landmarks=24, reject=reject).fit(atoms, labels)
+        assert clf.head_ < len(clf.normalisation_)  # rows are left out of the bounds
+        residuals = clf.decision_function(windows)  # every class completed
+        expected = np.where(residuals.min(axis=1) > (reject or np.inf), UNKNOWN,
+                            clf.classes_[np.argmin(residuals, axis=1)])
+        assert list(clf.predict(windows)) == list(expected)
+        assert [clf.predict_one(w) for w in windows] == list(expected)
+        # the rotated, folded operators give CRC_RLS's residuals on the Nystroem features
+        phi = clf._features(windows)
+        inside = clf.crc_.decision_function(phi)
+        np.testing.assert_allclose(residuals, np.sqrt(inside ** 2 + 1.0 - np.sum(phi ** 2, axis=1)[:, None]),
+                                   atol=1e-7)
+
+
 def test_windows_far_from_every_atom_are_rejected():
     X, y, test, _, outside = amplitude_data(3)
     clf = KernelCRCClassifier(reject=0.5).fit(X, y)

@@ -64,7 +64,7 @@ class ResidualClassifier(ClassifierMixin, BaseEstimator):
     def predict(self, X) -> np.ndarray:
         """Class of each window (row of ``X``), :data:`UNKNOWN` where rejected."""
         X = self._check_windows(X)
-        ranking, best = self._ranked(X)
+        ranking, best = self._ranked(X, self.reject is not None)
         labels = self.classes_[np.argmin(ranking, axis=1)]
         if self.reject is None:
             return labels
@@ -95,11 +95,11 @@ class ResidualClassifier(ClassifierMixin, BaseEstimator):
         """Precompute what classification needs from the dictionary ``A`` ``(d, n_atoms)``."""
         raise NotImplementedError
 
-    def _ranked(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """What :meth:`predict` ranks the classes by ``(n, C)`` (argmin wins) and ``min_i r_i`` ``(n,)``: by default
-        the residuals themselves."""
+    def _ranked(self, X: np.ndarray, best: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+        """What :meth:`predict` ranks the classes by ``(n, C)`` (argmin wins) and, when ``best`` (rejection on),
+        ``min_i r_i`` ``(n,)``: by default the residuals themselves."""
         residuals = self._residuals(X)
-        return residuals, residuals.min(axis=1)
+        return residuals, residuals.min(axis=1) if best else None
 
     def _residuals(self, X: np.ndarray) -> np.ndarray:
         """Class residuals of validated windows ``X`` ``(n, d)``."""

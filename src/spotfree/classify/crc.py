@@ -22,6 +22,7 @@ from __future__ import annotations
 import os
 from concurrent.futures import ThreadPoolExecutor
 from functools import lru_cache
+from typing import Callable
 
 import numpy as np
 from sklearn.utils.validation import check_is_fitted
@@ -63,8 +64,7 @@ class CRCClassifier(ResidualClassifier):
     def _fit_dictionary(self, A: np.ndarray, atom_class: np.ndarray) -> None:
         if self.dtype not in DTYPES:
             raise InputError(f"dtype={self.dtype!r}: use one of {', '.join(DTYPES)}")
-        if not (self.n_jobs == -1 or (isinstance(self.n_jobs, (int, np.integer)) and self.n_jobs >= 1)):
-            raise InputError(f"n_jobs={self.n_jobs!r}: give a number of threads >= 1, or -1 for one per core")
+        check_n_jobs(self.n_jobs)
         gram = A.T @ A
         self.lambda_ = float(self.alpha * max(np.trace(gram) / max(A.shape[1], 1), np.finfo(float).tiny))
         self.projection_ = np.linalg.solve(gram + self.lambda_ * np.eye(gram.shape[0]), A.T)  # P, (n_atoms, d)
@@ -79,22 +79,14 @@ class CRCClassifier(ResidualClassifier):
     def _residuals(self, X: np.ndarray) -> np.ndarray:
         n_classes, d = self.residual_operators_.shape[:2]
         operator = self._operator_t
-        chunk = max(16, CHUNK_BYTES // (n_classes * d * operator.dtype.itemsize))
         out = np.empty((len(X), n_classes), dtype=operator.dtype)
 
-        def residuals(start: int) -> None:
-            block = X[start:start + chunk]
-            rows = np.matmul(block.astype(operator.dtype, copy=False), operator).reshape(-1, d)  # E_i y, stacked
-            squares = out[start:start + chunk].reshape(-1)
-            np.sqrt(np.einsum("ij,ij->i", rows, rows, out=squares), out=squares)
+        def residuals(rows: slice) -> None:
+            block = np.matmul(X[rows].astype(operator.dtype, copy=False), operator).reshape(-1, d)  # E_i y, stacked
+            squares = out[rows].reshape(-1)
+            np.sqrt(np.einsum("ij,ij->i", block, block, out=squares), out=squares)
 
-        starts = range(0, len(X), chunk)
-        threads = min(len(starts), (os.cpu_count() or 1) if self.n_jobs == -1 else self.n_jobs)
-        if len(starts) == 1:
-            residuals(0)
-            return out.astype(float, copy=False)
-        with _blas().limit(limits=1, user_api="blas"), ThreadPoolExecutor(threads) as pool:
-            list(pool.map(residuals, starts))
+        in_chunks(residuals, len(X), n_classes * d * operator.itemsize, self.n_jobs)
         return out.astype(float, copy=False)
 
     def predict_one(self, y):
@@ -110,6 +102,26 @@ class CRCClassifier(ResidualClassifier):
         if self.reject is not None and ratio > self.reject:
             return UNKNOWN
         return self.classes_[best]
+
+
+def in_chunks(work: Callable[[slice], None], n_rows: int, row_bytes: int, n_jobs: int) -> None:
+    """``work(rows)`` over consecutive slices of ``n_rows`` rows of about :data:`CHUNK_BYTES` / ``row_bytes`` rows each
+    (at least 16): in this thread when there is one slice, else shared out to ``n_jobs`` threads (``-1``: one per
+    core) that each run a single-threaded BLAS."""
+    chunk = max(16, CHUNK_BYTES // max(row_bytes, 1))
+    starts = range(0, n_rows, chunk)
+    if len(starts) <= 1:
+        work(slice(0, n_rows))
+        return
+    threads = min(len(starts), (os.cpu_count() or 1) if n_jobs == -1 else n_jobs)
+    with _blas().limit(limits=1, user_api="blas"), ThreadPoolExecutor(threads) as pool:
+        list(pool.map(work, (slice(start, start + chunk) for start in starts)))
+
+
+def check_n_jobs(n_jobs) -> None:
+    """A clear error unless ``n_jobs`` is ``-1`` or a number of threads >= 1."""
+    if not (n_jobs == -1 or (isinstance(n_jobs, (int, np.integer)) and n_jobs >= 1)):
+        raise InputError(f"n_jobs={n_jobs!r}: give a number of threads >= 1, or -1 for one per core")
 
 
 @lru_cache(maxsize=1)

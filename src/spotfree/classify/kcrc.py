@@ -15,11 +15,32 @@ classification", IEEE GRSL 12(1), 2015, here with the plain ridge) are solved on
 norm ``1 - ||phi(y)||^2`` (``k(y, y) = 1``), is left unexplained by every class and is added to each residual:
 ``r_i = sqrt(||phi(y) - Phi_i x_i||^2 + 1 - ||phi(y)||^2)``. With every atom a landmark these are the residuals of exact
 kernel CRC_RLS. A window far from every landmark keeps ``r_i`` near 1, so the rejection ratio ``min_i r_i / 1``
-rejects it. Fewer landmarks make a window cost ``m d`` for the kernel row and ``2 C m^2`` for the residuals, instead of
-the ``2 C d^2`` of CRC_RLS on windows of ``d`` values: with ``m`` near ``d`` about the same. Landmarks are taken per
-class, in proportion to its atoms (at least one), by farthest-point sampling of its atoms (all of them when it has
-no more; deterministic, so every process labels alike);
-``gamma = gamma_scale / median_{j<l} ||a_j - a_l||^2``, so the kernel does not depend on the windows' units.
+rejects it.
+
+Computation: the normalisation is folded into CRC_RLS's residual operators ``E_i`` ``(f, f)`` (``f <= m`` features:
+the eigenvalues of ``K_LL`` above ``1e-10`` of the largest) and each class's is rotated,
+
+    F_i = U_i^T E_i K_LL^{-1/2}                                   ((f, m); ||F_i k(L, y)|| = ||phi(y) - Phi_i x_i||)
+
+``U_i`` orthogonal: the eigenvectors of ``R_i R_i^T``, largest first, ``R_i = E_i phi(A)`` the class-``i`` residuals of
+the atoms, so that the first rows of ``F_i`` carry most of a residual. The first ``h`` (:data:`HEAD`) rows of every
+class bound its squared residual from below; the class of the least bound is completed, then only the classes whose
+bound does not exceed its residual (a sum of squares only grows, so the argmin is exact).
+
+In batch a chunk of windows takes matrix products (BLAS): the kernel rows' exponents ``-gamma ||y - l||^2`` from
+``[y, ||y||^2, 1]`` times ``[2 gamma l, -gamma, -gamma ||l||^2]``; those rows times the head rows of every class, with
+the rows of ``K_LL^{-1/2}`` appended when the part outside is needed (rejection); then, per class, the windows that
+need its remaining rows times those rows (``decision_function`` completes every class). Chunks go to threads as in
+CRC_RLS. A window costs ``m (d + 2)`` multiply-adds for the kernel row, ``C h m`` for the bounds, ``(f - h) m`` per
+completed class and ``f m`` for the part outside, against ``C f m`` without the bounds. Streaming
+(:meth:`KernelCRCClassifier.predict_one`, the ring step) does the same in one compiled call
+(:func:`~spotfree.classify.kernels.kernel_window`), abandoning a class as soon as its sum exceeds the best. Float32 is
+not offered: ``K_LL^{-1/2}`` amplifies rounding by its largest singular value, large when landmarks lie close together
+(``K_LL`` near singular), enough to change labels.
+
+Landmarks are taken per class, in proportion to its atoms (at least one), by farthest-point sampling of its atoms (all
+of them when it has no more; deterministic, so every process labels alike); ``gamma = gamma_scale / median_{j<l}
+||a_j - a_l||^2``, so the kernel does not depend on the windows' units.
 
 Compared with CRC_RLS, a normal stop no longer matches a scaled-down sudden stop. The number of landmarks is a
 model's (``parameters["landmarks"]``, set by training; 32 for models without it).
@@ -32,9 +53,12 @@ from scipy.spatial.distance import pdist
 from sklearn.utils.validation import check_is_fitted
 
 from spotfree.classify.base import UNKNOWN, ResidualClassifier
-from spotfree.classify.crc import CRCClassifier
-from spotfree.classify.kernels import crc_window, kernel_features, kernel_residual
+from spotfree.classify.crc import CRCClassifier, check_n_jobs, in_chunks
+from spotfree.classify.kernels import kernel_window
 from spotfree.errors import InputError
+
+HEAD = 8
+"""Rows per class of the rotated operators that bound every class's residual (module docstring)."""
 
 
 class KernelCRCClassifier(ResidualClassifier):
@@ -51,14 +75,17 @@ class KernelCRCClassifier(ResidualClassifier):
         Ridge weight of the CRC_RLS on the features, relative to their mean squared norm (as in CRC_RLS).
     reject : float or None
         Rejection threshold on ``min_i r_i`` (in [0, 1]: the feature vector's norm is 1).
+    n_jobs : int
+        Threads of the batch path (``-1``: one per core).
     """
 
     def __init__(self, gamma_scale: float = 0.25, landmarks: int | None = 32, alpha: float = 1e-3,
-                 reject: float | None = None):
+                 reject: float | None = None, n_jobs: int = -1):
         super().__init__(reject=reject)
         self.gamma_scale = gamma_scale
         self.landmarks = landmarks
         self.alpha = alpha
+        self.n_jobs = n_jobs
 
     def _fit_dictionary(self, A: np.ndarray, atom_class: np.ndarray) -> None:
         if not (np.isfinite(self.gamma_scale) and self.gamma_scale > 0):
@@ -66,14 +93,23 @@ class KernelCRCClassifier(ResidualClassifier):
         if self.landmarks is not None and not (isinstance(self.landmarks, (int, np.integer))
                                                and not isinstance(self.landmarks, bool) and self.landmarks >= 1):
             raise InputError(f"landmarks={self.landmarks!r}: give a number of landmarks >= 1, or None for every atom")
-        atoms = A.T
+        check_n_jobs(self.n_jobs)
+        atoms = A.T.astype(float)
         spread = float(np.median(pdist(atoms, "sqeuclidean"))) if len(atoms) > 1 else 0.0
         self.gamma_ = self.gamma_scale / (spread if spread > 0 else 1.0)
         self.landmarks_ = self._place_landmarks(atoms, atom_class)
         values, vectors = np.linalg.eigh(_kernel(self.landmarks_, self.landmarks_, self.gamma_))
         keep = values > values.max() * 1e-10
         self.normalisation_ = np.ascontiguousarray((vectors[:, keep] / np.sqrt(values[keep])).T)  # K_LL^-1/2 rows
-        self.crc_ = CRCClassifier(alpha=self.alpha, reject=self.reject).fit(self._features(atoms), atom_class)
+        phi = self._features(atoms)
+        self.crc_ = CRCClassifier(alpha=self.alpha, reject=self.reject).fit(phi, atom_class)
+        rotated = np.stack([_rotation(e @ phi.T).T @ e @ self.normalisation_ for e in self.crc_.residual_operators_])
+        n_classes, f, m = rotated.shape
+        self.head_ = min(HEAD, f)
+        self.operator_ = np.ascontiguousarray(rotated.reshape(-1, m))  # F_i stacked, (C f, m)
+        heads = rotated[:, :self.head_].reshape(-1, m)
+        self._heads_t = np.ascontiguousarray(np.vstack([heads, self.normalisation_]).T)  # (m, C h + f)
+        self._tails_t = np.ascontiguousarray(rotated[:, self.head_:].reshape(-1, m).T)  # (m, C (f - h))
 
     def _place_landmarks(self, atoms: np.ndarray, atom_class: np.ndarray) -> np.ndarray:
         if self.landmarks is None or self.landmarks >= len(atoms):
@@ -87,49 +123,103 @@ class KernelCRCClassifier(ResidualClassifier):
         """``phi`` of every row of ``X``, ``(n, m)``."""
         return _kernel(X, self.landmarks_, self.gamma_) @ self.normalisation_.T
 
-    def _parts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The residuals of CRC_RLS on the features ``(n, C)`` and the squared part of ``phi(y)`` outside the
-        landmarks' span ``(n,)``: ``1 - ||phi||^2``, since ``||phi(y)||^2 = k(y, y) = 1`` in all."""
-        phi = self._features(X)
-        return self.crc_._residuals(phi), np.maximum(1.0 - np.einsum("ij,ij->i", phi, phi), 0.0)
+    def _squares(self, X: np.ndarray, outside: bool, prune: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        """The squared class residuals inside the landmarks' span ``||phi(y) - Phi_i x_i||^2`` ``(n, C)`` (when
+        ``prune``, inf for the classes whose bound shows they are not the least) and, when ``outside``, the squared
+        part of ``phi(y)`` outside that span ``(n,)``: ``1 - ||phi||^2``, since ``||phi(y)||^2 = k(y, y) = 1`` in all
+        (else None). Matrix products per chunk (module docstring)."""
+        n_classes, f, h = len(self.classes_), len(self.normalisation_), self.head_
+        heads = self._heads_t[:, :n_classes * h + outside * f]
+        inside = np.empty((len(X), n_classes))
+        rest = np.empty(len(X)) if outside else None
+
+        def squares(rows: slice) -> None:
+            k = _kernel(X[rows], self.landmarks_, self.gamma_)
+            z = k @ heads
+            bounds = _block_squares(z[:, :n_classes * h], h)
+            if outside:
+                np.maximum(1.0 - _block_squares(z[:, n_classes * h:], f)[:, 0], 0.0, out=rest[rows])
+            if not prune:
+                inside[rows] = bounds + _block_squares(k @ self._tails_t, f - h)
+                return
+            full = np.full_like(bounds, np.inf)
+            self._complete(k, bounds, full, np.argmin(bounds, axis=1)[:, None] == np.arange(n_classes))
+            self._complete(k, bounds, full, np.isinf(full) & (bounds <= full.min(axis=1)[:, None]))
+            inside[rows] = full
+
+        in_chunks(squares, len(X), heads.itemsize * (len(self.landmarks_) + heads.shape[1]), self.n_jobs)
+        return inside, rest
+
+    def _complete(self, k: np.ndarray, bounds: np.ndarray, full: np.ndarray, chosen: np.ndarray) -> None:
+        """``full[j, i]`` = bound plus the squares of the remaining rows of class ``i`` for the kernel rows ``k[j]``
+        where ``chosen[j, i]``: one matrix product per class."""
+        width = len(self.normalisation_) - self.head_
+        for i in range(len(self.classes_)):
+            rows = np.flatnonzero(chosen[:, i])
+            if len(rows):
+                tail = k[rows] @ self._tails_t[:, i * width:(i + 1) * width]
+                full[rows, i] = bounds[rows, i] + np.einsum("ij,ij->i", tail, tail)
 
     def _residuals(self, X: np.ndarray) -> np.ndarray:
-        inside, outside = self._parts(X)
-        return np.sqrt(inside ** 2 + outside[:, None])
+        inside, outside = self._squares(X, True, False)
+        return np.sqrt(inside + outside[:, None])
 
-    def _ranked(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The residuals inside the landmarks' span rank the classes (the part outside is the same for every class),
-        so that a window far from every landmark, whose ``r_i`` all round to 1, is ranked as :meth:`predict_one` and
-        the streaming step rank it; ``min_i r_i`` for the rejection."""
-        inside, outside = self._parts(X)
-        return inside, np.sqrt(inside.min(axis=1) ** 2 + outside)
+    def _ranked(self, X: np.ndarray, best: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+        """The squared residuals inside the landmarks' span rank the classes (the part outside is the same for every
+        class; inf where pruned), so that a window far from every landmark, whose ``r_i`` all round to 1, is ranked
+        as :meth:`predict_one` and the streaming step rank it; ``min_i r_i`` for the rejection when ``best``."""
+        inside, outside = self._squares(X, best, True)
+        return inside, np.sqrt(inside.min(axis=1) + outside) if best else None
 
     def _window_norms(self, X: np.ndarray) -> np.ndarray:
         return np.ones(len(X))
 
     def predict_one(self, y):
-        """Class of one window ``y`` ``(d,)`` (two compiled calls); for streaming."""
+        """Class of one window ``y`` ``(d,)`` (one compiled call); for streaming."""
         try:
-            landmarks, crc = self.landmarks_, self.crc_
+            landmarks = self.landmarks_
         except AttributeError:
-            check_is_fitted(self, "crc_")
+            check_is_fitted(self, "operator_")
             raise
-        phi = np.empty(len(self.normalisation_))
-        norm2 = kernel_features(landmarks, self.normalisation_, self.gamma_, self._one_window(y, landmarks.shape[1]),
-                                phi)
-        if norm2 < 0:
+        best, residual = kernel_window(landmarks, self.gamma_, self.operator_, self.head_, self.normalisation_,
+                                       len(self.classes_), self._one_window(y, landmarks.shape[1]),
+                                       np.empty(len(landmarks)), self.reject is not None)
+        if best < 0:
             raise self._not_finite()
-        best, ratio = crc_window(crc._operator, len(self.classes_), phi)
-        if self.reject is not None and kernel_residual(ratio, norm2) > self.reject:
+        if self.reject is not None and residual > self.reject:
             return UNKNOWN
         return self.classes_[best]
 
 
 def _kernel(X: np.ndarray, landmarks: np.ndarray, gamma: float) -> np.ndarray:
-    """``exp(-gamma ||x - l||^2)`` for every row ``x`` of ``X`` and row ``l`` of ``landmarks``."""
-    d2 = (np.einsum("ij,ij->i", X, X)[:, None] + np.einsum("ij,ij->i", landmarks, landmarks)[None, :]
-          - 2.0 * (X @ landmarks.T))
-    return np.exp(-gamma * np.maximum(d2, 0.0))
+    """``exp(-gamma ||x - l||^2)`` for every row ``x`` of ``X`` and row ``l`` of ``landmarks``: the exponents of all
+    pairs from one matrix product, ``[x, ||x||^2, 1] . [2 gamma l, -gamma, -gamma ||l||^2]``, kept <= 0, then exp in place."""
+    left = np.empty((len(X), X.shape[1] + 2))
+    left[:, :-2] = X
+    left[:, -2] = np.einsum("ij,ij->i", X, X)
+    left[:, -1] = 1.0
+    right = np.empty((len(landmarks), landmarks.shape[1] + 2))
+    np.multiply(landmarks, 2.0 * gamma, out=right[:, :-2])
+    right[:, -2] = -gamma
+    right[:, -1] = -gamma * np.einsum("ij,ij->i", landmarks, landmarks)
+    k = left @ right.T
+    np.minimum(k, 0.0, out=k)
+    return np.exp(k, out=k)
+
+
+def _rotation(images: np.ndarray) -> np.ndarray:
+    """The orthogonal ``U`` ``(f, f)`` whose columns are the eigenvectors of ``images images^T`` (``images``
+    ``(f, n)``), largest eigenvalue first: the directions that carry most of the images' squared norm."""
+    return np.linalg.eigh(images @ images.T)[1][:, ::-1]
+
+
+def _block_squares(z: np.ndarray, width: int) -> np.ndarray:
+    """The squared norm of every ``width``-wide block of every row of ``z`` ``(n, blocks width)``: ``(n, blocks)``;
+    ``(n, 1)`` zeros for blocks of no width."""
+    if width == 0:
+        return np.zeros((len(z), 1))
+    blocks = np.ascontiguousarray(z).reshape(-1, width)
+    return np.einsum("ij,ij->i", blocks, blocks).reshape(len(z), -1)
 
 
 def _farthest_points(points: np.ndarray, m: int) -> np.ndarray:

@@ -6,7 +6,8 @@ sample, so the last ``L`` samples of any model are contiguous) and, for every mo
 holds ``n >= L`` samples and ``(n - L) % step == 0``), gathers its window channel by channel, divides each channel by
 its scale, divides the whole by its l2 norm for ``unit`` models, appends the affine row, represents it
 (:func:`summary_features`, for ``summary`` models) and -- for CRC_RLS -- takes the class residuals and their argmin
-(:func:`crc_window`); for kernel CRC_RLS it first maps the window to its Nystroem features (:func:`kernel_features`).
+(:func:`crc_window`); for kernel CRC_RLS it takes the window's kernel row and the class residuals of the folded
+operator (:func:`kernel_window`).
 
 They share one module because numba's disk cache only notices changes in the file of the function it caches, so a
 compiled call chain stays inside one file. The module imports nothing of spotfree, so the classifiers and the
@@ -24,15 +25,18 @@ _FAST = {"reassoc", "contract", "nsz", "arcp"}
 MODEL = np.dtype([
     ("window", "i8"), ("step", "i8"), ("first", "i8"), ("channels", "i8"), ("d", "i8"), ("y", "i8"),
     ("affine", "f8"), ("unit", "?"), ("compiled", "?"), ("classes", "i8"), ("operator", "i8"), ("reject", "f8"),
-    ("kernel", "?"), ("landmarks", "i8"), ("m", "i8"), ("features", "i8"), ("phi", "i8"), ("gamma", "f8"),
-    ("code", "i8"), ("summary", "?"), ("bins", "i8"), ("bands", "i8"), ("tables", "i8"), ("z", "i8"), ("p", "i8"),
+    ("kernel", "?"), ("landmarks", "i8"), ("m", "i8"), ("features", "i8"), ("row", "i8"), ("head", "i8"),
+    ("gamma", "f8"), ("code", "i8"), ("summary", "?"), ("bins", "i8"), ("bands", "i8"), ("tables", "i8"), ("z", "i8"),
+    ("p", "i8"),
 ])
 """One row per model of :func:`ring_step`'s table: window ``L`` and ``step`` (samples); ``first``, ``channels``: its
 slice of the flat ``picks`` / ``scales``; ``d`` and ``y``: its window length (``channels L`` plus the affine row when
 ``affine != 0``) and offset in the flat ``windows``; ``unit``: l2-normalised columns; ``compiled``: CRC_RLS in the
 kernel, with ``classes``, its operator's offset in the flat ``operators`` and the ``reject`` threshold (inf: off);
 ``kernel``: kernel CRC_RLS, its ``m`` landmarks (``m d``) and then its normalisation (``features m``) at offset
-``landmarks`` of the flat ``kernels``, ``gamma``, and ``phi`` the offset of its features in ``windows``.
+``landmarks`` of the flat ``kernels``, ``gamma``, ``row`` the offset of the window's kernel row (``m``) in ``windows``,
+and at ``operator`` its folded, rotated operator ``(classes features, m)`` whose first ``head`` rows per class bound
+the residuals (:mod:`spotfree.classify.kcrc`).
 ``summary``: the window is represented by :func:`summary_features` (``bins`` spectral bins in ``bands`` bands) into
 the ``p`` values at offset ``z`` of ``windows``, with its tables (:func:`spotfree.representation.summary_tables`: taper
 ``L``, cosines and sines ``bins L``, band of each bin ``bins``) and then its standardisation (offset ``p``, scale
@@ -43,59 +47,96 @@ NOT_DUE, IN_PYTHON, NOT_FINITE = -1, -2, -3
 
 
 @numba.njit(cache=True, nogil=True, fastmath=_FAST)
+def row_squares(operator, first, last, y, r2, bound):  # pragma: no cover - compiled
+    """``r2`` plus ``sum (a_i . y)^2`` over the rows ``a_i`` ``first <= i < last`` of ``operator``, four rows at a time
+    (they share each load of ``y``); stops early once the sum exceeds ``bound`` (it can only grow)."""
+    d = y.shape[0]
+    i = first
+    while i + 4 <= last and r2 <= bound:
+        a0, a1, a2, a3 = operator[i], operator[i + 1], operator[i + 2], operator[i + 3]
+        e0, e1, e2, e3 = 0.0, 0.0, 0.0, 0.0
+        for j in range(d):
+            v = y[j]
+            e0 += a0[j] * v
+            e1 += a1[j] * v
+            e2 += a2[j] * v
+            e3 += a3[j] * v
+        r2 += e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3
+        i += 4
+    while i < last and r2 <= bound:
+        a0 = operator[i]
+        e0 = 0.0
+        for j in range(d):
+            e0 += a0[j] * y[j]
+        r2 += e0 * e0
+        i += 1
+    return r2
+
+
+@numba.njit(cache=True, nogil=True, fastmath=_FAST)
+def nearest_block(operator, n_classes, head, y):  # pragma: no cover - compiled
+    """The class ``c`` of least ``||E_c y||^2`` and that value, ``E_c`` the ``c``-th of the ``n_classes`` equal blocks
+    of rows of ``operator`` ``(C p, len(y))`` (the first on a tie). The first ``head`` rows of every block give lower
+    bounds; the class of the least bound is completed first, then only the classes whose bound does not exceed the
+    best so far, each abandoned once its sum does (exact: a sum of squares only grows)."""
+    rows = operator.shape[0] // n_classes
+    bounds = np.empty(n_classes)
+    for c in range(n_classes):
+        bounds[c] = row_squares(operator, c * rows, c * rows + head, y, 0.0, np.inf)
+    best = 0
+    for c in range(1, n_classes):
+        if bounds[c] < bounds[best]:
+            best = c
+    best_r2 = row_squares(operator, best * rows + head, (best + 1) * rows, y, bounds[best], np.inf)
+    for c in range(n_classes):
+        if c == best or bounds[c] > best_r2 or (bounds[c] == best_r2 and c > best):
+            continue
+        r2 = row_squares(operator, c * rows + head, (c + 1) * rows, y, bounds[c], best_r2)
+        if r2 < best_r2 or (r2 == best_r2 and c < best):
+            best, best_r2 = c, r2
+    return best, best_r2
+
+
+@numba.njit(cache=True, nogil=True, fastmath=_FAST)
 def crc_window(operator, n_classes, y):  # pragma: no cover - compiled
     """Best class of ``y`` under the stacked operator ``(C d, d)`` and ``min_i r_i / ||y||``; ``-1`` if not finite."""
-    d = y.shape[0]
     norm2 = 0.0
-    for j in range(d):
+    for j in range(y.shape[0]):
         norm2 += y[j] * y[j]
     if not np.isfinite(norm2):
         return -1, np.nan
-    best, best_r2 = 0, np.inf
-    for c in range(n_classes):
-        r2 = 0.0
-        for i in range(c * d, (c + 1) * d):
-            row = operator[i]
-            e = 0.0
-            for j in range(d):
-                e += row[j] * y[j]
-            r2 += e * e
-        if r2 < best_r2:
-            best, best_r2 = c, r2
+    best, best_r2 = nearest_block(operator, n_classes, operator.shape[1], y)
     ratio = np.sqrt(best_r2 / norm2) if norm2 > 0 else np.inf
     return best, ratio
 
 
 @numba.njit(cache=True, nogil=True, fastmath=_FAST)
-def kernel_features(landmarks, normalisation, gamma, y, phi):  # pragma: no cover - compiled
-    """``phi = normalisation exp(-gamma ||y - l_a||^2)_a`` (Nystroem features of ``y``); returns ``||phi||^2``, or
-    -1 if ``y`` is not finite."""
+def kernel_window(landmarks, gamma, operator, head, normalisation, n_classes, y, k, outside):  # pragma: no cover
+    """Kernel CRC_RLS of one window ``y`` (:mod:`spotfree.classify.kcrc`): the kernel row
+    ``k_a = exp(-gamma ||y - l_a||^2)`` of the landmarks ``(m, d)`` into ``k`` ``(m,)``, then the best class under the
+    folded, rotated operator ``F`` ``(C f, m)`` (:func:`nearest_block` with ``head`` bounding rows) and, when
+    ``outside``, ``min_i r_i = sqrt(||F_best k||^2 + 1 -
+    ||N k||^2)`` with the normalisation ``N`` ``(f, m)`` (else NaN). ``(-1, NaN)`` if ``y`` is not finite."""
     m, d = landmarks.shape
     for j in range(d):
         if not np.isfinite(y[j]):
-            return -1.0
-    k = np.empty(m)
+            return -1, np.nan
     for a in range(m):
         s = 0.0
         for j in range(d):
             e = y[j] - landmarks[a, j]
             s += e * e
         k[a] = np.exp(-gamma * s)
+    best, best_r2 = nearest_block(operator, n_classes, head, k)
+    if not outside:
+        return best, np.nan
     norm2 = 0.0
     for r in range(normalisation.shape[0]):
         s = 0.0
         for a in range(m):
             s += normalisation[r, a] * k[a]
-        phi[r] = s
         norm2 += s * s
-    return norm2
-
-
-@numba.njit(cache=True, nogil=True)
-def kernel_residual(ratio, norm2):  # pragma: no cover - compiled
-    """Kernel CRC_RLS's ``min_i r_i`` from CRC_RLS's ``min_i r_i / ||phi||`` on the features and ``||phi||^2``: the
-    feature vector's part outside the landmarks' span (``1 - ||phi||^2``) added (``spotfree.classify.kcrc``)."""
-    return np.sqrt(max(ratio * ratio * norm2 + 1.0 - norm2, 0.0))
+    return best, np.sqrt(max(best_r2 + 1.0 - norm2, 0.0))
 
 
 @numba.njit(cache=True, nogil=True)  # no reassociation: the same bits in batch and in the ring step
@@ -195,17 +236,13 @@ def ring_step(ring, cursor, models, picks, scales, operators, kernels, windows, 
             size = model.m * d
             landmarks = kernels[model.landmarks:model.landmarks + size].reshape(model.m, d)
             normalisation = kernels[model.landmarks + size:model.landmarks + size + model.features * model.m]
-            phi = windows[model.phi:model.phi + model.features]
-            norm2 = kernel_features(landmarks, normalisation.reshape(model.features, model.m), model.gamma, y, phi)
-            if norm2 < 0:
-                model.code = NOT_FINITE
-                continue
-            y, d = phi, model.features
-        size = model.classes * d * d
-        operator = operators[model.operator:model.operator + size].reshape(model.classes * d, d)
-        best, ratio = crc_window(operator, model.classes, y)
-        if model.kernel:
-            ratio = kernel_residual(ratio, norm2)
+            operator = operators[model.operator:model.operator + model.classes * model.features * model.m]
+            best, ratio = kernel_window(landmarks, model.gamma, operator.reshape(-1, model.m), model.head,
+                                        normalisation.reshape(model.features, model.m), model.classes, y,
+                                        windows[model.row:model.row + model.m], model.reject < np.inf)
+        else:
+            operator = operators[model.operator:model.operator + model.classes * d * d].reshape(model.classes * d, d)
+            best, ratio = crc_window(operator, model.classes, y)
         if best < 0:
             model.code = NOT_FINITE
         elif ratio > model.reject:
