@@ -19,8 +19,8 @@ METHODS = {"crc": CRCClassifier, "kcrc": KernelCRCClassifier, "src": SRCClassifi
            "bsrc": BlockSparseClassifier, "nearest": NearestColumnsClassifier}
 
 DEFAULT_METHOD = "kcrc"
-"""The method used when none is named: kernel CRC_RLS, amplitude-aware at about the cost per window of CRC_RLS
-(``spotfree evaluate`` compares them; ``benchmarks/stream_speed.py`` times them)."""
+"""The method used when none is named: kernel CRC_RLS, amplitude-aware, at a few times the cost per window of CRC_RLS
+(``benchmarks/crc_speed.py`` times both)."""
 
 
 def make_classifier(method: str, **params):
