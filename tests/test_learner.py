@@ -256,7 +256,7 @@ def test_any_input_trains_or_is_refused_with_an_input_error(data):
     assert np.all(np.isfinite(learner.model_.dictionary))
 
 
-def test_the_evidence_of_presence_names_a_class_that_always_comes_with_another():
+def test_a_class_that_always_comes_with_another_is_named():
     """``hard`` is declared only in recordings that also declare ``soft``; the recordings with ``soft`` and without
     ``hard`` tell them apart (and one without either, ``soft`` from ``still``): the training windows of ``hard`` end
     named ``hard`` and those of ``soft`` ``soft``, in every recording."""
