@@ -177,22 +177,3 @@ def test_cli_ingest_without_inputs_exits_2(tmp_path):
     assert result.exit_code == 2 and "nothing to ingest" in result.output
     result = CliRunner().invoke(app, ["fleet", "stats", str(tmp_path), "-o", str(tmp_path / "st")])
     assert result.exit_code == 2 and "fleet process" in result.output
-
-
-def test_the_default_model_has_one_digest_whether_just_trained_or_read_from_the_cache(tmp_path, monkeypatch):
-    from spotfree.fleet.engine import model_digest
-    from spotfree.ride import default_model as module
-    from spotfree.signal.features import ride_features
-    from spotfree.sim.scenarios import CLASSES, simulate_scenario
-    from spotfree.presets import preset_learner
-
-    def quick(progress=None):  # two short rides instead of the seven-ride files: the same kind of model, sooner
-        scenarios = ("normal-braking", "sudden-braking")
-        return preset_learner("braking").fit([ride_features(simulate_scenario(s, repeats=1), derived=True) for s in scenarios],
-                                  [list(CLASSES[s]) for s in scenarios]).model_
-
-    monkeypatch.setenv("SPOTFREE_CACHE", str(tmp_path))
-    monkeypatch.setattr(module, "train_default_model", quick)
-    first = module.default_model()
-    assert list(tmp_path.glob("default-model-*.npz"))
-    assert model_digest({"braking": first}) == model_digest({"braking": module.default_model()})

@@ -486,8 +486,8 @@ def serve(
     https: bool = typer.Option(False, "--https", help="TLS with a self-signed certificate (phones need it)"),
     replay: Optional[str] = typer.Option(None, "--replay", help="replay this log as a live ride (real time)"),
     simulate: Optional[str] = typer.Option(None, "--simulate", help="ride this simulator scenario live"),
-    model_path: Optional[Path] = typer.Option(None, "--model", help="model file (default: trained on simulated "
-                                              "rides once, then cached)"),
+    model_path: Optional[Path] = typer.Option(None, "--model", help="model file (default: spotfree's braking "
+                                              "model, shipped with it)"),
     speed: float = typer.Option(1.0, "--speed", min=0.1, help="replay/simulate at this many times real time"),
     seed: int = typer.Option(0, "--seed", help="seed of --simulate"),
     sync: str = typer.Option("full", "--sync", help="SQLite durability of an acknowledged sample: full (survives "
@@ -669,7 +669,7 @@ def fleet_process(
             raise InputError(f"--model {spec!r}: write NAME=MODEL.npz")
         models[name] = DictionaryModel.load(path)
     if "braking" not in models:
-        models["braking"] = default_model(progress=lambda m: err.print(m))
+        models["braking"] = default_model()
     report = process_fleet(store, output, models, scheduler=scheduler, workers=workers, database=database,
                            redo=redo)
     out.print(f"{report}; results in {output}")
