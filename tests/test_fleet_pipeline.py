@@ -177,3 +177,26 @@ def test_cli_ingest_without_inputs_exits_2(tmp_path):
     assert result.exit_code == 2 and "nothing to ingest" in result.output
     result = CliRunner().invoke(app, ["fleet", "stats", str(tmp_path), "-o", str(tmp_path / "st")])
     assert result.exit_code == 2 and "fleet process" in result.output
+
+
+def test_cli_process_and_stats_json_for_scripts(fleet_store, processed, cluster, tmp_path):
+    """``fleet process --json`` (the shipped braking model when none is given) and ``fleet stats --json``: one JSON
+    document on stdout each; ``--quiet`` prints nothing."""
+    import json
+
+    out, _, _ = processed
+    result = CliRunner().invoke(app, ["fleet", "process", "--store", fleet_store, "-o", str(out), "--scheduler",
+                                      cluster.scheduler_address, "--json"])
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.stdout)
+    assert report == {"output": str(out), "models": ["braking"], "processed": [], "skipped": RIDES, "failed": {}}
+    result = CliRunner().invoke(app, ["fleet", "stats", str(out), "-o", str(tmp_path), "--json"])
+    assert result.exit_code == 0, result.output
+    stats = json.loads(result.stdout)["stats"]
+    assert list(stats) == list(GROUPS)
+    for group in GROUPS:
+        assert stats[group] == json.loads(pd.read_csv(tmp_path / f"by_{group}.csv").to_json(orient="records"))
+        assert sum(row["rides"] for row in stats[group]) == RIDES
+    quiet = CliRunner().invoke(app, ["fleet", "stats", str(out), "-o", str(tmp_path / "q"), "--quiet"])
+    assert quiet.exit_code == 0 and quiet.stdout == "" and quiet.stderr == ""
+    assert (tmp_path / "q" / "stats.md").exists()
