@@ -250,7 +250,7 @@ def main() -> None:
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as name:
         folder = Path(name)
-        default_model(lambda m: None).save(folder / "model.npz")
+        default_model().save(folder / "model.npz")
         rows = recording_rows(simulate_scenario("sudden-braking", repeats=1, seed=0))
         with RideStore(folder / "rides.db") as store:
             tokens = [store.register_device(f"phone-{k}")[1] for k in range(args.phones)]

@@ -179,20 +179,24 @@ def test_cli_ingest_without_inputs_exits_2(tmp_path):
     assert result.exit_code == 2 and "fleet process" in result.output
 
 
-def test_the_default_model_has_one_digest_whether_just_trained_or_read_from_the_cache(tmp_path, monkeypatch):
-    from spotfree.fleet.engine import model_digest
-    from spotfree.ride import default_model as module
-    from spotfree.signal.features import ride_features
-    from spotfree.sim.scenarios import CLASSES, simulate_scenario
-    from spotfree.presets import preset_learner
+def test_cli_process_and_stats_json_for_scripts(fleet_store, processed, cluster, tmp_path):
+    """``fleet process --json`` (the shipped braking model when none is given) and ``fleet stats --json``: one JSON
+    document on stdout each; ``--quiet`` prints nothing."""
+    import json
 
-    def quick(progress=None):  # two short rides instead of the seven-ride files: the same kind of model, sooner
-        scenarios = ("normal-braking", "sudden-braking")
-        return preset_learner("braking").fit([ride_features(simulate_scenario(s, repeats=1), derived=True) for s in scenarios],
-                                  [list(CLASSES[s]) for s in scenarios]).model_
-
-    monkeypatch.setenv("SPOTFREE_CACHE", str(tmp_path))
-    monkeypatch.setattr(module, "train_default_model", quick)
-    first = module.default_model()
-    assert list(tmp_path.glob("default-model-*.npz"))
-    assert model_digest({"braking": first}) == model_digest({"braking": module.default_model()})
+    out, _, _ = processed
+    result = CliRunner().invoke(app, ["fleet", "process", "--store", fleet_store, "-o", str(out), "--scheduler",
+                                      cluster.scheduler_address, "--json"])
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.stdout)
+    assert report == {"output": str(out), "models": ["braking"], "processed": [], "skipped": RIDES, "failed": {}}
+    result = CliRunner().invoke(app, ["fleet", "stats", str(out), "-o", str(tmp_path), "--json"])
+    assert result.exit_code == 0, result.output
+    stats = json.loads(result.stdout)["stats"]
+    assert list(stats) == list(GROUPS)
+    for group in GROUPS:
+        assert stats[group] == json.loads(pd.read_csv(tmp_path / f"by_{group}.csv").to_json(orient="records"))
+        assert sum(row["rides"] for row in stats[group]) == RIDES
+    quiet = CliRunner().invoke(app, ["fleet", "stats", str(out), "-o", str(tmp_path / "q"), "--quiet"])
+    assert quiet.exit_code == 0 and quiet.stdout == "" and quiet.stderr == ""
+    assert (tmp_path / "q" / "stats.md").exists()

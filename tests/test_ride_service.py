@@ -250,7 +250,6 @@ def test_sudden_stops_warn_once_each_and_are_recorded(client, raw, fake):
 
 def test_serve_simulate_end_to_end(tmp_path, model):
     """``spotfree serve --simulate sudden-braking`` in a subprocess: a ride appears, is recorded and warned of."""
-    import os
     import signal
     import socket
     import sys
@@ -265,8 +264,7 @@ def test_serve_simulate_end_to_end(tmp_path, model):
     server = subprocess.Popen([sys.executable, "-m", "spotfree.cli", "serve", "--port", str(port), "--database",
                                str(tmp_path / "rides.db"), "--model", str(tmp_path / "model.npz"), "--simulate",
                                "sudden-braking", "--speed", "10"],
-                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                              env={**os.environ, "SPOTFREE_CACHE": str(tmp_path)})
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     url, events, rides_listed = f"http://127.0.0.1:{port}", [], []
     token_file = tmp_path / "rides.db.operator-token"
     try:

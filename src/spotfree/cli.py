@@ -5,8 +5,10 @@ Exit status: 0 on success, 2 on bad input with a one-line message that says what
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import importlib.util
+import json
 from pathlib import Path
 from typing import Callable, Optional
 
@@ -44,13 +46,53 @@ err = _console(stderr=True)
 out = _console()
 
 
+QUIET = typer.Option(False, "--quiet", "-q", help="print nothing but errors (with --json: the JSON alone)")
+
+
+def _json_option(keys: str):
+    """The ``--json`` option of a command whose document holds ``keys`` (their description, for --help)."""
+    return typer.Option(False, "--json", help="print one JSON document on standard output and nothing else there "
+                        f"(notes and warnings stay on standard error, and are in the document): {keys}")
+
+
+@contextlib.contextmanager
+def _silenced(stdout: bool, stderr: bool):
+    """Silence the :data:`out` and :data:`err` consoles for the block (``stdout``, ``stderr``: which)."""
+    before = out.quiet, err.quiet
+    out.quiet, err.quiet = out.quiet or stdout, err.quiet or stderr
+    try:
+        yield
+    finally:
+        out.quiet, err.quiet = before
+
+
+def _print_json(document: dict) -> None:
+    """``document`` as indented JSON on standard output (paths as text, NumPy numbers as numbers)."""
+
+    def plain(value):
+        if isinstance(value, Path):
+            return str(value)
+        if hasattr(value, "item"):
+            return value.item()
+        raise TypeError(f"{type(value).__name__} is not JSON")
+
+    typer.echo(json.dumps(document, indent=2, default=plain))
+
+
 def user_errors(command: Callable) -> Callable:
-    """Turn spotfree's own errors (and unreadable files) into one line on stderr and exit status 2."""
+    """Turn spotfree's own errors (and unreadable files) into one line on stderr and exit status 2.
+
+    A command with the :data:`QUIET` option (parameter ``quiet``) prints nothing on either console while it runs
+    when it is given; one with :func:`_json_option` (parameter ``as_json``) prints nothing on the standard-output
+    console, and prints its JSON document itself with :func:`_print_json`. Errors are printed after the command
+    has stopped, so always."""
 
     @functools.wraps(command)
     def wrapper(*args, **kwargs):
         try:
-            return command(*args, **kwargs)
+            with _silenced(stdout=kwargs.get("quiet", False) or kwargs.get("as_json", False),
+                           stderr=kwargs.get("quiet", False)):
+                return command(*args, **kwargs)
         except SpotfreeError as exc:
             err.print(f"[bold red]error:[/] {escape(str(exc))}", markup=True)
         except OSError as exc:
@@ -106,22 +148,25 @@ def _report_mount(line: str, warnings: list[str]) -> None:
         err.print(f"warning: {warning}")
 
 
-def _report_repairs_and_gaps(rec) -> None:
+def _report_repairs_and_gaps(rec) -> dict:
     """Refuse a recording outside what a phone records (:func:`spotfree.limits.check_recording`), then tell the
     user what was read (for a sensor log), every repair a reader made and every gap it found (never silently);
-    called once the command's work is done, so that a refusal stays one line."""
+    called once the command's work is done, so that a refusal stays one line. Returns the same for a JSON summary:
+    ``{"read": str or None, "notes": [...], "warnings": [...]}``."""
     from spotfree.io import describe
     from spotfree.limits import check_recording
 
     check_recording(rec)
-    if rec.meta.get("describe"):
-        err.print(f"read: {describe(rec)}")
-    for repair in rec.meta.get("repairs", []):
-        err.print(f"note: {repair}")
-    for warning in rec.meta.get("warnings", []):
+    said = {"read": describe(rec) if rec.meta.get("describe") else None, "notes": list(rec.meta.get("repairs", [])),
+            "warnings": list(rec.meta.get("warnings", [])) + [f"{rec.source}: {gap}; no output there"
+                                                              for gap in rec.gaps]}
+    if said["read"]:
+        err.print(f"read: {said['read']}")
+    for note in said["notes"]:
+        err.print(f"note: {note}")
+    for warning in said["warnings"]:
         err.print(f"warning: {warning}")
-    for gap in rec.gaps:
-        err.print(f"warning: {rec.source}: {gap}; no output there")
+    return said
 
 
 @app.command()
@@ -136,6 +181,7 @@ def simulate(
         None, "--manoeuvres", help="lateral and road only: what the rides hold, comma-separated from gentle, sharp, "
         "slalom (lateral) or rough-asphalt, cobblestone, kerb (road); none for straight rides on smooth asphalt "
         "(default: all)"),
+    quiet: bool = QUIET,
 ) -> None:
     """Simulate rides of a self-balancing transporter with a tablet on the handlebar."""
     from spotfree.sim.scenarios import simulate_scenario
@@ -159,6 +205,10 @@ def features(
                               "nominal flat mount when the estimate is within 15 deg of it), estimate (always the "
                               "estimate), flat (on the handlebar, screen up, top edge forward), upright (in a holder, "
                               "portrait, screen towards the rider)"),
+    quiet: bool = QUIET,
+    as_json: bool = _json_option('{"output", "samples", "rate", "features" (ride | gps), "channels", '
+                                 '"orientation", "mount" ({"line", "warnings"}, none for GPS features), '
+                                 '"read", "notes", "warnings"}.'),
 ) -> None:
     """Vehicle roll, pitch, pitch rate and gravity-free vehicle-frame accelerations from a raw IMU log (from a
     GPS-only track: speed, distance and the GPS longitudinal acceleration)."""
@@ -170,16 +220,22 @@ def features(
     if not any(c in rec.channels for c in ("ax", "gx")) and has_gps(rec):
         feats = gps_features(rec)
         write_csv(feats, output, truth=False)
-        _report_repairs_and_gaps(rec)
+        said = _report_repairs_and_gaps(rec)
         out.print(f"wrote {output}: {len(feats)} samples of GPS features ({', '.join(GPS_FEATURES)}) only: "
                   f"{rec.source} has no motion sensors, and roll, pitch and the accelerations need the "
                   f"accelerometer and gyroscope")
-        return
-    feats = ride_features(rec, orientation=orientation, zero_phase=zero_phase, mount=mount)
-    write_csv(feats, output, truth=False)
-    _report_repairs_and_gaps(rec)
-    _report_mount(feats.meta["mount"], feats.meta["mount_warnings"])
-    out.print(f"wrote {output}: {len(feats)} samples, orientation '{orientation}'")
+        kind, mounted = "gps", None
+    else:
+        feats = ride_features(rec, orientation=orientation, zero_phase=zero_phase, mount=mount)
+        write_csv(feats, output, truth=False)
+        said = _report_repairs_and_gaps(rec)
+        _report_mount(feats.meta["mount"], feats.meta["mount_warnings"])
+        out.print(f"wrote {output}: {len(feats)} samples, orientation '{orientation}'")
+        kind, mounted = "ride", {"line": feats.meta["mount"], "warnings": list(feats.meta["mount_warnings"])}
+    if as_json:
+        _print_json({"output": output, "samples": len(feats), "rate": feats.rate, "features": kind,
+                     "channels": feats.names, "orientation": orientation if kind == "ride" else None,
+                     "mount": mounted, **said})
 
 
 @app.command()
@@ -207,6 +263,12 @@ def train(
     seed: int = typer.Option(0, "--seed"),
     figure: Optional[Path] = typer.Option(None, "--figure", help="also draw the training recordings coloured by "
                                           "the names the learner gave their windows (.png)"),
+    quiet: bool = QUIET,
+    as_json: bool = _json_option('{"output", "learner" (sets | paper), "features", "channels", '
+                                 '"representation", "window", "step", "prior", "classes", "columns", '
+                                 '"columns_per_class", "recordings" ([{"source", "declared", '
+                                 '"windows"}], sets learner), "rounds_changed" (fraction of names moved per '
+                                 'round, sets learner), "warnings", "figure"}.'),
 ) -> None:
     """Build a dictionary of pure class representatives from whole recordings, without spotting."""
     from spotfree.pipeline import FEATURES
@@ -232,15 +294,18 @@ def train(
         window = window if "--window" in given else settings["window"]
         representation = representation if "--representation" in given else settings["representation"]
         prior = prior if "--prior" in given else settings["prior"]
-    _train(output, experiment, channels, window, step, orientation, features, recipe, prior, representation,
-           max_columns, seed, figure)
+    summary = _train(output, experiment, channels, window, step, orientation, features, recipe, prior,
+                     representation, max_columns, seed, figure)
+    if as_json:
+        _print_json(summary)
 
 
 def _train(output: Path, experiment: list[str], channels: Optional[str], window: int, step: int, orientation: str,
            features: str, recipe: str, prior: Optional[str], representation: str, max_columns: int, seed: int,
-           figure: Optional[Path]) -> None:
+           figure: Optional[Path]) -> dict:
     """``spotfree train``: :class:`~spotfree.learner.SetSupervisedLearner` (``recipe`` sets) or
-    :class:`~spotfree.paper_recipe.PaperRecipe` (``recipe`` paper) on the declared sets."""
+    :class:`~spotfree.paper_recipe.PaperRecipe` (``recipe`` paper) on the declared sets; prints the summary and
+    returns it (the document of ``--json``)."""
     from collections import Counter
 
     from rich.table import Table
@@ -265,11 +330,19 @@ def _train(output: Path, experiment: list[str], channels: Optional[str], window:
     learner.fit(recordings, sets)
     model = learner.model_
     model.save(output)
+    counts = Counter(model.classes[k] for k in model.column_class)
+    summary = {"output": output, "learner": recipe, "features": model.features, "channels": model.channels,
+               "representation": model.representation, "window": model.window, "step": model.step,
+               "prior": prior if recipe == "sets" else None, "classes": model.classes,
+               "columns": model.dictionary.shape[1], "columns_per_class": {c: counts[c] for c in model.classes},
+               "recordings": [{"source": rec["source"], "declared": rec["classes"], "windows": rec["windows"]}
+                              for rec in model.summary.get("recordings", [])],
+               "rounds_changed": model.summary.get("rounds_changed", []),
+               "warnings": model.summary.get("warnings", []), "figure": figure}
     if recipe == "paper":
         out.print(f"learner: the paper's recipe (hankel of {model.features} channels {','.join(model.channels)})")
-        counts = Counter(model.classes[k] for k in model.column_class)
         out.print("columns per class: " + ", ".join(f"{c} {counts[c]}" for c in model.classes))
-        return
+        return summary
     out.print(f"learner: sets ({model.representation} of {model.features} channels {','.join(model.channels)}; "
               f"prior: {prior or 'none'})")
     table = Table(title=f"{output}: {model.dictionary.shape[1]} columns, window {window} samples")
@@ -288,6 +361,7 @@ def _train(output: Path, experiment: list[str], channels: Optional[str], window:
 
         training_figure(learner, recordings, figure)
         out.print(f"figure: {figure}")
+    return summary
 
 
 def _parse_experiment(spec: str) -> tuple[str, list[str]]:
@@ -332,6 +406,13 @@ def classify(
                               "nominal flat mount when the estimate is within 15 deg of it), estimate (always the "
                               "estimate), flat (on the handlebar, screen up, top edge forward), upright (in a holder, "
                               "portrait, screen towards the rider)"),
+    quiet: bool = QUIET,
+    as_json: bool = _json_option('{"output", "samples", "method", "alignment" (causal | centred), '
+                                 '"smoothing", "votes", "models" (per model, by file stem: {"features", '
+                                 '"channels", "representation", "window", "labelled", "labels": samples '
+                                 'per class}), "breaks" ([{"experiment", "stopped", "resumed"}], one '
+                                 'model), "mount" ({"line", "warnings"}), "read", "notes", '
+                                 '"warnings"}.'),
 ) -> None:
     """Label every sample of a log with a trained model, or with several models at once (one feature pass)."""
     from spotfree.classify.multi import model_names
@@ -349,8 +430,10 @@ def classify(
     vote = {"segments": penalties if len(names) > 1 else penalties[names[0]], "keep": tuple(keep),
             "events": tuple(events), "edges": edge_levels(edges)}
     if len(model_paths) > 1:
-        _classify_several(dict(zip(names, model_paths)), source, output, method, centred, smooth,
-                          None if offline else vote, mount)
+        summary = _classify_several(dict(zip(names, model_paths)), source, output, method, centred, smooth,
+                                    None if offline else vote, mount)
+        if as_json:
+            _print_json(summary)
         return
     dictionary = DictionaryModel.load(model_paths[0])
     votes = stored_votes(dictionary) if offline else Votes(**vote)
@@ -360,19 +443,42 @@ def classify(
     estimate = _mount_choice(rec, mount) if dictionary.features == "ride" else None
     labels = voted_labels(dictionary, rec, votes, method=method, centred=centred, smoothing=smooth)
     labels.write_csv(output)
-    _report_repairs_and_gaps(rec)
+    said = _report_repairs_and_gaps(rec)
     if estimate is not None:
         _report_mount(estimate.describe(), estimate.warnings)
     window = f"{dictionary.window} samples = {dictionary.window / dictionary.rate:.2f} s"
     where = f"centred on it (offset {labels.meta['offset']} samples)" if centred else "ending at it"
+    note = _stored_note({names[0]: votes}) if offline else _vote_note(vote)
     out.print(f"model: {dictionary.features} channels {','.join(dictionary.channels)}, {dictionary.representation} "
               "windows")
     out.print(f"wrote {output}: {int(labels.labelled().sum())} of {len(labels)} samples labelled by {method}; "
               f"windows: {labels.meta['alignment']}, each label from the window of {window} {where}"
-              + (f"; majority vote over {smooth} samples" if smooth else "")
-              + (_stored_note({names[0]: votes}) if offline else _vote_note(vote)))
+              + (f"; majority vote over {smooth} samples" if smooth else "") + note)
     for gap in labels.breaks():
         out.print(f"{gap} (gap in {rec.source}; no label across it)")
+    if as_json:
+        _print_json({**_classify_summary(output, {names[0]: (dictionary, labels.label)}, method, centred, smooth,
+                                         note, estimate, said),
+                     "breaks": [vars(gap) for gap in labels.breaks()]})
+
+
+def _classify_summary(output: Path, labelled: dict, method: str, centred: bool, smooth: int, note: str, estimate,
+                      said: dict) -> dict:
+    """The ``classify --json`` document (see ``classify``) but its breaks; ``labelled``: per model name, the model
+    and its labels (``""`` where none)."""
+    import numpy as np
+
+    models = {}
+    for name, (model, labels) in labelled.items():
+        named = np.asarray(labels)[np.asarray(labels) != ""]
+        models[name] = {"features": model.features, "channels": model.channels,
+                        "representation": model.representation, "window": model.window, "labelled": len(named),
+                        "labels": {c: int(np.sum(named == c)) for c in model.classes}}
+    return {"output": output, "samples": len(next(iter(labelled.values()))[1]), "method": method,
+            "alignment": "centred" if centred else "causal", "smoothing": smooth,
+            "votes": note.removeprefix("; ") or None, "models": models,
+            "mount": None if estimate is None else {"line": estimate.describe(), "warnings": list(estimate.warnings)},
+            **said}
 
 
 def _stored_note(votes: dict) -> str:
@@ -400,9 +506,10 @@ def _vote_note(vote: dict) -> str:
 
 
 def _classify_several(model_paths: dict[str, str], source: str, output: Path, method: str, centred: bool,
-                      smooth: int, vote: dict | None, mount: str = "auto") -> None:
+                      smooth: int, vote: dict | None, mount: str = "auto") -> dict:
     """``classify`` with several models (``model_paths``: file by name): one label column per model, see
-    :mod:`spotfree.classify.multi`; ``vote`` None: each model's stored votes; ``mount`` the ``--mount`` choice."""
+    :mod:`spotfree.classify.multi`; ``vote`` None: each model's stored votes; ``mount`` the ``--mount`` choice.
+    Returns the ``--json`` document."""
     from spotfree.classify.multi import write_labels
     from spotfree.model import DictionaryModel
     from spotfree.votes.options import stored_votes, voted_models, votes_per_model
@@ -417,14 +524,16 @@ def _classify_several(model_paths: dict[str, str], source: str, output: Path, me
     estimate = _mount_choice(rec, mount) if any(m.features == "ride" for m in models.values()) else None
     table = voted_models(models, rec, votes, method=method, centred=centred, smoothing=smooth)
     write_labels(table, output)
-    _report_repairs_and_gaps(rec)
+    said = _report_repairs_and_gaps(rec)
     if estimate is not None:
         _report_mount(estimate.describe(), estimate.warnings)
     windows = ", ".join(f"{name} {m.window} samples" for name, m in models.items())
+    note = _stored_note(stored) if stored else _vote_note(vote)
     out.print(f"wrote {output}: {len(table)} samples, one label column per model ({', '.join(models)}) by {method}; "
               f"windows {'centred on' if centred else 'ending at'} each sample: {windows}"
-              + (f"; majority vote over {smooth} samples" if smooth else "")
-              + (_stored_note(stored) if stored else _vote_note(vote)))
+              + (f"; majority vote over {smooth} samples" if smooth else "") + note)
+    return _classify_summary(output, {name: (model, table[name].to_numpy(str)) for name, model in models.items()},
+                             method, centred, smooth, note, estimate, said)
 
 
 @app.command()
@@ -486,8 +595,8 @@ def serve(
     https: bool = typer.Option(False, "--https", help="TLS with a self-signed certificate (phones need it)"),
     replay: Optional[str] = typer.Option(None, "--replay", help="replay this log as a live ride (real time)"),
     simulate: Optional[str] = typer.Option(None, "--simulate", help="ride this simulator scenario live"),
-    model_path: Optional[Path] = typer.Option(None, "--model", help="model file (default: trained on simulated "
-                                              "rides once, then cached)"),
+    model_path: Optional[Path] = typer.Option(None, "--model", help="model file (default: spotfree's braking "
+                                              "model, shipped with it)"),
     speed: float = typer.Option(1.0, "--speed", min=0.1, help="replay/simulate at this many times real time"),
     seed: int = typer.Option(0, "--seed", help="seed of --simulate"),
     sync: str = typer.Option("full", "--sync", help="SQLite durability of an acknowledged sample: full (survives "
@@ -656,6 +765,9 @@ def fleet_process(
     workers: int = typer.Option(2, help="worker processes of the local cluster"),
     database: Optional[str] = typer.Option(None, help="postgresql:// URL to write fleet_rides and fleet_events"),
     redo: bool = typer.Option(False, help="process rides already done with the same models again"),
+    quiet: bool = QUIET,
+    as_json: bool = _json_option('{"output", "models", "processed" (ride ids), "skipped", "failed" '
+                                 "(reason by ride id)}."),
 ) -> None:
     """Process every ended ride (features, all models, events) in parallel on Dask; idempotent."""
     from spotfree.fleet.engine import process_fleet
@@ -669,10 +781,13 @@ def fleet_process(
             raise InputError(f"--model {spec!r}: write NAME=MODEL.npz")
         models[name] = DictionaryModel.load(path)
     if "braking" not in models:
-        models["braking"] = default_model(progress=lambda m: err.print(m))
+        models["braking"] = default_model()
     report = process_fleet(store, output, models, scheduler=scheduler, workers=workers, database=database,
                            redo=redo)
     out.print(f"{report}; results in {output}")
+    if as_json:
+        _print_json({"output": output, "models": sorted(models), "processed": report.processed,
+                     "skipped": report.skipped, "failed": report.failed})
 
 
 @fleet_app.command("stats")
@@ -680,12 +795,18 @@ def fleet_process(
 def fleet_stats(
     results: Path = typer.Argument(..., help="folder written by 'spotfree fleet process'"),
     output: Path = typer.Option(..., "-o", "--output", help="folder for stats.md, by_<group>.csv and .png"),
+    quiet: bool = QUIET,
+    as_json: bool = _json_option('{"output", "stats": per grouping, the rows of its by_<group>.csv as objects '
+                                 "(null where a value is missing)}."),
 ) -> None:
     """Braking events per km, sudden-stop rate, speed and deceleration by rider group, vehicle and place."""
     from spotfree.fleet.stats import fleet_stats as write_stats
 
     tables = write_stats(results, output)
     out.print(f"wrote {output}/stats.md and a CSV and PNG for each of {', '.join(tables)}")
+    if as_json:
+        _print_json({"output": output, "stats": {group: json.loads(table.to_json(orient="records"))
+                                                 for group, table in tables.items()}})
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -21,6 +21,7 @@ from spotfree.errors import InputError
 from spotfree.model import DictionaryModel
 from spotfree.ride import collector
 from spotfree.ride.api import MAX_BODY, create_app
+from spotfree.ride.default_model import default_model
 from spotfree.ride.redact import redact_location
 from spotfree.ride.service import RideService
 from spotfree.ride.store import RideStore
@@ -40,16 +41,13 @@ def _rider_rows(replay: str | None, simulate: str | None, seed: int):
     return recording_rows(simulate_scenario(simulate, repeats=1, seed=seed)), f"simulated {simulate}"
 
 
-def build_service(database: str, model_path: Path | None, say: Callable[[str], None],
-                  synchronous: str = "full", workers: int = 0) -> RideService:
-    """The service over ``database`` with the model at ``model_path`` (the cached default model when None);
+def build_service(database: str, model_path: Path | None, synchronous: str = "full", workers: int = 0) -> RideService:
+    """The service over ``database`` with the model at ``model_path`` (the shipped default model when None);
     ``synchronous``: the SQLite durability of :class:`~spotfree.ride.store.RideStore`; ``workers``: rides in
     that many worker processes (:class:`~spotfree.ride.pool.RideServicePool`), 0 for the server's process."""
-    from spotfree.ride.default_model import default_model
-
     if workers < 0:
         raise InputError(f"--workers {workers}: give 0 (rides in the server's process) or more")
-    model = DictionaryModel.load(model_path) if model_path else default_model(say)
+    model = DictionaryModel.load(model_path) if model_path else default_model()
     store = RideStore(database, synchronous=synchronous)
     name = model_path.stem if model_path else "default"
     if workers:
@@ -104,7 +102,7 @@ def run_server(host: str, port: int, database: str, https: bool, replay: str | N
 
         certificate = user_certificate(*certificate)  # refused before anything is loaded
     rows = _rider_rows(replay, simulate, seed) if (replay or simulate) else None
-    service = build_service(database, model_path, say, synchronous, workers)
+    service = build_service(database, model_path, synchronous, workers)
     provide_operator_token(service, operator_token_file(database), new_operator_token, say)
     service.keep_tidy()  # rides left open longer than IDLE_SECONDS are closed now, and checked again while serving
     app = create_app(service)
