@@ -9,6 +9,7 @@ import contextlib
 import functools
 import importlib.util
 import json
+import warnings
 from pathlib import Path
 from typing import Callable, Optional
 
@@ -27,6 +28,10 @@ app = typer.Typer(
 )
 hand_app = typer.Typer(help="Hand posture and gesture recognition for steering a power wheelchair.", no_args_is_help=True)
 fleet_app = typer.Typer(help="Fleet scale: the ride database and batch processing.", no_args_is_help=True)
+# scikit-learn's forests fitted on joblib threads sometimes warn that its ``delayed`` should be used with its ``Parallel``
+# (a thread-safety race in the check, scikit-learn issue #32631): nothing is wrong with the fit, and a user of the
+# command line cannot act on it.
+warnings.filterwarnings("ignore", message=r".sklearn\.utils\.parallel\.delayed. should be used", category=UserWarning)
 app.add_typer(hand_app, name="hand")
 app.add_typer(fleet_app, name="fleet")
 
