@@ -136,8 +136,8 @@ def quick_run(tmp_path_factory):
         if not HAS_AEON:
             make_peers = spotfree.evaluation.run.make_peers
             patch.setattr(spotfree.evaluation.run, "check_peers", lambda: None)
-            patch.setattr(spotfree.evaluation.run, "make_peers", lambda model, protocol: {
-                k: v for k, v in make_peers(model, protocol).items() if k == "1-NN (supervised)"})
+            patch.setattr(spotfree.evaluation.run, "make_peers", lambda *args: {
+                k: v for k, v in make_peers(*args).items() if k == "1-NN (supervised)"})
         result = runner.invoke(app, ["evaluate", "--quick", "-o", str(folder), "--seed", "0"],
                                catch_exceptions=False)
     return folder, result
