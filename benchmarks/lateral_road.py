@@ -30,10 +30,11 @@ GRID = {
 
 
 def row(name: str, seed: int, channels, window: int, result, seconds: float) -> str:
-    classes = " ".join(f"{s.rate:.3f}" for s in result.per_class.values())
-    voted = " ".join(f"{s.rate:.3f}" for s in result.segmented.values())
-    return (f"{name:8s} {seed:4d}  {','.join(channels):22s} {window:3d}  {classes}  overall {result.overall.rate:.3f}"
-            f"  | segment vote {voted}  overall {result.segmented_overall.rate:.3f}  ({seconds:.0f} s)")
+    classes = " ".join(f"{s.rate:.3f}" for s in result.per_class("live").values())
+    voted = " ".join(f"{s.rate:.3f}" for s in result.per_class("offline vote").values())
+    return (f"{name:8s} {seed:4d}  {','.join(channels):22s} {window:3d}  {classes}  overall "
+            f"{result.overall('live').rate:.3f}  | segment vote {voted}  overall "
+            f"{result.overall('offline vote').rate:.3f}  ({seconds:.0f} s)")
 
 
 def main() -> None:
@@ -67,7 +68,7 @@ def score_model(name: str, dev_seeds: list[int], test_seed: int) -> None:
     result = train_and_score(spec, data, test_seed)
     print("test seed, chosen spec:")
     print(row(name, test_seed, spec.channels, spec.window, result, time.perf_counter() - start))
-    print(f"  samples per class: {', '.join(f'{c} {s.correct}/{s.total}' for c, s in result.per_class.items())}")
+    print(f"  samples per class: {', '.join(f'{c} {s.correct}/{s.total}' for c, s in result.per_class().items())}")
     print(f"  model classes: {', '.join(map(str, result.model.classes))}; warnings: {result.warnings}")
 
 

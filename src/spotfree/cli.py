@@ -586,7 +586,7 @@ def evaluate(
     ev = run_evaluation(output, seed=seed, quick=quick, progress=lambda message: err.print(message))
     for line in headline(ev):
         out.print(line, soft_wrap=True)
-    out.print(f"wrote {output / 'report.md'} and {len(ev.figures) + 1} figures; run took {ev.seconds:.0f} s",
+    out.print(f"wrote {output / 'report.md'} and {len(ev.files)} figures; run took {ev.seconds:.0f} s",
               soft_wrap=True)
 
 

@@ -1,6 +1,7 @@
 """Figures: the results like the paper's (section V), the handlebar pitch angle of every test ride with the label
-stream drawn on it and the ground truth as a band along the top of each panel; and the training diagnostic, each
-training recording coloured by the names its windows were given."""
+stream drawn on it and the ground truth as a band along the top of each panel; the training diagnostic, each
+training recording coloured by the names its windows were given; confusion matrices; and event timelines, the true
+events of a class beside the runs of labels that detect them along each test ride."""
 
 from __future__ import annotations
 
@@ -14,6 +15,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from spotfree.classify.batch import Labels  # noqa: E402
+from spotfree.evaluation.metrics import EVENT_TOLERANCE, event_runs  # noqa: E402
+from spotfree.io.checks import true_runs  # noqa: E402
 from spotfree.io.recording import Recording  # noqa: E402
 
 if TYPE_CHECKING:
@@ -79,6 +82,59 @@ def training_figure(learner: SetSupervisedLearner, recordings: list[Recording], 
     axes[-1, 0].set_xlabel("time (s)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def confusion_figure(panels: list[tuple[str, np.ndarray, list[str], list[str]]], path: str | Path) -> None:
+    """One heat map per ``(title, counts, rows, columns)`` of ``panels``: ``counts[i, j]`` samples of true class
+    ``rows[i]`` labelled ``columns[j]``, each cell shaded by its share of the row (the row's recall on the diagonal)
+    and written as that share in per cent above its count."""
+    fig, axes = plt.subplots(1, len(panels), figsize=(4.3 * len(panels), 4.2), squeeze=False)
+    for ax, (title, counts, rows, columns) in zip(axes[0], panels):
+        counts = np.asarray(counts)
+        share = counts / np.maximum(counts.sum(axis=1, keepdims=True), 1)
+        ax.imshow(share, cmap="Blues", vmin=0, vmax=1, aspect="auto")
+        for (i, j), n in np.ndenumerate(counts):
+            ax.text(j, i, f"{100 * share[i, j]:.1f}%\n{n}", ha="center", va="center", fontsize=7,
+                    color="white" if share[i, j] > 0.6 else "black")
+        ax.set_xticks(range(len(columns)), columns, rotation=35, ha="right", fontsize=7)
+        ax.set_yticks(range(len(rows)), rows, fontsize=7)
+        ax.set_xlabel("label", fontsize=8)
+        ax.set_ylabel("true class", fontsize=8)
+        ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def event_timeline(rides: list[tuple[str, np.ndarray, np.ndarray, dict[str, np.ndarray]]], title: str,
+                   path: str | Path, tolerance: float = EVENT_TOLERANCE) -> None:
+    """One row per ``(name, time, truth, detections)`` of ``rides``: the true events (runs of ``truth``, a boolean
+    per sample) as black bars over time (s), and under them one lane per stream of ``detections`` (stream name ->
+    boolean per sample), each run of it green when it meets a true event within ``tolerance`` s, red when it is a
+    false alarm (:func:`~spotfree.evaluation.metrics.event_runs`)."""
+    streams = list(rides[0][3]) if rides else []
+    fig, axes = plt.subplots(len(rides), 1, figsize=(11, 0.3 * (len(streams) + 1) * len(rides) + 1.0),
+                             squeeze=False)
+    for ax, (name, t, truth, detections) in zip(axes[:, 0], rides):
+        step = float(np.median(np.diff(t))) if len(t) > 1 else 1.0
+        lanes = len(detections)
+        for lane, (stream, fired) in enumerate(detections.items()):
+            _, runs, _, hits = event_runs(fired, truth, int(round(tolerance / step)))
+            ax.broken_barh([(t[a], t[b - 1] - t[a] + step) for a, b in runs], (lanes - 1 - lane + 0.1, 0.8),
+                           color=["tab:green" if hit else "tab:red" for hit in hits])
+        ax.broken_barh([(t[a], t[b - 1] - t[a] + step) for a, b in true_runs(truth)], (lanes + 0.1, 0.8),
+                       color="black")
+        ax.set_yticks([lanes + 0.5, *[lanes - 0.5 - k for k in range(lanes)]], ["truth", *detections], fontsize=7)
+        ax.set_ylim(0, lanes + 1)
+        ax.set_xlim(t[0], t[-1] + step)
+        ax.set_ylabel(name, fontsize=7, rotation=0, ha="right", va="center")
+        ax.tick_params(axis="x", labelsize=7)
+    axes[-1, 0].set_xlabel("time (s)", fontsize=8)
+    fig.suptitle(f"{title}: black = true events; green = detection, red = false alarm", x=0.01, ha="left",
+                 fontsize=10)
+    fig.tight_layout(rect=(0, 0, 1, 0.97))
+    fig.savefig(path, dpi=90)
     plt.close(fig)
 
 

@@ -9,10 +9,14 @@ would declare it: in its own scenario the classes of its labels; in the other sc
 amount to (:data:`EVENT_CLASSES`: a road ride's gentle turns, a lateral ride's surface patches and kerbs). A spec
 with ``one_kind`` (both models now) trains instead, as the paper does, on one recording per manoeuvre: each training
 rider rides once per kind of manoeuvre or road event and once without any (:data:`KIND_RIDES`). Tests are labelled
-causally by :func:`~spotfree.classify.batch.classify_recording` and scored per true class
-(:func:`~spotfree.evaluation.metrics.class_accuracy`); then again after the offline votes (:mod:`spotfree.votes`):
-the segment vote at the spec's penalty, and the event vote and edges where the spec asks for them. The spec's short
-classes (kerbs) are scored as detected events too (:func:`~spotfree.evaluation.metrics.event_detection`).
+by :func:`~spotfree.classify.batch.classify_recording` in the streams of :data:`STREAMS`: causal windows (live),
+centred windows, and the causal labels after the offline votes (:mod:`spotfree.votes`: the segment vote at the
+spec's penalty, and the event vote and edges where the spec asks for them); supervised peers trained on the same
+rides with every label may label them beside. Each stream is scored per true class
+(:func:`~spotfree.evaluation.metrics.class_accuracy`), strictly and away from true label changes
+(:func:`~spotfree.evaluation.metrics.near_transitions`), leaving out where the vehicle stands still for a spec that
+asks it; the spec's short classes (kerbs) are scored as detected events too
+(:func:`~spotfree.evaluation.metrics.event_detection`).
 """
 
 from __future__ import annotations
@@ -22,13 +26,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from spotfree.classify.batch import classify_recording
-from spotfree.evaluation.metrics import EventScore, Score, class_accuracy, event_detection
+from spotfree.evaluation.peers.base import Peer
+from spotfree.evaluation.metrics import EventScore, Score, class_accuracy, event_detection, near_transitions
 from spotfree.io.recording import Recording
 from spotfree.learner import SetSupervisedLearner
 from spotfree.presets import PRESETS, preset_learner
 from spotfree.model import DictionaryModel
 from spotfree.signal.features import ride_features
-from spotfree.sim.scenarios import CLASSES, simulate_scenario
+from spotfree.sim.scenarios import CLASSES, simulate_ride, simulate_scenario
 from spotfree.votes.options import Votes, apply_votes, kept_classes, voted_labels
 
 
@@ -38,7 +43,8 @@ class ModelSpec:
     ``one_kind``: trained on rides of one kind of manoeuvre each (:data:`KIND_RIDES`) rather than on mixed rides; its
     offline votes (:func:`spec_votes`): segment penalty, classes kept, event vote and event edges
     ``(channel, level)``; ``detections``: short classes also scored as detected events
-    (:func:`~spotfree.evaluation.metrics.event_detection`)."""
+    (:func:`~spotfree.evaluation.metrics.event_detection`); ``moving_only``: samples where the vehicle stands still
+    (true speed under :data:`STANDING_SPEED`) are not scored."""
 
     scenario: str
     one_kind: bool = False
@@ -47,6 +53,7 @@ class ModelSpec:
     events: bool = False
     edges: tuple[tuple[str, float], ...] = ()
     detections: tuple[str, ...] = ()
+    moving_only: bool = False
 
     @property
     def background(self) -> str:
@@ -72,14 +79,21 @@ MODELS = {
     "lateral": ModelSpec("lateral", one_kind=True, segments=4.0,
                          events=True, edges=(("yaw_rate", 0.09),)),
     "road": ModelSpec("road", one_kind=True, segments=8.0, keep=("kerb",),
-                      detections=("kerb",)),
+                      detections=("kerb",), moving_only=True),
 }
 """Per model: the offline votes it asks for (``segments``: the segment vote's
 penalty, ``keep``: classes the votes leave as labelled, ``events``: the event vote outside the background after the
 segment vote, ``edges``: where an event's start and end move to, by channel and level in its units); ``detections``:
 short classes also scored as detected events: kerbs, which move the platform for the few tenths of a second of
-their strike, are scored as strikes detected within 0.5 s.
+their strike, are scored as strikes detected within 0.5 s; ``moving_only``: the road surface is not scored while
+the vehicle stands still, where no sensor sees it.
 ``benchmarks/lateral_road.py`` measures the choices."""
+
+STANDING_SPEED = 0.3
+"""True speed (m/s) under which the vehicle stands still (:attr:`ModelSpec.moving_only`)."""
+STREAMS = ("live", "centred", "offline vote")
+"""A model's own label streams: causal windows (what a live ride shows), centred windows (offline, half a window
+later) and the causal labels after the spec's offline votes (:func:`spec_votes`; they see the whole ride)."""
 
 
 KIND_RIDES = {"lateral": (("gentle",), ("sharp",), ("slalom",), ()),
@@ -104,28 +118,47 @@ class Split:
     training: list[tuple[Recording, list[str]]]
     test: Recording
     test_experiments: list[int]
+    speed: np.ndarray
+    """The simulator's true speed (m/s) at every test sample."""
 
 
 @dataclass
 class ModelScore:
-    """A trained model and its per-class scores on the held-out experiments."""
+    """A trained model and its label streams on the held-out experiments ``test``: per stream name (:data:`STREAMS`,
+    then any peer's name) one label per test sample, ``""`` where the stream gives none or the sample is not scored
+    (:func:`scored_labels`)."""
 
+    spec: ModelSpec
     model: DictionaryModel
-    per_class: dict[str, Score]
-    overall: Score
+    test: Recording
+    labels: dict[str, np.ndarray]
     warnings: list[str] = field(default_factory=list)
-    segmented: dict[str, Score] = field(default_factory=dict)
-    segmented_overall: Score = Score(0, 0)
-    detected: dict[str, EventScore] = field(default_factory=dict)
-    """Per class of the spec's ``detections``, its events detected by the causal labels."""
-    segmented_detected: dict[str, EventScore] = field(default_factory=dict)
-    """The same after the offline votes."""
+    peer_seconds: dict[str, float] = field(default_factory=dict)
+    """Per peer, the wall time (s) of its fit and its labelling of the tests."""
 
-    @property
-    def worst(self) -> float:
-        """The lowest per-class accuracy (NaN classes skipped)."""
-        rates = [s.rate for s in self.per_class.values() if s.total]
-        return min(rates) if rates else float("nan")
+    def per_class(self, stream: str = "live", collar: bool = False) -> dict[str, Score]:
+        """Per true class, the share of its scored samples that ``stream`` labels so; ``collar``: leaving out the
+        samples within :data:`~spotfree.evaluation.metrics.TRANSITION_BAND` of a true label change."""
+        truth = self.test.truth["label"]
+        label = self.labels[stream]
+        if collar:
+            label = np.where(near_transitions(truth, self.test.experiment, self.test.rate), "", label)
+        return class_accuracy(label, truth, CLASSES[self.spec.scenario])
+
+    def overall(self, stream: str = "live", collar: bool = False) -> Score:
+        """Every scored sample of ``stream`` (:meth:`per_class` summed)."""
+        return sum(self.per_class(stream, collar).values(), Score(0, 0))
+
+    def worst(self, stream: str = "live", collar: bool = True) -> tuple[str, Score]:
+        """The class of lowest :meth:`per_class` rate and its score (classes with no scored sample skipped)."""
+        scored = [(c, s) for c, s in self.per_class(stream, collar).items() if s.total]
+        return min(scored, key=lambda item: item[1].rate)
+
+    def events(self, name: str, stream: str = "live") -> EventScore:
+        """The true events of class ``name`` that ``stream`` detects, per experiment
+        (:func:`~spotfree.evaluation.metrics.event_detection`)."""
+        return event_detection(self.labels[stream], self.test.truth["label"], name, self.test.experiment,
+                               self.test.rate)
 
 
 def declared_classes(labels: np.ndarray, scenario: str) -> list[str]:
@@ -144,7 +177,7 @@ def event_classes(events: np.ndarray, scenario: str) -> list[str]:
 
 def split(scenario: str, seed: int, repeats: int = 7, n_train: int = 4, rate: float = 20.0,
           one_kind: bool = False) -> Split:
-    """Simulate ``scenario``; experiments ``n_train + 1..repeats`` are the tests. Training: experiments
+    """Simulate ``scenario``; experiments ``n_train + 1..repeats`` are the tests, with their true speed. Training: experiments
     ``1..n_train`` of ``scenario`` and of :data:`OTHER` of it, or with ``one_kind`` the rides of the same riders
     (experiments ``1..n_train``) of :data:`KIND_RIDES`, each declaring the classes of its labels."""
     def features(other: bool = False, manoeuvres: tuple[str, ...] | None = None) -> Recording:
@@ -166,7 +199,9 @@ def split(scenario: str, seed: int, repeats: int = 7, n_train: int = 4, rate: fl
     tests = list(range(n_train + 1, repeats + 1))
     test = feats.take(np.isin(feats.experiment, tests))
     test.source = f"{scenario} seed {seed} experiments {tests[0]}-{tests[-1]}"
-    return Split(training, test, tests)
+    speed = np.concatenate([simulate_ride(scenario, k, repeats=repeats, seed=seed, rate=rate).truth["speed"]
+                            for k in tests])
+    return Split(training, test, tests, speed)
 
 
 def score(model: DictionaryModel, test: Recording, scenario: str,
@@ -182,10 +217,10 @@ def score_labels(labels: np.ndarray, test: Recording, scenario: str) -> tuple[di
     return per_class, sum(per_class.values(), Score(0, 0))
 
 
-def detections(spec: ModelSpec, labels: np.ndarray, test: Recording) -> dict[str, EventScore]:
-    """The events of each class of ``spec.detections`` that ``labels`` detect in ``test``, per experiment."""
-    return {name: event_detection(labels, test.truth["label"], name, test.experiment, test.rate)
-            for name in spec.detections}
+def scored_labels(spec: ModelSpec, labels: np.ndarray, data: Split) -> np.ndarray:
+    """``labels`` with ``""`` on the test samples ``spec`` does not score (standing still when ``moving_only``)."""
+    labels = np.asarray(labels).astype(str)
+    return np.where(data.speed < STANDING_SPEED, "", labels) if spec.moving_only else labels
 
 
 def spec_votes(spec: ModelSpec, model: DictionaryModel) -> Votes:
@@ -195,20 +230,23 @@ def spec_votes(spec: ModelSpec, model: DictionaryModel) -> Votes:
                  (spec.background,) if spec.events else (), dict(spec.edges) if spec.events else {})
 
 
-def train_and_score(spec: ModelSpec, data: Split, seed: int, **params) -> ModelScore:
-    """Train ``spec`` on ``data.training`` (``params`` override the learner's parameters) and score it on
-    ``data.test``."""
+def train_and_score(spec: ModelSpec, data: Split, seed: int, peers: dict[str, Peer] | None = None,
+                    **params) -> ModelScore:
+    """Train ``spec`` on ``data.training`` (``params`` override the learner's parameters), label ``data.test`` in
+    every stream of :data:`STREAMS`; each of ``peers`` is fitted on the same training rides with their ground truth
+    and labels the tests too (under its name)."""
     recordings, sets = zip(*data.training)
     learner = spec.learner(seed, **params).fit(list(recordings), list(sets))
     model = learner.model_
     causal = classify_recording(model, data.test)
-    per_class, overall = score_labels(causal.label, data.test, spec.scenario)
-    scored = ModelScore(model, per_class, overall, list(learner.warnings_),
-                        detected=detections(spec, causal.label, data.test))
-    if spec.segments:
-        voted = apply_votes(model, data.test, causal, spec_votes(spec, model)).label
-        scored.segmented, scored.segmented_overall = score_labels(voted, data.test, spec.scenario)
-        scored.segmented_detected = detections(spec, voted, data.test)
+    streams = {"live": causal.label, "centred": classify_recording(model, data.test, centred=True).label,
+               "offline vote": apply_votes(model, data.test, causal, spec_votes(spec, model)).label}
+    scored = ModelScore(spec, model, data.test, {name: scored_labels(spec, label, data)
+                                                for name, label in streams.items()}, list(learner.warnings_))
+    for name, peer in (peers or {}).items():
+        predicted = peer.fit(list(recordings)).predict(data.test)
+        scored.labels[name] = scored_labels(spec, predicted, data)
+        scored.peer_seconds[name] = peer.fit_time_ + peer.predict_time_
     return scored
 
 

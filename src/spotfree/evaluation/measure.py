@@ -114,13 +114,18 @@ def check_peers() -> None:
     from_aeon("aeon.transformations.series", "ClaSPTransformer")
 
 
-def make_peers(model: DictionaryModel, protocol: Protocol) -> dict[str, Peer]:
-    """The peers on the model's channels and window, window classifiers aligned as :data:`HEADLINE`."""
-    common = {"channels": tuple(model.channels), "window": int(model.window)}
+MINIROCKET = "MiniRocket (supervised)"
+"""The name of the MiniRocket peer, the supervised peer of every ride model."""
+
+
+def make_peers(channels, window: int, protocol: Protocol, train_step: int = 1) -> dict[str, Peer]:
+    """The peers on ``channels`` and ``window`` (samples), window classifiers aligned as :data:`HEADLINE` and fitted
+    on every ``train_step``-th training window."""
+    common = {"channels": tuple(channels), "window": int(window)}
     return {
-        "MiniRocket (supervised)": MiniRocketPeer(**common, alignment=HEADLINE, n_kernels=protocol.minirocket_kernels,
-                                                  random_state=protocol.seed),
-        "1-NN (supervised)": NearestNeighbourPeer(**common, alignment=HEADLINE),
+        MINIROCKET: MiniRocketPeer(**common, alignment=HEADLINE, n_kernels=protocol.minirocket_kernels,
+                                   random_state=protocol.seed, train_step=train_step),
+        "1-NN (supervised)": NearestNeighbourPeer(**common, alignment=HEADLINE, train_step=train_step),
         "ClaSP (segments named by class centroids)": ClaspPeer(**common),
     }
 

@@ -14,7 +14,8 @@ of ``2 h`` samples (``band`` = 0.5 s: the last ``h`` samples of the old state an
 Events: a short class (a kerb strike, a few tenths of a second) may also be scored as events rather than samples
 (:func:`event_detection`): each run of true samples of the class is one event, detected when a run of that label
 starts or ends within ``tolerance`` seconds of it (overlapping ``[start - t, stop + t)``); a run of the label that
-meets no true event that way is a false alarm.
+meets no true event that way is a false alarm. False alarms are counted per hour of riding without the event: the
+labelled samples whose truth is not the class.
 """
 
 from __future__ import annotations
@@ -51,7 +52,7 @@ class Score:
 @dataclass(frozen=True)
 class EventScore:
     """``detected`` of ``events`` true events of one class, ``false_alarms`` label runs that meet none, over
-    ``seconds`` of labelled riding."""
+    ``seconds`` of labelled riding without the event (samples whose truth is another class)."""
 
     detected: int
     events: int
@@ -77,7 +78,7 @@ class EventScore:
 
     @property
     def false_alarms_per_hour(self) -> float:
-        """False alarms per hour of labelled riding; NaN when nothing was labelled."""
+        """False alarms per hour of labelled riding without the event; NaN when there was none."""
         return 3600.0 * self.false_alarms / self.seconds if self.seconds else float("nan")
 
     def __add__(self, other: "EventScore") -> "EventScore":
@@ -138,13 +139,22 @@ def event_detection(predicted, truth, name: str, experiment=None, rate: float = 
     total = EventScore(0, 0, 0, 0.0)
     for group in np.unique(groups):
         inside = groups == group
-        events = true_runs(truth[inside] == name)
-        runs = true_runs(predicted[inside] == name)
-        meets = [[a < stop + reach and b > start - reach for a, b in runs] for start, stop in events]
-        detected = sum(any(row) for row in meets)
-        alarms = sum(not any(row[k] for row in meets) for k in range(len(runs)))
-        total += EventScore(detected, len(events), alarms, float(np.sum(predicted[inside] != "")) / rate)
+        events, runs, found, hits = event_runs(predicted[inside] == name, truth[inside] == name, reach)
+        detected, alarms = sum(found), hits.count(False)
+        without = float(np.sum((predicted[inside] != "") & (truth[inside] != name))) / rate
+        total += EventScore(detected, len(events), alarms, without)
     return total
+
+
+def event_runs(fired, true, reach: int) -> tuple[list[tuple[int, int]], list[tuple[int, int]], list[bool],
+                                                 list[bool]]:
+    """In one ride, the runs ``(start, stop)`` of ``true`` (the events) and of ``fired`` (the label runs), whether
+    each event is detected and whether each label run meets an event: a run ``[a, b)`` meets an event
+    ``[start, stop)`` when ``a < stop + reach`` and ``b > start - reach`` (``reach`` in samples)."""
+    events, runs = true_runs(true), true_runs(fired)
+    meets = [[a < stop + reach and b > start - reach for a, b in runs] for start, stop in events]
+    return (events, runs, [any(row) for row in meets],
+            [any(row[k] for row in meets) for k in range(len(runs))])
 
 
 def confusion_matrix(predicted, truth, classes) -> np.ndarray:

@@ -20,6 +20,7 @@ from spotfree.io.recording import Recording
 from spotfree.learner import SetSupervisedLearner
 from spotfree.presets import preset_learner
 from spotfree.signal.features import ride_features
+from spotfree.sim.hand import TRAINING_PEOPLE
 from spotfree.sim.scenarios import CLASSES, simulate_scenario
 
 SCENARIOS = ("normal-braking", "sudden-braking", "cruising")
@@ -35,7 +36,10 @@ class Protocol:
 
     ``repeats`` experiments per scenario; ``method_windows``: about how many test windows per scenario the
     CRC / SRC / B_SRC comparison classifies (every k-th window, the same for all three methods);
-    ``minirocket_kernels``: MiniRocket's number of features (10,000 is its published default).
+    ``minirocket_kernels``: MiniRocket's number of features (10,000 is its published default);
+    ``ride_train_step``: the lateral and road models' MiniRocket peers fit every so many training windows (their
+    training rides are ten times the braking model's); ``hand_people``: the simulated people the hand is trained and
+    tested on (:func:`~spotfree.evaluation.hand.evaluate_hand`).
     """
 
     seed: int = 0
@@ -43,13 +47,17 @@ class Protocol:
     rate: float = 20.0
     method_windows: int = 1000
     minirocket_kernels: int = 10_000
+    ride_train_step: int = 4
+    hand_people: tuple[int, int] = (TRAINING_PEOPLE, 6)
     quick: bool = False
 
     @classmethod
     def quick_run(cls, seed: int = 0) -> "Protocol":
-        """Two experiments per scenario, 50 comparison windows and 1,000 MiniRocket kernels: every section of the
-        report in a short run (for tests; not the paper's protocol)."""
-        return cls(seed=seed, repeats=2, method_windows=50, minirocket_kernels=1_000, quick=True)
+        """Two experiments per scenario, 50 comparison windows, 1,000 MiniRocket kernels fitted on every 8th ride
+        window, and the hand of 4 people tested on 2: every section of the report in a short run (for tests; not
+        the paper's protocol)."""
+        return cls(seed=seed, repeats=2, method_windows=50, minirocket_kernels=1_000, ride_train_step=8,
+                   hand_people=(4, 2), quick=True)
 
     def test_experiments(self, scenario: str) -> list[int]:
         """The experiment numbers of ``scenario`` that are tested."""

@@ -3,7 +3,8 @@ braking, lateral and road models together on one raw stream.
 
 Each model of :data:`~spotfree.evaluation.lateral_road.MODELS` is trained spotting-free under its protocol on the
 report's seed and scored per true class on the held-out riders (:func:`~spotfree.evaluation.lateral_road.spec_split`,
-causal kernel CRC_RLS). The report's braking model, the lateral and the road model then run together in one
+:func:`~spotfree.evaluation.lateral_road.train_and_score`: live, centred and after the offline votes, beside the
+peers). The report's braking model, the lateral and the road model then run together in one
 :class:`~spotfree.classify.multi.MultiModelStream` over the raw held-out lateral rides, one sample at a time, each
 call timed by ``time.perf_counter_ns`` after a short warm-up; the stream's labels are compared with the batch
 table of :func:`~spotfree.classify.multi.classify_models`.
@@ -13,11 +14,13 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
 from spotfree.classify.multi import MultiModelStream, classify_models
-from spotfree.evaluation.lateral_road import MODELS, ModelScore, spec_split, train_and_score
+from spotfree.evaluation.lateral_road import MODELS, ModelScore, ModelSpec, spec_split, train_and_score
+from spotfree.evaluation.peers.base import Peer
 from spotfree.io.recording import Recording
 from spotfree.model import DictionaryModel
 from spotfree.sim.scenarios import simulate_scenario
@@ -76,10 +79,13 @@ def stream_cost(models: dict[str, DictionaryModel], rides: Recording) -> StreamC
     return StreamCost(micros, differing)
 
 
-def evaluate_ride_models(braking: DictionaryModel, seed: int) -> RideModels:
-    """Train and score every model of :data:`MODELS` on ``seed``, then time them with ``braking`` on one stream."""
+def evaluate_ride_models(braking: DictionaryModel, seed: int,
+                         peers: Callable[[ModelSpec], dict[str, Peer]] | None = None) -> RideModels:
+    """Train and score every model of :data:`MODELS` on ``seed`` (``peers``: the peers of a spec, fitted on its
+    training rides with their ground truth and scored beside it), then time them with ``braking`` on one stream."""
     splits = {name: spec_split(spec, seed) for name, spec in MODELS.items()}
-    scores = {name: train_and_score(MODELS[name], data, seed) for name, data in splits.items()}
+    scores = {name: train_and_score(MODELS[name], data, seed, peers(MODELS[name]) if peers else None)
+              for name, data in splits.items()}
     models = {"braking": braking, **{name: score.model for name, score in scores.items()}}
     tests = splits["lateral"].test_experiments
     rides = simulate_scenario("lateral", repeats=max(tests), seed=seed)

@@ -20,11 +20,12 @@ from typing import Callable
 import numpy as np
 
 from spotfree.errors import InputError
-from spotfree.evaluation.figures import results_figure, training_figure
+from spotfree.evaluation.figures import confusion_figure, event_timeline, results_figure, training_figure
+from spotfree.evaluation.hand import evaluate_hand
 from spotfree.evaluation.metrics import naming_scores
-from spotfree.evaluation.measure import HEADLINE, check_peers, crc_runs, make_peers, method_runs, peer_runs
+from spotfree.evaluation.measure import HEADLINE, MINIROCKET, check_peers, crc_runs, make_peers, method_runs, peer_runs
 from spotfree.evaluation.protocol import SCENARIOS, Protocol, simulate, train_dictionary
-from spotfree.evaluation.report import Evaluation, render
+from spotfree.evaluation.report import Evaluation, confusion_panels, event_rides, render
 from spotfree.evaluation.ride_models import evaluate_ride_models
 from spotfree.sim.scenarios import CLASSES
 
@@ -51,16 +52,20 @@ def evaluate(output: str | Path, seed: int = 0, quick: bool = False, progress: P
     say("CRC_RLS vs SRC vs B_SRC on a subsample of windows")
     methods = method_runs(model, data, protocol.method_windows)
     say("peers: MiniRocket, 1-NN, ClaSP")
-    peers = peer_runs(make_peers(model, protocol), data)
-    say("lateral and road models, and the three models on one stream")
-    ride_models = evaluate_ride_models(model, seed)
+    peers = peer_runs(make_peers(model.channels, model.window, protocol), data)
+    say("lateral and road models beside their MiniRocket peers, and the three models on one stream")
+    ride_models = evaluate_ride_models(model, seed, lambda spec: {
+        name: peer for name, peer in make_peers(spec.channels, spec.window, protocol, protocol.ride_train_step).items()
+        if name == MINIROCKET})
+    say(f"the hand: trained on {protocol.hand_people[0]} people, tested on {protocol.hand_people[1]}")
+    hand = evaluate_hand(*protocol.hand_people, seed=seed)
     seconds = time.perf_counter() - start
     figures = {f"results: {name}": f"results-{name}.png" for name in SCENARIOS}
     ev = Evaluation(
         protocol=protocol, data=data, trained=trained, naming=naming_scores(
             trained.learner.window_labels_, trained.learner.window_ends_,
             [r.truth["label"] for r in trained.recordings], model.window, model.classes),
-        crc=crc, kcrc=kcrc, methods=methods, peers=peers, ride_models=ride_models, seconds=seconds,
+        crc=crc, kcrc=kcrc, methods=methods, peers=peers, ride_models=ride_models, hand=hand, seconds=seconds,
         command=f"spotfree evaluate -o {output} --seed {seed}" + (" --quick" if quick else ""),
         machine=machine_summary(), date=datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"), figures=figures,
     )
@@ -74,6 +79,10 @@ def evaluate(output: str | Path, seed: int = 0, quick: bool = False, progress: P
         for name, path in zip(SCENARIOS, figures.values()):
             results_figure(data[name].test, crc[HEADLINE].runs[name].labels, classes, staging / path,
                            f"{name} tests, CRC_RLS ({HEADLINE} windows)")
+        for path, panels in confusion_panels(ev).items():
+            confusion_figure(panels, staging / path)
+        for path, (title, rides) in event_rides(ev).items():
+            event_timeline(rides, title, staging / path)
         (staging / "report.md").write_text(render(ev), encoding="utf-8")
         _publish(staging, output)
     finally:

@@ -133,11 +133,15 @@ class WindowClassifierPeer(Peer):
         As for every peer (:class:`Peer`).
     alignment : {"causal", "centred"}
         Which sample of a window its label belongs to (module docstring).
+    train_step : int
+        Every ``train_step``-th training window of a recording is fitted on (1: every window; consecutive windows
+        overlap in all but one sample, so a larger step bounds the fit's cost on long training rides).
     """
 
-    def __init__(self, channels=DEFAULT_CHANNELS, window: int = 20, alignment: str = "causal"):
+    def __init__(self, channels=DEFAULT_CHANNELS, window: int = 20, alignment: str = "causal", train_step: int = 1):
         super().__init__(channels=channels, window=window)
         self.alignment = alignment
+        self.train_step = train_step
 
     @property
     def offset(self) -> int:
@@ -148,6 +152,8 @@ class WindowClassifierPeer(Peer):
         super()._check_params()
         if self.alignment not in ALIGNMENTS:
             raise InputError(f"alignment {self.alignment!r} is unknown: use one of {', '.join(ALIGNMENTS)}")
+        if not isinstance(self.train_step, (int, np.integer)) or self.train_step < 1:
+            raise InputError(f"train_step must be an integer >= 1, got {self.train_step!r}")
 
     @abstractmethod
     def _make_estimator(self):
@@ -172,6 +178,7 @@ class WindowClassifierPeer(Peer):
         blocks, labels = [], []
         for rec in recordings:
             windows, labelled = self._windows(rec)
+            windows, labelled = windows[::self.train_step], labelled[::self.train_step]
             truth = np.asarray(rec.truth["label"], dtype=str)[labelled]
             keep = truth != ""
             blocks.append(windows[keep])

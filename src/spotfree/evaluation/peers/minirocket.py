@@ -22,8 +22,8 @@ class MiniRocketPeer(WindowClassifierPeer):
 
     Parameters
     ----------
-    channels, window, alignment
-        As for every peer (:class:`spotfree.evaluation.peers.base.Peer`); ``window`` must be at least 9 samples.
+    channels, window, alignment, train_step
+        As for every window classifier (:class:`spotfree.evaluation.peers.base.WindowClassifierPeer`); ``window`` must be at least 9 samples.
     n_kernels : int
         Number of MiniRocket features (rounded down to a multiple of 84 by aeon; 10,000 is the published default).
     n_jobs : int
@@ -33,8 +33,8 @@ class MiniRocketPeer(WindowClassifierPeer):
     """
 
     def __init__(self, channels=DEFAULT_CHANNELS, window: int = 20, alignment: str = "causal",
-                 n_kernels: int = 10_000, n_jobs: int = 1, random_state: int = 0):
-        super().__init__(channels=channels, window=window, alignment=alignment)
+                 n_kernels: int = 10_000, n_jobs: int = 1, random_state: int = 0, train_step: int = 1):
+        super().__init__(channels=channels, window=window, alignment=alignment, train_step=train_step)
         self.n_kernels = n_kernels
         self.n_jobs = n_jobs
         self.random_state = random_state

@@ -17,14 +17,15 @@ class NearestNeighbourPeer(WindowClassifierPeer):
 
     Parameters
     ----------
-    channels, window, alignment
-        As for every peer (:class:`spotfree.evaluation.peers.base.Peer`).
+    channels, window, alignment, train_step
+        As for every window classifier (:class:`spotfree.evaluation.peers.base.WindowClassifierPeer`).
     n_neighbors : int
         Neighbours that vote (1: the nearest window decides).
     """
 
-    def __init__(self, channels=DEFAULT_CHANNELS, window: int = 20, alignment: str = "causal", n_neighbors: int = 1):
-        super().__init__(channels=channels, window=window, alignment=alignment)
+    def __init__(self, channels=DEFAULT_CHANNELS, window: int = 20, alignment: str = "causal", n_neighbors: int = 1,
+                 train_step: int = 1):
+        super().__init__(channels=channels, window=window, alignment=alignment, train_step=train_step)
         self.n_neighbors = n_neighbors
 
     def _make_estimator(self):
