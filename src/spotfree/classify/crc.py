@@ -11,10 +11,10 @@ ICCV 2011; the paper's eqs. (6)-(7). With the dictionary ``A = [A_1, ..., A_C]``
 
 Batch: the ``C`` operators stacked, ``E = [E_1; ...; E_C]`` ``(C d, d)``, turn a chunk of windows into one matrix
 product ``Z = Y E^T`` (``2 C d^2`` flops per window, BLAS), then the norm of each ``d``-block of each row of ``Z``
-is taken. Chunks keep ``Z`` in cache; threads take whole chunks, each with a single-threaded BLAS (on a shared
-machine this was 4x faster than one multithreaded BLAS call per chunk, BENCHMARKS.md). Streaming (:meth:`CRCClassifier.predict_one`): one compiled
-kernel (:func:`~spotfree.classify.kernels.crc_window`) computes the ``C`` norms of ``E y`` and the argmin for a single
-window, without numpy's per-call overhead.
+is taken. Chunks keep ``Z`` in cache; threads take whole chunks, each with a single-threaded BLAS, so that the
+threads do not contend for the cores inside one BLAS call (``benchmarks/crc_speed.py`` times it). Streaming
+(:meth:`CRCClassifier.predict_one`): one compiled kernel (:func:`~spotfree.classify.kernels.crc_window`) computes
+the ``C`` norms of ``E y`` and the argmin for a single window, without numpy's per-call overhead.
 """
 
 from __future__ import annotations
