@@ -30,8 +30,8 @@ Method (``docs/training.md`` has the derivation and the references):
 4. **Dictionary.** Per class, the windows whose posterior margin is at or above the class's median, at most
    ``max_columns`` of them spread evenly over time, become the dictionary's columns: windows that straddle a change
    stay eligible, so that the dictionary also holds a class's onsets and ends, which the test windows show as
-   often. The causal columns are chosen alike among the windows named by the class at their last sample. Classification is kernel CRC_RLS on the dictionary
-   (:class:`~spotfree.classify.kcrc.KernelCRCClassifier`).
+   often. The causal columns are chosen alike among the windows named by the class at their last sample.
+   Classification is kernel CRC_RLS on the dictionary (:class:`~spotfree.classify.kcrc.KernelCRCClassifier`).
 
 Domain knowledge enters only through ``prior``: an object whose ``log_prior(recording, centres, classes)`` returns an
 ``(m, C)`` array, ``log pr``, for the windows centred at sample indices ``centres``, multiplied into the names at the
