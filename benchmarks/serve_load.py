@@ -71,6 +71,7 @@ from websockets.asyncio.client import connect
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from classify_fixtures import rides, truth_model  # noqa: E402
+from machine import results_file  # noqa: E402
 from spotfree.classify.batch import dictionary_classifier  # noqa: E402
 from spotfree.model import DictionaryModel  # noqa: E402
 from spotfree.ride.live import LiveRide  # noqa: E402
@@ -402,6 +403,14 @@ def main() -> None:
     if args.hostile and args.busy_core:
         parser.error("--hostile and --busy-core: give one of them (each is its own run)")
     interference = "hostile" if args.hostile else "busy" if args.busy_core else None
+    name = "serve_load" + (f"_{interference}" if interference else "") + ("_floor" if args.floor else "")
+    with results_file(name, "The ride service under load: " + _INTERFERENCE[interference], preformatted=True,
+                      packages=("numpy", "fastapi", "uvicorn", "websockets")):
+        _measure(args, interference)
+
+
+def _measure(args, interference) -> None:
+    """The table of :func:`main`: one row per number of phones, until one fails."""
     raw = rides(seed=1, repeats=2)
     rows = recording_rows(raw.select_experiment(2))
     rate = raw.rate
