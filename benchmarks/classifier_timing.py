@@ -33,6 +33,7 @@ import numpy as np
 from sklearn.metrics import roc_auc_score
 from threadpoolctl import threadpool_info, threadpool_limits
 
+from machine import results_file
 from spotfree.classify import make_classifier
 from spotfree.signal.features import ride_features
 from spotfree.sim.scenarios import simulate_scenario
@@ -136,6 +137,13 @@ def main() -> None:
     parser.add_argument("--threads", type=int, default=1, help="threads (BLAS, and CRC's n_jobs)")
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
+    with results_file("classifier_timing", "CRC_RLS, SRC and B_SRC on the same windows (the paper's timing table)",
+                      preformatted=True):
+        _run(args)
+
+
+def _run(args) -> None:
+    """The timing table of :func:`main`."""
     print(f"# classifier_timing  {date.today()}  {machine(args.threads)}")
     atoms, atom_label, X, truth, outside, _ = ride_data(args.seed, args.atoms, args.windows)
     print(f"channels {', '.join(CHANNELS)}, window {WINDOW}, affine row {AFFINE:g}; "

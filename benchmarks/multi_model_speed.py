@@ -41,6 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
+from machine import results_file
 from spotfree.classify import DEFAULT_METHOD
 from spotfree.classify.multi import MultiModelStream
 from spotfree.classify.stream import PRODUCED, RideClassifier
@@ -167,13 +168,14 @@ def main() -> None:
 
             flags = ["--json", "--passes", str(args.passes), "--models", str(args.models or Path(scratch))]
             old = run_at_revision(args.baseline, __file__, flags + (["--profile"] if args.profile else []))
-        load = os.getloadavg()[0]
-        rows = measure(models, samples, args.passes)
-        report(args, models, samples, rows, load, trained_s, old)
-        if args.profile:
-            if old is not None:
-                print(f"\ncProfile of MultiModelStream.update at {args.baseline} (one pass):\n\n{old['profile']}")
-            print(f"\ncProfile of MultiModelStream.update, this tree (one pass):\n\n{profile(models, samples)}")
+        with results_file("multi_model_speed", "Three ride models on one stream: cost per raw sample"):
+            load = os.getloadavg()[0]
+            rows = measure(models, samples, args.passes)
+            report(args, models, samples, rows, load, trained_s, old)
+            if args.profile:
+                if old is not None:
+                    print(f"\ncProfile of MultiModelStream.update at {args.baseline} (one pass):\n\n{old['profile']}")
+                print(f"\ncProfile of MultiModelStream.update, this tree (one pass):\n\n{profile(models, samples)}")
 
 
 def report(args, models: dict, samples: list, rows: dict, load: float, trained_s: float, old: dict | None) -> None:

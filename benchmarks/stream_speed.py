@@ -41,6 +41,7 @@ import numba
 import numpy as np
 from threadpoolctl import threadpool_info
 
+from machine import results_file
 from spotfree.classify import DEFAULT_METHOD, METHODS
 from spotfree.classify.batch import classify_recording, dictionary_classifier, model_affine, model_features
 from spotfree.classify.stream import RideClassifier
@@ -106,7 +107,12 @@ def main() -> None:
     parser.add_argument("--short", type=int, default=300, help="windows for the one-row-matrix CRC row")
     parser.add_argument("--sparse", type=int, default=60, help="samples for the SRC and B_SRC rows")
     args = parser.parse_args()
+    with results_file("stream_speed", "Per-sample latency of streaming classification", preformatted=True):
+        _run(args)
 
+
+def _run(args) -> None:
+    """The latency table of :func:`main`."""
     started = time.perf_counter()
     model = trained_model()
     rides = simulate_scenario("sudden-braking", repeats=2, seed=7)
