@@ -3,11 +3,13 @@
 import re
 import sys
 from importlib.util import find_spec
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+import spotfree.evaluation.report
 import spotfree.evaluation.run
 from spotfree.cli import app
 from spotfree.errors import InputError
@@ -298,3 +300,27 @@ def test_a_missing_aeon_is_refused_before_the_run_with_the_install_line(tmp_path
     assert len(lines) == 1 and "MiniRocketClassifier comes from aeon" in lines[0]
     assert "pip install -e '.[eval]'" in lines[0]
     assert not (tmp_path / "out").exists()
+
+
+def test_quiet_prints_nothing_but_errors(tmp_path, monkeypatch):
+    """``--quiet``: neither the progress nor the headline is printed; the run itself is the same call."""
+    calls = []
+
+    def run(output, seed, quick, progress):
+        progress("simulating")
+        calls.append((output, seed, quick))
+        return SimpleNamespace(files=[], seconds=1.0)
+
+    monkeypatch.setattr(spotfree.evaluation.run, "evaluate", run)
+    monkeypatch.setattr(spotfree.evaluation.report, "headline", lambda ev: ["a headline"])
+    loud = runner.invoke(app, ["evaluate", "--quick", "-o", str(tmp_path / "a")])
+    quiet = runner.invoke(app, ["evaluate", "--quick", "-o", str(tmp_path / "b"), "--quiet"])
+    assert loud.exit_code == quiet.exit_code == 0
+    assert "simulating" in loud.output and "a headline" in loud.output
+    assert quiet.output == ""
+    assert [c[1:] for c in calls] == [(0, True), (0, True)]
+    monkeypatch.undo()
+    refused = tmp_path / "report"
+    refused.write_text("not a folder")
+    result = runner.invoke(app, ["evaluate", "--quick", "-o", str(refused), "--quiet"])
+    assert result.exit_code == 2 and "not a folder" in result.output

@@ -578,6 +578,7 @@ def evaluate(
     seed: int = typer.Option(0, "--seed", help="seed of the simulated rides and of the training clustering"),
     quick: bool = typer.Option(False, "--quick", help="two experiments per scenario (for tests; not the paper's "
                                "protocol)"),
+    quiet: bool = QUIET,
 ) -> None:
     """Reproduce the paper's section V on the simulator: accuracy, the 6-of-7800 count, timings, peers, figures."""
     from spotfree.evaluation.run import evaluate as run_evaluation
