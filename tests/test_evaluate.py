@@ -247,6 +247,7 @@ def test_quick_run_summary_gives_one_line_per_model_with_its_goal_verdict(quick_
             assert row[8] == ("yes" if min(offline, live) >= float(row[5]) else "no")
         else:
             assert row[5] is None and row[8] == "-"
+    found = {}
     for model in ("sudden stops", "kerb strikes"):
         row = re.search(rf"\| {model} \| F1 ([\d.]+|-), (\d+) / (\d+), (\d+) false alarms \(([\d.]+) per hour\) \|"
                         r" F1 ([\d.]+|-), (\d+) / (\d+), (\d+) false alarms \(([\d.]+) per hour\) \|[^\n]* (yes|no) \| "
@@ -254,6 +255,13 @@ def test_quick_run_summary_gives_one_line_per_model_with_its_goal_verdict(quick_
         assert row and int(row[3]) > 0, model
         met = all(f != "-" and float(f) >= 0.95 and float(h) <= 2.0 for f, h in ((row[1], row[5]), (row[6], row[10])))
         assert row[11] == ("yes" if met else "no")
+        found[model] = row
+    warned = re.search(r"\| sudden stops as the rider is warned \| F1 ([\d.]+|-), (\d+) / (\d+), (\d+) false alarms "
+                       r"\(([\d.]+) per hour\) \| F1 ([\d.]+|-), (\d+) / (\d+), (\d+) false alarms", glance)
+    raw = found["sudden stops"]
+    # the assistant merges label runs into stops and drops runs too short to warn: never more detections or alarms
+    assert warned and warned[3] == raw[3] and int(warned[2]) <= int(raw[2]) and int(warned[4]) <= int(raw[4])
+    assert int(warned[7]) <= int(raw[7]) and int(warned[9]) <= int(raw[9])
     postures = re.search(r"\| hand postures \(per frame\) \| (\d+\.\d\d) \| (\d+\.\d\d) \| none \| 100 % \| "
                          r"(yes|no) \|", glance)
     assert postures and postures[3] == ("yes" if float(postures[1]) == float(postures[2]) == 100.0 else "no")
