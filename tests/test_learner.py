@@ -276,3 +276,23 @@ def test_a_class_that_always_comes_with_another_is_named():
             sel = away & (truth == c)
             if sel.any():
                 assert np.mean(names[sel] == c) >= 0.8, (rec.source, c, np.mean(names[sel] == c))
+
+
+def test_classes_declared_together_everywhere_are_warned_about_unless_a_prior_tells_them_apart():
+    """Every recording declares both classes: the sets cannot tell them apart, and the summary says so; recordings that
+    hold one without the other, or a prior, silence it."""
+    rng = np.random.default_rng(9)
+    both = [_alternating("still", "slow", rng, f"r{k}") for k in range(2)]
+    learner = SetSupervisedLearner(seed=0).fit(both, [{"still", "slow"}] * 2)
+    assert any("classes slow, still are declared by the same recordings" in w for w in learner.warnings_), \
+        learner.warnings_
+    apart = both + [_recording([("still", 20)], rng, "rest")]
+    learner = SetSupervisedLearner(seed=0).fit(apart, [{"still", "slow"}] * 2 + [{"still"}])
+    assert not any("declared by the same recordings" in w for w in learner.warnings_), learner.warnings_
+
+    class Flat:
+        def log_prior(self, recording, centres, classes):
+            return np.zeros((len(centres), len(classes)))
+
+    learner = SetSupervisedLearner(seed=0, prior=Flat()).fit(both, [{"still", "slow"}] * 2)
+    assert not any("declared by the same recordings" in w for w in learner.warnings_)

@@ -199,6 +199,8 @@ class SetSupervisedLearner(BaseEstimator):
             if changed < CHANGED:
                 break
         labels = self._decide(np.log(np.maximum(weights, 1e-300)), data, allowed)
+        if self.prior is None:
+            self._warn_declared_together(allowed)
         if self.rounds:
             self._warn_inseparable(log_p, labels, mask)
         margin = _margins(self._smoothed(log_q, data), labels)
@@ -307,6 +309,19 @@ class SetSupervisedLearner(BaseEstimator):
         """``smoothing`` in windows: the switching cost of :func:`decode_runs` and the length of the margins'
         average."""
         return float(self.smoothing * self.rate_ / self.step)
+
+    def _warn_declared_together(self, allowed: np.ndarray) -> None:
+        """Warn about classes that every recording declares together (the same recordings declare each of them):
+        every window then has them all as candidates alike, so the class sets cannot tell them apart and only a
+        prior could."""
+        groups: dict[bytes, list[str]] = {}
+        for c, name in enumerate(self.classes_):
+            groups.setdefault(allowed[:, c].tobytes(), []).append(name)
+        for names in groups.values():
+            if len(names) > 1:
+                self.warnings_.append(f"classes {', '.join(names)} are declared by the same recordings, so nothing "
+                                      "tells them apart and their names are arbitrary; add recordings that hold some "
+                                      "of them without the others")
 
     def _warn_inseparable(self, log_p: np.ndarray, labels: np.ndarray, mask: np.ndarray) -> None:
         """Warn about a class whose windows are not told apart from what happens without it: a classifier which did
