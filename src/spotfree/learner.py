@@ -198,7 +198,7 @@ class SetSupervisedLearner(BaseEstimator):
             self.history_.append(changed)
             if changed < CHANGED:
                 break
-        labels = self._decide(np.log(np.maximum(weights, 1e-300)), data, allowed)
+        labels = self._decide(log_q, data, allowed)  # log weights up to a constant per window
         if self.prior is None:
             self._warn_declared_together(allowed)
         if self.rounds:

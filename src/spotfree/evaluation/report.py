@@ -6,7 +6,9 @@ section they are taken from.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -167,32 +169,33 @@ def braking_classes(ev: Evaluation, runs: MethodRuns, collar: bool = True) -> di
     return total
 
 
-def sudden_stops(ev: Evaluation, runs: MethodRuns) -> EventScore:
-    """Sudden stops detected by ``runs`` over every scenario's tests."""
-    return sum((event_detection(runs.runs[s].labels.label, ev.data[s].test.truth["label"], "sudden-braking",
-                                ev.data[s].test.experiment, ev.data[s].test.rate) for s in SCENARIOS),
-               EventScore(0, 0, 0, 0.0))
-
-
-def warned_stops(ev: Evaluation, runs: MethodRuns) -> EventScore:
-    """Sudden stops detected by the warnings the rider would see: ``runs``' labels fed, one test ride at a time, to
-    the ride assistant with its defaults (:class:`~spotfree.ride.assistant.RideAssistant`: a label held for its
-    ``min_duration`` warns, runs within its ``refractory`` of the last are the same stop); each of its events, from
-    the run that raised it to its last sample, is one detection."""
+def sudden_stops(ev: Evaluation, runs: MethodRuns, as_warned: bool = False) -> EventScore:
+    """Sudden stops detected by ``runs`` over every scenario's tests; ``as_warned``: by the warnings the rider would
+    see instead (:func:`_as_warned`)."""
     total = EventScore(0, 0, 0, 0.0)
     for s in SCENARIOS:
         test = ev.data[s].test
         labels = runs.runs[s].labels.label.astype(str)
-        warned = np.where(labels == "sudden-braking", "held back", labels).astype(object)
-        for e in np.unique(test.experiment):
-            rows = np.flatnonzero(test.experiment == e)
-            assistant = RideAssistant()
-            for i in rows:
-                assistant.update(float(test.time[i]), labels[i] or None)
-            for event in assistant.finish():
-                warned[rows[(test.time[rows] >= event.start) & (test.time[rows] <= event.end)]] = "sudden-braking"
-        total += event_detection(warned.astype(str), test.truth["label"], "sudden-braking", test.experiment, test.rate)
+        if as_warned:
+            labels = _as_warned(labels, test)
+        total += event_detection(labels, test.truth["label"], "sudden-braking", test.experiment, test.rate)
     return total
+
+
+def _as_warned(labels: np.ndarray, test) -> np.ndarray:
+    """``labels`` fed, one test ride at a time, to the ride assistant with its defaults
+    (:class:`~spotfree.ride.assistant.RideAssistant`: a label held for its ``min_duration`` warns, runs within its
+    ``refractory`` of the last are the same stop): ``sudden-braking`` from the run that raised each of its events to
+    that event's last sample, ``held back`` where the label was ``sudden-braking`` but no warning came."""
+    warned = np.where(labels == "sudden-braking", "held back", labels).astype(object)
+    for e in np.unique(test.experiment):
+        rows = np.flatnonzero(test.experiment == e)
+        assistant = RideAssistant()
+        assistant.update_block([(float(test.time[i]), math.nan, math.nan, math.nan) for i in rows],
+                               [labels[i] or None for i in rows])
+        for event in assistant.finish():
+            warned[rows[(test.time[rows] >= event.start) & (test.time[rows] <= event.end)]] = "sudden-braking"
+    return warned.astype(str)
 
 
 def _worst(scores: dict[str, Score]) -> tuple[str, Score]:
@@ -219,7 +222,8 @@ def _goals(ev: Evaluation) -> str:
                               peer))
     events = [(name, score(ev, streams["offline (centred)"]), score(ev, streams["live"]),
                score(ev, streams[MINIROCKET]) if MINIROCKET in streams else None)
-              for name, score in (("sudden stops", sudden_stops), ("sudden stops as the rider is warned", warned_stops))]
+              for name, score in (("sudden stops", sudden_stops),
+                                  ("sudden stops as the rider is warned", partial(sudden_stops, as_warned=True)))]
     for name, result in ev.ride_models.scores.items():
         for c in MODELS[name].detections:
             events.append((f"{c} strikes", result.events(c, "offline vote"), result.events(c, "live"),
@@ -643,7 +647,8 @@ def _sudden_stops(ev: Evaluation) -> str:
     methods += [(f"spotfree kernel CRC_RLS ({a})", ev.kcrc[a]) for a in ALIGNMENTS]
     methods += [(name, runs) for name, runs in ev.peers.items()]
     rows = [[name, *_event_cells(sudden_stops(ev, runs))] for name, runs in methods]
-    rows += [[f"{name}, as the rider is warned", *_event_cells(warned_stops(ev, runs))] for name, runs in methods
+    rows += [[f"{name}, as the rider is warned", *_event_cells(sudden_stops(ev, runs, as_warned=True))]
+             for name, runs in methods
              if name in ("spotfree kernel CRC_RLS (causal)", MINIROCKET)]
     return f"""## Sudden stops as events
 
