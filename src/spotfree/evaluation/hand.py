@@ -192,7 +192,7 @@ def evaluate_hand(train_people: int = TRAINING_PEOPLE, test_people: int = 6, see
     )
 
 
-def headline(accuracy: dict, onsets: dict, events: dict) -> dict[str, dict[str, float]]:
+def hand_figures(accuracy: dict, onsets: dict, events: dict) -> dict[str, dict[str, float]]:
     """Per mode, the figures issue 35 sets goals for, from a recogniser's or a peer's scores: ``postures`` per frame
     (end to end, the simulator's truth), ``postures_onset`` and ``gestures`` end to end from the observable onset
     (:data:`EVENT_ONSET` of the peak speed) with the widest of :data:`COLLARS`, and the gesture events' ``precision``,
@@ -523,9 +523,9 @@ def hand_report(ev: HandEvaluation) -> str:
 
 
 def _peer_table(ev: HandEvaluation, pct) -> list[str]:
-    """Markdown lines: the recogniser beside each supervised peer, per mode (:func:`headline`)."""
-    rows = [("spotfree (class sets only)", headline(ev.accuracy, ev.onsets, ev.events), ev.seconds["training"])]
-    rows += [(name, headline(p.accuracy, p.onsets, p.events), p.fit_seconds)
+    """Markdown lines: the recogniser beside each supervised peer, per mode (:func:`hand_figures`)."""
+    rows = [("spotfree (class sets only)", hand_figures(ev.accuracy, ev.onsets, ev.events), ev.seconds["training"])]
+    rows += [(name, hand_figures(p.accuracy, p.onsets, p.events), p.fit_seconds)
              for name, p in ev.peers.items()]
     collar = f"{100 * EVENT_ONSET:.0f} % onset, collar {COLLARS[-1] / ev.settings['rate']:g} s"
     lines = [f"Beside supervised peers trained on the same training sessions with every sample's true label (one "

@@ -26,7 +26,7 @@ from spotfree.evaluation.metrics import (
     label_count,
     near_transitions,
 )
-from spotfree.evaluation.hand import COLLARS, EVENT_ONSET, HandEvaluation, hand_report, headline
+from spotfree.evaluation.hand import COLLARS, EVENT_ONSET, HandEvaluation, hand_figures, hand_report
 from spotfree.evaluation.hand import MODES as HAND_MODES
 from spotfree.evaluation.lateral_road import MODELS, STANDING_SPEED, STREAMS, ModelScore
 from spotfree.evaluation.protocol import SCENARIOS, TRAIN_EXPERIMENT, TRAINED_ON, Protocol, ScenarioData, Trained
@@ -291,17 +291,17 @@ def _hand_collar(hand: HandEvaluation) -> float:
 
 
 def hand_goals(hand: HandEvaluation) -> dict[str, dict[str, float]]:
-    """Per mode, the hand's figures of :func:`~spotfree.evaluation.hand.headline`: postures per frame (end to end,
+    """Per mode, the hand's figures of :func:`~spotfree.evaluation.hand.hand_figures`: postures per frame (end to end,
     the simulator's truth), gestures end to end from the observable onset
     (:data:`~spotfree.evaluation.hand.EVENT_ONSET` of the peak speed) with the widest collar of
     :data:`~spotfree.evaluation.hand.COLLARS`, and the gesture events."""
-    return headline(hand.accuracy, hand.onsets, hand.events)
+    return hand_figures(hand.accuracy, hand.onsets, hand.events)
 
 
 def hand_peer_goals(hand: HandEvaluation) -> dict[str, dict[str, float]] | None:
     """:func:`hand_goals` of the hand's MiniRocket peer; None when it was not run."""
     peer = hand.peers.get(MINIROCKET)
-    return None if peer is None else headline(peer.accuracy, peer.onsets, peer.events)
+    return None if peer is None else hand_figures(peer.accuracy, peer.onsets, peer.events)
 
 
 def confusion_panels(ev: Evaluation) -> dict[str, list[tuple[str, np.ndarray, list[str], list[str]]]]:
@@ -631,7 +631,7 @@ Offline vote: the segment vote at penalty {spec.segments:g}{kept}.{peer}{short}
 
 def _hand(ev: Evaluation) -> str:
     goals = hand_goals(ev.hand)
-    peers = {name: headline(p.accuracy, p.onsets, p.events) for name, p in ev.hand.peers.items()}
+    peers = {name: hand_figures(p.accuracy, p.onsets, p.events) for name, p in ev.hand.peers.items()}
     peer_header = [f"{name}, {mode}" for name in peers for mode in HAND_MODES]
 
     def cells(key: str, percent: bool = True) -> list[str]:
