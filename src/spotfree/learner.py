@@ -74,8 +74,9 @@ in a few short runs still has windows in both folds (a forest that saw none of a
 SHARPEN = 2.0
 """Exponent ``t`` of the posterior in each round's names: above 1 the soft names harden over the rounds."""
 SEPARABLE = 0.5
-"""Ratio, from which the summary warns, of a class's mean cross-fitted posterior on as many windows of recordings
-without it as it names (those it is given most on) to that on the windows it names."""
+"""Ratio, from which the summary warns, of a class's mean cross-fitted posterior on the windows of recordings without
+it that it is given most (as large a part of them as it names of its own recordings' windows) to that on the windows
+it names."""
 LANDMARKS = 128
 """Nystroem landmarks of the kernel CRC_RLS that labels with the dictionary
 (:class:`~spotfree.classify.kcrc.KernelCRCClassifier`; a window costs about ``m d + 2 C m^2`` operations)."""
@@ -336,19 +337,21 @@ class SetSupervisedLearner(BaseEstimator):
     def _warn_inseparable(self, log_p: np.ndarray, labels: np.ndarray, mask: np.ndarray) -> None:
         """Warn about a class whose windows are not told apart from what happens without it: a classifier which did
         not see the windows gives it, on average, at least :data:`SEPARABLE` times as much on the windows of
-        recordings that do not declare it (as many as it names, those it gives the class most: the named windows
-        are chosen for the class too) as on the windows it names; or it names fewer windows than :data:`LEAF`."""
+        recordings that do not declare it as on the windows it names, both chosen alike: of the windows without it,
+        those it gives the class most, as large a part of them as the class names of its own recordings' windows;
+        or it names fewer windows than :data:`LEAF`."""
         p = np.exp(log_p)
         for c, name in enumerate(self.classes_):
             own, elsewhere = labels == c, ~mask[:, c]
             if not own.any() or not elsewhere.any():
                 continue
-            alike = np.sort(p[elsewhere, c])[-int(own.sum()):]
+            part = own.sum() / mask[:, c].sum()
+            alike = np.sort(p[elsewhere, c])[-max(1, int(round(part * elsewhere.sum()))):]
             if own.sum() < LEAF:
                 reason = f"it names only {int(own.sum())} windows, fewer than a leaf of the trees holds"
             elif alike.mean() >= SEPARABLE * p[own, c].mean():
-                reason = (f"its windows get it {p[own, c].mean():.2f} on average, as many of the windows of "
-                          f"recordings without it {alike.mean():.2f}")
+                reason = (f"its windows get it {p[own, c].mean():.2f} on average, as large a part of the "
+                          f"windows of recordings without it {alike.mean():.2f}")
             else:
                 continue
             self.warnings_.append(f"class {name} is not told apart from what happens without it ({reason}); check "
