@@ -262,12 +262,17 @@ def test_quick_run_summary_gives_one_line_per_model_with_its_goal_verdict(quick_
     # the assistant merges label runs into stops and drops runs too short to warn: never more detections or alarms
     assert warned and warned[3] == raw[3] and int(warned[2]) <= int(raw[2]) and int(warned[4]) <= int(raw[4])
     assert int(warned[7]) <= int(raw[7]) and int(warned[9]) <= int(raw[9])
-    postures = re.search(r"\| hand postures \(per frame\) \| (\d+\.\d\d) \| (\d+\.\d\d) \| none \| 100 % \| "
-                         r"(yes|no) \|", glance)
-    assert postures and postures[3] == ("yes" if float(postures[1]) == float(postures[2]) == 100.0 else "no")
+    postures = re.search(r"\| hand postures \(per frame\) \| (\d+\.\d\d) \| (\d+\.\d\d) \| (\d+\.\d\d|-) \| 100 % \| "
+                         r"(yes|no) \| (yes|no|-) \|", glance)
+    assert postures and postures[4] == ("yes" if float(postures[1]) == float(postures[2]) == 100.0 else "no")
     gestures = re.search(r"\| hand gestures \(from 10 % of peak speed, 0.1 s collar\) \| (\d+\.\d\d) \| "
-                         r"(\d+\.\d\d) \| none \| [^|]+ \| (yes|no) \|", glance)
-    assert gestures and gestures[3] == ("yes" if float(gestures[1]) >= 99.0 and float(gestures[2]) >= 95.0 else "no")
+                         r"(\d+\.\d\d) \| (\d+\.\d\d|-) \| [^|]+ \| (yes|no) \| (yes|no|-) \|", glance)
+    assert gestures and gestures[4] == ("yes" if float(gestures[1]) >= 99.0 and float(gestures[2]) >= 95.0 else "no")
+    for row in (postures, gestures):  # the hand's MiniRocket peer, live, when aeon is there
+        if HAS_AEON:
+            assert row[5] == ("yes" if min(float(row[1]), float(row[2])) >= float(row[3]) else "no")
+        else:
+            assert row[3] == "-" and row[5] == "-"
     assert re.search(r"\| hand gestures \| F1 [\d.]+, \d+ / \d+, \d+ false detections \| F1 [\d.]+, \d+ / \d+, ",
                      glance)
 
@@ -287,6 +292,15 @@ def test_quick_run_hand_section_calls_the_hand_evaluation(quick_run):
     for p, r, f in (events.groups()[:3], events.groups()[3:]):
         assert float(f) == pytest.approx(2 * float(p) * float(r) / (float(p) + float(r)), abs=2e-3)
     assert "tested on 2 held-out people" in hand and "Gestures as events" in hand
+    # the supervised peers beside the recogniser, the same figures in the table at the top and in the detail below
+    peers = ("MiniRocket (supervised)", "1-NN (supervised)") if HAS_AEON else ("1-NN (supervised)",)
+    header = next(line for line in hand.splitlines() if line.replace(" ", "").startswith("||offline|live|"))
+    top = next(line for line in hand.splitlines() if line.startswith("| postures per frame (%) |"))
+    columns = [c.strip() for c in header.strip("|").split("|")]
+    values = [c.strip() for c in top.strip("|").split("|")]
+    for peer in peers:
+        row = re.search(rf"\| {re.escape(peer)} \| live \| (\d+\.\d\d) % \| [\d.]+ % \| (\d+\.\d\d) % \|", hand)
+        assert row and values[columns.index(f"{peer}, live")] == row[1], peer
     assert f"![hand confusion matrices]({CONFUSION_FIGURES['hand']})" in hand
 
 

@@ -67,13 +67,14 @@ def test_onset_scores_per_threshold_with_and_without_a_collar():
     assert scores[0.0][2]["end_gesture"] == 1.0 and scores[0.0][2]["samples"] == 18 - 8
 
 
-def test_gesture_events_match_one_recognised_run_per_true_gesture_near_its_onset():
+def test_gesture_events_match_one_recognised_event_per_true_gesture_near_its_onset():
+    from spotfree.classify.runs import RunEvent
     from spotfree.evaluation.hand import gesture_events
 
     truth = np.array(["straight"] * 10 + ["straight-to-left"] * 10 + ["left"] * 20 + ["left-to-straight"] * 10)
-    label = np.array(["straight"] * 12 + ["straight-to-left"] * 6 + ["left"] * 12  # one sample late: matched
-                     + ["straight-to-left"] * 2 + ["left"] * 16 + ["straight-to-stop"] * 2)  # two false runs
-    scores = gesture_events(label, truth, np.ones(len(truth), dtype=int), rate=20.0, tolerance=0.5)
+    events = [RunEvent("straight-to-left", 12, 18),  # two samples late: matched
+             RunEvent("straight-to-left", 30, 32), RunEvent("straight-to-stop", 48, 50)]  # two false detections
+    scores = gesture_events(events, truth, np.ones(len(truth), dtype=int), rate=20.0, tolerance=0.5)
     assert (scores["events"], scores["detections"], scores["matched"]) == (2, 3, 1)
     assert scores["precision"] == 1 / 3 and scores["recall"] == 1 / 2 and scores["f1"] == 2 / 5
-    assert gesture_events(label, truth, np.ones(len(truth), dtype=int), rate=20.0, tolerance=0.05)["matched"] == 0
+    assert gesture_events(events, truth, np.ones(len(truth), dtype=int), rate=20.0, tolerance=0.05)["matched"] == 0

@@ -10,7 +10,8 @@ from spotfree.hand.features import FEATURES
 from spotfree.hand.log import frames_to_recording
 from spotfree.hand.motion import MOTION, motion_channels
 from spotfree.hand.recognition import (
-    HandModel, HandRecognizer, declared, features_of, recognise, session_tasks, train_hand, vote_stretches,
+    HandModel, HandRecognizer, declared, features_of, gesture_samples, recognise, session_tasks, train_hand,
+    vote_stretches,
 )
 from spotfree.hand.vocabulary import GESTURES, POSTURES, TRAINING_TASKS
 from spotfree.sim.hand import simulate_hands
@@ -92,6 +93,21 @@ def test_offline_mode_sees_more_of_each_gesture_and_names_each_stretch_once(resu
     assert not (offline.label[offline.state == ""] != "").any()
 
 
+@pytest.mark.parametrize("offline", [False, True])
+def test_gesture_events_are_the_long_enough_gesture_stretches_each_named_once(result, test_run, offline):
+    labels = recognise(result.model, test_run, offline=offline)
+    edges = np.diff(np.r_[0, (labels.state == "gesture").astype(int), 0])
+    stretches = list(zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist()))
+    shortest = gesture_samples(result.model)
+    assert shortest == round(result.model.state.parameters["smoothing"] * result.model.state.rate) > 1
+    assert [(e.start, e.stop) for e in labels.events] == [(a, b) for a, b in stretches if b - a >= shortest]
+    for event in labels.events:
+        names, counts = np.unique(labels.label[event.start:event.stop], return_counts=True)
+        assert event.label in GESTURES and counts[list(names).index(event.label)] == counts.max()
+    label_runs = sum(1 + int(np.sum(labels.label[a + 1:b] != labels.label[a:b - 1])) for a, b in stretches)
+    assert len(labels.events) <= len(stretches) <= label_runs
+
+
 def test_vote_stretches_gives_each_run_its_most_frequent_label():
     mask = np.array([0, 1, 1, 1, 0, 1, 1, 0, 1], dtype=bool)
     label = np.array(["x", "a", "b", "b", "y", "c", "d", "z", "e"])
@@ -110,6 +126,8 @@ def test_streaming_equals_batch_and_gaps_give_no_label(result, test_run):
     assert [o[2] for o in out] == list(labels.command)
     gap = ~np.all(np.isfinite(rows), axis=1)
     assert gap.any() and all(out[i] == ("", "", "stop") for i in np.flatnonzero(gap))
+    recogniser.reset()
+    assert recogniser.events_ == labels.events and labels.events
     assert recogniser.update({c: v for c, v in zip(FEATURES, rows[-1])})[2] in COMMANDS.values()
     with pytest.raises(InputError, match="hand sample holds"):
         recogniser.update(rows[0][:5])

@@ -14,16 +14,21 @@ Method (``docs/training.md`` has the derivation and the references):
 3. **Rounds.** For ``rounds`` rounds, a classifier (extremely randomised trees) is fitted on the windows with their
    soft names as sample weights, each class's weights summing alike, cross-fitted so that no window is scored by a
    model that saw it (two folds of alternating :data:`BLOCK_SECONDS` blocks). Its balanced posterior ``p(c | x)``
-   gives the new names, restricted to the candidates and sharpened:
+   gives the new names, restricted to the candidates, sharpened and weighed by the square root of each class's
+   share of the names:
 
-       w(c) = p(c | x)^t pr(c)^t / sum_{d in S_r} p(d | x)^t pr(d)^t     for c in S_r, 0 elsewhere   (t = SHARPEN)
+       w(c) ∝ p(c | x)^t pr(c)^t pi(c)^(1/2)     for c in S_r, 0 elsewhere   (t = SHARPEN)
 
-   (``pr``: the prior, 1 without one). This is the progressive identification of true labels of Lv et al.
-   (ICML 2020), with a forest for the network. A motion that occurs in bags of two classes goes to the one declared
-   wherever that motion occurs: a window of walking in bags declaring walking and turning, and in bags declaring
-   walking but not turning, weighs more on walking than on turning; the sharpening makes the soft names harden over
-   the rounds. Weighing each class alike keeps a class declared in few recordings from being absorbed by one
-   declared in many. The rounds stop early when the names move by less than :data:`CHANGED` (mean total variation).
+   (``pr``: the prior, 1 without one; ``pi(c)``: the mean of the names ``w(c)`` over all windows). This is the
+   progressive identification of true labels of Lv et al. (ICML 2020), with a forest for the network. A motion that
+   occurs in bags of two classes goes to the one declared wherever that motion occurs: a window of walking in bags
+   declaring walking and turning, and in bags declaring walking but not turning, weighs more on walking than on
+   turning; the sharpening makes the soft names harden over the rounds. Weighing each class alike in the fit keeps a
+   class declared in few recordings from being absorbed by one declared in many; but names from the balanced
+   posterior alone pull every class towards an equal share of the windows, and names weighed by the shares
+   themselves let a common class absorb, round after round, the windows of a rarer one declared with it. The square
+   root (:data:`SHARE_POWER`) lies between, as square-root class sampling does in long-tailed learning (Kang et al.,
+   ICLR 2020). The rounds stop early when the names move by less than :data:`CHANGED` (mean total variation).
    Then the windows of each recording are decoded into runs (:func:`decode_runs`): the class sequence inside
    ``S_r`` that maximises ``sum_i log w_i(z_i)`` minus ``smoothing * rate / step`` per change of class, in which every
    declared class occurs (a class lasts longer than one window; every declared class finds its windows).
@@ -68,9 +73,9 @@ BLOCK_SECONDS = 2.0
 in a few short runs still has windows in both folds (a forest that saw none of a class's windows cannot find them)."""
 SHARPEN = 2.0
 """Exponent ``t`` of the posterior in each round's names: above 1 the soft names harden over the rounds."""
-SEPARABLE = 0.3
-"""Ratio of a class's mean cross-fitted posterior on windows of recordings without it to that on its own windows
-from which the summary warns."""
+SEPARABLE = 0.5
+"""Ratio, from which the summary warns, of a class's mean cross-fitted posterior on as many windows of recordings
+without it as it names (those it is given most on) to that on the windows it names."""
 LANDMARKS = 128
 """Nystroem landmarks of the kernel CRC_RLS that labels with the dictionary
 (:class:`~spotfree.classify.kcrc.KernelCRCClassifier`; a window costs about ``m d + 2 C m^2`` operations)."""
@@ -78,6 +83,10 @@ AFFINE = 6.0
 """Constant row appended to a ``hankel`` window and to every column when classifying (``parameters["affine"]``): a
 window is then represented by an affine combination of columns, which CRC_RLS needs once a class holds as many columns
 as a window has values (every class then spans every window); the kernel's distances do not change."""
+SHARE_POWER = 0.5
+"""Exponent of each class's share of the names in the next round's names (module docstring, step 3): 0 names from
+the balanced posterior alone, under which every class tends to an equal share of the windows; 1 weighs the names by
+the shares, under which the common classes grow at the expense of the rarer ones declared with them."""
 LEAF = 8
 """Fewest windows in a leaf of the trees of the rounds: a posterior averages several windows, so that a few wrong
 names among the training windows do not decide a leaf."""
@@ -191,7 +200,8 @@ class SetSupervisedLearner(BaseEstimator):
         self.history_ = []
         for _ in range(self.rounds):
             log_p = self._cross_fitted(X, weights, data, fitted)
-            log_q = np.where(mask, SHARPEN * (log_p + prior), -np.inf)
+            share = np.maximum(weights.mean(axis=0), 1.0 / len(weights))
+            log_q = np.where(mask, SHARPEN * (log_p + prior) + SHARE_POWER * np.log(share), -np.inf)
             new = _normalised(log_q)
             changed = 0.5 * float(np.abs(new - weights).sum(axis=1).mean())
             weights = new
@@ -326,17 +336,19 @@ class SetSupervisedLearner(BaseEstimator):
     def _warn_inseparable(self, log_p: np.ndarray, labels: np.ndarray, mask: np.ndarray) -> None:
         """Warn about a class whose windows are not told apart from what happens without it: a classifier which did
         not see the windows gives it, on average, at least :data:`SEPARABLE` times as much on the windows of
-        recordings that do not declare it as on its own windows; or it names fewer windows than :data:`LEAF`."""
+        recordings that do not declare it (as many as it names, those it gives the class most: the named windows
+        are chosen for the class too) as on the windows it names; or it names fewer windows than :data:`LEAF`."""
         p = np.exp(log_p)
         for c, name in enumerate(self.classes_):
             own, elsewhere = labels == c, ~mask[:, c]
             if not own.any() or not elsewhere.any():
                 continue
+            alike = np.sort(p[elsewhere, c])[-int(own.sum()):]
             if own.sum() < LEAF:
                 reason = f"it names only {int(own.sum())} windows, fewer than a leaf of the trees holds"
-            elif p[elsewhere, c].mean() >= SEPARABLE * p[own, c].mean():
-                reason = (f"its windows get it {p[own, c].mean():.2f} on average, windows of recordings without it "
-                          f"{p[elsewhere, c].mean():.2f}")
+            elif alike.mean() >= SEPARABLE * p[own, c].mean():
+                reason = (f"its windows get it {p[own, c].mean():.2f} on average, as many of the windows of "
+                          f"recordings without it {alike.mean():.2f}")
             else:
                 continue
             self.warnings_.append(f"class {name} is not told apart from what happens without it ({reason}); check "

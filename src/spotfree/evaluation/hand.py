@@ -20,9 +20,15 @@ the test protocol for each of people ``101 ..`` (never seen in training), per 20
   kinematics of doi:10.1186/s12984-021-00895-3), whereas the simulator's gesture starts when the
   movement does, at rest;
 * **gestures as events**: every gesture of the truth from its observable onset (:data:`EVENT_ONSET` of its peak
-  speed, :func:`onset_truth`) is one event, detected by one recognised run of the same gesture whose first sample
-  lies within :data:`EVENT_TOLERANCE` s of the event's; precision, recall and F1 over all gestures
+  speed, :func:`onset_truth`) is one event, detected by one recognised gesture event of the same gesture (a stretch
+  of the gesture state named by its vote, :func:`~spotfree.hand.recognition.hand_labels`) whose first sample lies
+  within :data:`EVENT_TOLERANCE` s of the event's; precision, recall and F1 over all gestures
   (:func:`gesture_events`);
+* **supervised peers** (when given): window classifiers of :mod:`spotfree.evaluation.peers` trained on the same
+  training sessions with every sample's true label (one classifier over the five postures and eight gestures, on
+  :data:`PEER_CHANNELS`, every stage's channels), causal windows live and centred windows offline; their labels
+  go through the same :func:`~spotfree.hand.recognition.hand_labels` (state from the label, offline votes, events)
+  and are scored alike;
 * **where gestures are lost**: end-to-end gesture accuracy by the sample's place in its gesture (first, second,
   ... sample from the start and from the end), beside the measured palm speed there and in postures;
 * **commands**: latency from each true posture onset to its command (:func:`~spotfree.hand.commands.command_latencies`)
@@ -40,12 +46,15 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
+from sklearn.base import clone
 
+from spotfree.classify.runs import RunEvent
+from spotfree.evaluation.peers import Peer
 from spotfree.hand.commands import COMMANDS, command_latencies
 from spotfree.hand.features import FEATURES
 from spotfree.hand.log import frames_to_recording
 from spotfree.hand.recognition import STAGE_PARAMETERS, STATES, HandLabels, HandModel, HandRecognizer, \
-    HandTrainingConfig, declared, features_of, recognise, session_tasks, train_hand
+    HandTrainingConfig, declared, features_of, gesture_samples, hand_labels, recognise, session_tasks, train_hand
 from spotfree.hand.vocabulary import GESTURES, POSTURES
 from spotfree.learner import SetSupervisedLearner
 from spotfree.sim.hand import TRAINING_PEOPLE, simulate_hands
@@ -74,6 +83,26 @@ EVENT_TOLERANCE = 0.5
 PLACES = 4
 """Samples from each end of a gesture reported one by one in the table of where gestures are lost."""
 
+PEER_CHANNELS = tuple(dict.fromkeys(c for p in STAGE_PARAMETERS.values() for c in p["channels"]))
+"""Channels of the supervised peers: those of every stage of the recogniser."""
+
+PEER_WINDOW = 9
+"""Window of the supervised peers, samples: MiniRocket's shortest (its kernels are 9 samples long)."""
+
+MODE_ALIGNMENT = {"offline": "centred", "live": "causal"}
+"""The peers' window alignment in each mode."""
+
+
+@dataclass
+class PeerScores:
+    """A supervised peer's scores, per mode as :class:`HandEvaluation`'s (``accuracy``, ``onsets``, ``events``),
+    and the seconds its fits took (both alignments)."""
+
+    accuracy: dict[str, dict[str, float]]
+    onsets: dict[str, dict[float, dict[int, dict[str, float]]]]
+    events: dict[str, dict[str, float]]
+    fit_seconds: float
+
 
 @dataclass
 class HandEvaluation:
@@ -93,12 +122,16 @@ class HandEvaluation:
     streaming: dict[str, float]
     seconds: dict[str, float] = field(default_factory=dict)
     settings: dict = field(default_factory=dict)
+    peers: dict[str, PeerScores] = field(default_factory=dict)
 
 
 def evaluate_hand(train_people: int = TRAINING_PEOPLE, test_people: int = 6, seed: int = 0, rounds: int = 3,
-                  config: HandTrainingConfig | None = None, progress=None) -> HandEvaluation:
+                  config: HandTrainingConfig | None = None, progress=None,
+                  peers: dict[str, Peer] | None = None) -> HandEvaluation:
     """Train on simulated people ``1 .. train_people`` (``config``: the recogniser's training settings, the
-    defaults when None, its seed ``seed``), test on ``test_people`` held-out people (module docstring)."""
+    defaults when None, its seed ``seed``), test on ``test_people`` held-out people (module docstring). ``peers``:
+    unfitted supervised peers by name, each fitted once per mode with that mode's alignment
+    (:data:`MODE_ALIGNMENT`) on the training sessions and their truth; their channels and window are theirs."""
     config = replace(config or HandTrainingConfig(), seed=seed)
     say = progress or (lambda message: None)
     clock = time.perf_counter()
@@ -108,8 +141,8 @@ def evaluate_hand(train_people: int = TRAINING_PEOPLE, test_people: int = 6, see
     test = frames_to_recording(simulate_hands(test_people, seed, rounds, first=TEST_FIRST))
     seconds = {"simulation": time.perf_counter() - clock}
     clock = time.perf_counter()
-    model = train_hand([(features_of(part), task) for part, task in session_tasks(training)], config,
-                       progress=say).model
+    sessions = [(features_of(part), task) for part, task in session_tasks(training)]
+    model = train_hand(sessions, config, progress=say).model
     seconds["training"] = time.perf_counter() - clock
     feats = features_of(test)
     labels = {}
@@ -141,8 +174,7 @@ def evaluate_hand(train_people: int = TRAINING_PEOPLE, test_people: int = 6, see
                                      ~_near_change(truth_state, experiment, c)) for c in COLLARS}
                  for mode, x in labels.items()},
         onsets={mode: _onset_scores(x, truth_state, truth_label, pace, experiment) for mode, x in labels.items()},
-        events={mode: gesture_events(x.label, onset_truth(truth_state, truth_label, pace, experiment, EVENT_ONSET)[1],
-                                     experiment, feats.rate) for mode, x in labels.items()},
+        events={mode: _events(x, feats) for mode, x in labels.items()},
         places=_places(labels, truth_state, truth_label, experiment, feats.channels["speed"]),
         confusion={mode: _confusions(x, truth_state, truth_label) for mode, x in labels.items()},
         latency={"onsets": int(len(latency)), "reached": float(len(reached) / max(1, len(latency))),
@@ -153,8 +185,54 @@ def evaluate_hand(train_people: int = TRAINING_PEOPLE, test_people: int = 6, see
                   "windows": {s: m.window for s, m in model.stages().items()},
                   "learner": {s: {k: v for k, v in p.items() if k not in ("channels", "window")}
                               for s, p in config.stages.items()},
-                  "channels": {s: list(m.channels) for s, m in model.stages().items()}, "rate": model.state.rate},
+                  "channels": {s: list(m.channels) for s, m in model.stages().items()}, "rate": model.state.rate,
+                  "event_samples": gesture_samples(model)},
+        peers={name: _peer_scores(peer, [rec for rec, _ in sessions], feats, gesture_samples(model), say)
+               for name, peer in (peers or {}).items()},
     )
+
+
+def hand_figures(accuracy: dict, onsets: dict, events: dict) -> dict[str, dict[str, float]]:
+    """Per mode, the figures issue 35 sets goals for, from a recogniser's or a peer's scores: ``postures`` per frame
+    (end to end, the simulator's truth), ``postures_onset`` and ``gestures`` end to end from the observable onset
+    (:data:`EVENT_ONSET` of the peak speed) with the widest of :data:`COLLARS`, and the gesture events' ``precision``,
+    ``recall`` and ``f1``."""
+    out = {}
+    for mode in MODES:
+        onset = onsets[mode][EVENT_ONSET][COLLARS[-1]]
+        out[mode] = {"postures": accuracy[mode]["end_posture"], "postures_onset": onset["end_posture"],
+                     "gestures": onset["end_gesture"],
+                     **{k: events[mode][k] for k in ("precision", "recall", "f1")}}
+    return out
+
+
+def _events(labels: HandLabels, feats) -> dict[str, float]:
+    """:func:`gesture_events` of ``labels`` against the test truth from :data:`EVENT_ONSET`."""
+    experiment = feats.experiment if feats.experiment is not None else np.ones(len(feats), dtype=int)
+    truth = onset_truth(feats.truth["state"], feats.truth["label"], feats.truth["pace"].astype(float), experiment,
+                        EVENT_ONSET)[1]
+    return gesture_events(labels.events, truth, experiment, feats.rate)
+
+
+def _peer_scores(peer: Peer, training: list, feats, min_samples: int, say) -> PeerScores:
+    """Fit ``peer`` with each mode's alignment on the ``training`` feature sessions (their truth labels), label the
+    test ``feats`` and score them as the recogniser's labels (the state is the one the label belongs to)."""
+    truth_state, truth_label = feats.truth["state"], feats.truth["label"]
+    pace = feats.truth["pace"].astype(float)
+    experiment = feats.experiment if feats.experiment is not None else np.ones(len(feats), dtype=int)
+    accuracy, onsets, events, fit = {}, {}, {}, 0.0
+    for mode, alignment in MODE_ALIGNMENT.items():
+        say(f"peer {type(peer).__name__}, {alignment} windows")
+        fitted = clone(peer).set_params(alignment=alignment).fit(training)
+        fit += fitted.fit_time_
+        label = fitted.predict(feats)
+        state = np.where(np.isin(label, GESTURES), "gesture", np.where(np.isin(label, POSTURES), "posture", ""))
+        labels = hand_labels(feats, state, np.where(state != "", label, ""), mode == "offline",
+                             min_samples=min_samples)
+        accuracy[mode] = _accuracy(labels.state, labels.label, truth_state, truth_label)
+        onsets[mode] = _onset_scores(labels, truth_state, truth_label, pace, experiment)
+        events[mode] = _events(labels, feats)
+    return PeerScores(accuracy, onsets, events, fit)
 
 
 DEV_FIRST = 201
@@ -214,28 +292,30 @@ def onset_truth(truth_state: np.ndarray, truth_label: np.ndarray, pace: np.ndarr
     return state.astype(str), label.astype(str)
 
 
-def gesture_events(label: np.ndarray, truth_label: np.ndarray, experiment: np.ndarray, rate: float,
+def gesture_events(events: list[RunEvent], truth_label: np.ndarray, experiment: np.ndarray, rate: float,
                    tolerance: float = EVENT_TOLERANCE) -> dict[str, float]:
     """Gestures scored as detections: each true run of a gesture (in ``truth_label``) is matched to at most one
-    recognised run of the same gesture (in ``label``) that starts within ``tolerance`` s of it, nearest first; an
-    unmatched recognised run is a false detection. Returns ``events``, ``detections`` (recognised runs),
-    ``matched``, ``precision``, ``recall`` and ``f1``, over every gesture and experiment."""
+    recognised event of the same gesture (``events``, sample indices into ``truth_label``) that starts within
+    ``tolerance`` s of it in the same experiment, nearest first; an unmatched event is a false detection. Returns
+    ``events`` (true gestures), ``detections`` (recognised events), ``matched``, ``precision``, ``recall`` and
+    ``f1``, over every gesture and experiment."""
     reach = tolerance * rate
-    events = detections = matched = 0
+    true_count = detections = matched = 0
     for gesture in GESTURES:
         true = _runs(truth_label == gesture, experiment)
-        found = _runs(label == gesture, experiment)
-        events, detections = events + len(true), detections + len(found)
-        free = {start: experiment[start] for start, _ in found}
+        found = [e.start for e in events if e.label == gesture]
+        true_count, detections = true_count + len(true), detections + len(found)
+        free = {start: experiment[start] for start in found}
         for start, _ in true:
             near = [f for f in free if experiment[f] == experiment[start] and abs(f - start) <= reach]
             if near:
                 del free[min(near, key=lambda f: abs(f - start))]
                 matched += 1
     precision = matched / detections if detections else float("nan")
-    recall = matched / events if events else float("nan")
-    return {"events": events, "detections": detections, "matched": matched, "precision": precision,
-            "recall": recall, "f1": 2 * matched / (events + detections) if events + detections else float("nan")}
+    recall = matched / true_count if true_count else float("nan")
+    return {"events": true_count, "detections": detections, "matched": matched, "precision": precision,
+            "recall": recall,
+            "f1": 2 * matched / (true_count + detections) if true_count + detections else float("nan")}
 
 
 def _onset_scores(labels: HandLabels, truth_state, truth_label, pace, experiment) -> dict[float, dict[int, dict]]:
@@ -330,7 +410,8 @@ def _wrong_switches(state, command, truth_state, truth_label) -> int:
 
 
 def _streaming(model: HandModel, feats, labels: HandLabels) -> dict[str, float]:
-    """Samples per second of the streaming recogniser over the test runs, and its disagreements with batch."""
+    """Samples per second of the streaming recogniser over the test runs, and its disagreements with batch: samples
+    and gesture events (those of one but not the other)."""
     rows = feats.array(FEATURES)
     experiment = feats.experiment if feats.experiment is not None else np.ones(len(feats), dtype=int)
     recogniser = HandRecognizer(model)
@@ -340,11 +421,13 @@ def _streaming(model: HandModel, feats, labels: HandLabels) -> dict[str, float]:
         if i and experiment[i] != experiment[i - 1]:
             recogniser.reset()
         out.append(recogniser.update(row))
+    recogniser.reset()  # the last gesture's event
     seconds = time.perf_counter() - clock
     state, label, command = (np.array(x, dtype=str) for x in zip(*out))
     differ = (state != labels.state) | (label != labels.label) | (command != labels.command)
     return {"samples": len(rows), "seconds": seconds, "per_second": len(rows) / seconds,
-            "per_sample_us": 1e6 * seconds / len(rows), "differ": int(differ.sum())}
+            "per_sample_us": 1e6 * seconds / len(rows), "differ": int(differ.sum()),
+            "events_differ": len(set(recogniser.events_) ^ set(labels.events))}
 
 
 def hand_report(ev: HandEvaluation) -> str:
@@ -401,14 +484,18 @@ def hand_report(ev: HandEvaluation) -> str:
         f"{mode} postures {pct(ev.accuracy[mode]['stage1_posture'])}, gestures "
         f"{pct(ev.accuracy[mode]['stage1_gesture'])}" for mode in MODES) + ".", ""]
     lines += [f"Gestures as events (a true gesture from {100 * EVENT_ONSET:.0f} % of its peak speed, detected by one "
-              f"recognised run of that gesture starting within {EVENT_TOLERANCE:g} s of it):", "",
-              "| mode | true gestures | recognised runs | matched | precision | recall | F1 |",
+              f"recognised event of that gesture starting within {EVENT_TOLERANCE:g} s of it; an event is a stretch "
+              f"of the gesture state of at least {s['event_samples']} sample(s), named by the gesture most of its "
+              f"samples carry):", "",
+              "| mode | true gestures | recognised events | matched | precision | recall | F1 |",
               "|---|---:|---:|---:|---:|---:|---:|"]
     for mode in MODES:
         e = ev.events[mode]
         lines.append(f"| {mode} | {e['events']} | {e['detections']} | {e['matched']} | {e['precision']:.3f} | "
                      f"{e['recall']:.3f} | {e['f1']:.3f} |")
     lines.append("")
+    if ev.peers:
+        lines += _peer_table(ev, pct)
     places = ev.places.copy()
     for mode in MODES:
         places[mode] = places[mode].map(pct)
@@ -428,10 +515,32 @@ def hand_report(ev: HandEvaluation) -> str:
         f"the true onset median {lat['median']:.2f} s, 95th percentile {lat['p95']:.2f} s, max {lat['max']:.2f} s; "
         f"{ev.wrong_switches} switch(es) to a wrong command.",
         f"Streaming: {ev.streaming['per_second']:,.0f} samples per second ({ev.streaming['per_sample_us']:.0f} us per "
-        f"20 Hz sample, three stages and the command), {ev.streaming['differ']} sample(s) differing from live batch.",
+        f"20 Hz sample, three stages and the command), {ev.streaming['differ']} sample(s) and "
+        f"{ev.streaming['events_differ']} gesture event(s) differing from live batch.",
         "Time: " + ", ".join(f"{k} {v:.1f} s" for k, v in ev.seconds.items()) + ".",
     ]
     return "\n".join(lines)
+
+
+def _peer_table(ev: HandEvaluation, pct) -> list[str]:
+    """Markdown lines: the recogniser beside each supervised peer, per mode (:func:`hand_figures`)."""
+    rows = [("spotfree (class sets only)", hand_figures(ev.accuracy, ev.onsets, ev.events), ev.seconds["training"])]
+    rows += [(name, hand_figures(p.accuracy, p.onsets, p.events), p.fit_seconds)
+             for name, p in ev.peers.items()]
+    collar = f"{100 * EVENT_ONSET:.0f} % onset, collar {COLLARS[-1] / ev.settings['rate']:g} s"
+    lines = [f"Beside supervised peers trained on the same training sessions with every sample's true label (one "
+             f"classifier of the five postures and eight gestures on every stage's channels, windows of "
+             f"{PEER_WINDOW} samples: causal live, centred and voted per gesture stretch offline; fit: both "
+             f"alignments, s; spotfree: its training):", "",
+             f"| method | mode | postures per frame | postures ({collar}) | gestures ({collar}) | "
+             f"events precision / recall / F1 | fit (s) |", "|---|---|---:|---:|---:|---:|---:|"]
+    for name, figures, fit in rows:
+        for mode in MODES:
+            f = figures[mode]
+            lines.append(f"| {name} | {mode} | {pct(f['postures'])} | {pct(f['postures_onset'])} | "
+                         f"{pct(f['gestures'])} | {f['precision']:.3f} / {f['recall']:.3f} / {f['f1']:.3f} | "
+                         f"{fit:.1f} |")
+    return lines + [""]
 
 
 def _markdown(table: pd.DataFrame) -> str:

@@ -116,6 +116,8 @@ def check_peers() -> None:
 
 MINIROCKET = "MiniRocket (supervised)"
 """The name of the MiniRocket peer, the supervised peer of every ride model."""
+NEAREST = "1-NN (supervised)"
+"""The name of the 1-nearest-neighbour peer."""
 
 
 def make_peers(channels, window: int, protocol: Protocol, train_step: int = 1) -> dict[str, Peer]:
@@ -125,7 +127,7 @@ def make_peers(channels, window: int, protocol: Protocol, train_step: int = 1) -
     return {
         MINIROCKET: MiniRocketPeer(**common, alignment=HEADLINE, n_kernels=protocol.minirocket_kernels,
                                    random_state=protocol.seed, train_step=train_step),
-        "1-NN (supervised)": NearestNeighbourPeer(**common, alignment=HEADLINE, train_step=train_step),
+        NEAREST: NearestNeighbourPeer(**common, alignment=HEADLINE, train_step=train_step),
         "ClaSP (segments named by class centroids)": ClaspPeer(**common),
     }
 

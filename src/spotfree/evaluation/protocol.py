@@ -39,7 +39,8 @@ class Protocol:
     ``minirocket_kernels``: MiniRocket's number of features (10,000 is its published default);
     ``ride_train_step``: the lateral and road models' MiniRocket peers fit every so many training windows (their
     training rides are ten times the braking model's); ``hand_people``: the simulated people the hand is trained and
-    tested on (:func:`~spotfree.evaluation.hand.evaluate_hand`).
+    tested on (:func:`~spotfree.evaluation.hand.evaluate_hand`); ``hand_train_step``: the hand's supervised peers fit
+    every so many training windows.
     """
 
     seed: int = 0
@@ -49,15 +50,16 @@ class Protocol:
     minirocket_kernels: int = 10_000
     ride_train_step: int = 4
     hand_people: tuple[int, int] = (TRAINING_PEOPLE, 6)
+    hand_train_step: int = 4
     quick: bool = False
 
     @classmethod
     def quick_run(cls, seed: int = 0) -> "Protocol":
         """Two experiments per scenario, 50 comparison windows, 1,000 MiniRocket kernels fitted on every 8th ride
-        window, and the hand of 4 people tested on 2: every section of the report in a short run (for tests; not
+        or hand window, and the hand of 4 people tested on 2: every section of the report in a short run (for tests; not
         the paper's protocol)."""
         return cls(seed=seed, repeats=2, method_windows=50, minirocket_kernels=1_000, ride_train_step=8,
-                   hand_people=(4, 2), quick=True)
+                   hand_people=(4, 2), hand_train_step=8, quick=True)
 
     def test_experiments(self, scenario: str) -> list[int]:
         """The experiment numbers of ``scenario`` that are tested."""

@@ -26,7 +26,7 @@ from spotfree.evaluation.metrics import (
     label_count,
     near_transitions,
 )
-from spotfree.evaluation.hand import COLLARS, EVENT_ONSET, HandEvaluation, hand_report
+from spotfree.evaluation.hand import COLLARS, EVENT_ONSET, HandEvaluation, hand_figures, hand_report
 from spotfree.evaluation.hand import MODES as HAND_MODES
 from spotfree.evaluation.lateral_road import MODELS, STANDING_SPEED, STREAMS, ModelScore
 from spotfree.evaluation.protocol import SCENARIOS, TRAIN_EXPERIMENT, TRAINED_ON, Protocol, ScenarioData, Trained
@@ -234,21 +234,30 @@ def _goals(ev: Evaluation) -> str:
         event_rows.append([name, _event_cell(off), _event_cell(on), "-" if peer is None else _event_cell(peer),
                            f"F1 >= {GOALS['event_f1']:g}, <= {GOALS['alarms_per_hour']:g} false alarms per hour",
                            _met(*meets), "-" if peer is None else _met(min(off.f1, on.f1) >= peer.f1)])
-    hand = hand_goals(ev.hand)
+    hand, peer = hand_goals(ev.hand), hand_peer_goals(ev.hand)
     posture_ok = [hand[m]["postures"] >= GOALS["postures"] for m in ("offline", "live")]
     gesture_ok = [hand["offline"]["gestures"] >= GOALS["gestures offline"],
                   hand["live"]["gestures"] >= GOALS["gestures live"]]
+
+    def above(key: str) -> str:
+        return "-" if peer is None else _met(min(hand[m][key] for m in HAND_MODES) >= peer["live"][key])
+
+    def peer_cell(key: str) -> str:
+        return "-" if peer is None else f"{100 * peer['live'][key]:.2f}"
+
     rows.append(["hand postures (per frame)", f"{100 * hand['offline']['postures']:.2f}",
-                 f"{100 * hand['live']['postures']:.2f}", "none", f"{100 * GOALS['postures']:g} %",
-                 _met(*posture_ok), "-"])
+                 f"{100 * hand['live']['postures']:.2f}", peer_cell("postures"), f"{100 * GOALS['postures']:g} %",
+                 _met(*posture_ok), above("postures")])
     rows.append([f"hand gestures (from {100 * EVENT_ONSET:.0f} % of peak speed, {_hand_collar(ev.hand):g} s collar)",
-                 f"{100 * hand['offline']['gestures']:.2f}", f"{100 * hand['live']['gestures']:.2f}", "none",
+                 f"{100 * hand['offline']['gestures']:.2f}", f"{100 * hand['live']['gestures']:.2f}",
+                 peer_cell("gestures"),
                  f">= {100 * GOALS['gestures offline']:g} % offline, >= {100 * GOALS['gestures live']:g} % live",
-                 _met(*gesture_ok), "-"])
+                 _met(*gesture_ok), above("gestures")])
     e = ev.hand.events
+    peer_events = "-" if peer is None else f"F1 {_fraction(peer['live']['f1'])}"
     event_rows.append(["hand gestures", *[f"F1 {_fraction(e[m]['f1'])}, {e[m]['matched']} / {e[m]['events']}, "
                                           f"{e[m]['detections'] - e[m]['matched']} false detections"
-                                          for m in HAND_MODES], "none", "-", "-", "-"])
+                                          for m in HAND_MODES], peer_events, "-", "-", above("f1")])
     return f"""## Goals at a glance
 
 Issue 35's goals on held-out simulated riders, every figure measured in this run. Per-sample cells: the lowest
@@ -282,11 +291,17 @@ def _hand_collar(hand: HandEvaluation) -> float:
 
 
 def hand_goals(hand: HandEvaluation) -> dict[str, dict[str, float]]:
-    """Per mode, the hand's postures per frame (end to end, the simulator's truth) and its gestures end to end from
-    the observable onset (:data:`~spotfree.evaluation.hand.EVENT_ONSET` of the peak speed) with the widest
-    collar of :data:`~spotfree.evaluation.hand.COLLARS`."""
-    return {mode: {"postures": hand.accuracy[mode]["end_posture"],
-                   "gestures": hand.onsets[mode][EVENT_ONSET][COLLARS[-1]]["end_gesture"]} for mode in HAND_MODES}
+    """Per mode, the hand's figures of :func:`~spotfree.evaluation.hand.hand_figures`: postures per frame (end to end,
+    the simulator's truth), gestures end to end from the observable onset
+    (:data:`~spotfree.evaluation.hand.EVENT_ONSET` of the peak speed) with the widest collar of
+    :data:`~spotfree.evaluation.hand.COLLARS`, and the gesture events."""
+    return hand_figures(hand.accuracy, hand.onsets, hand.events)
+
+
+def hand_peer_goals(hand: HandEvaluation) -> dict[str, dict[str, float]] | None:
+    """:func:`hand_goals` of the hand's MiniRocket peer; None when it was not run."""
+    peer = hand.peers.get(MINIROCKET)
+    return None if peer is None else hand_figures(peer.accuracy, peer.onsets, peer.events)
 
 
 def confusion_panels(ev: Evaluation) -> dict[str, list[tuple[str, np.ndarray, list[str], list[str]]]]:
@@ -616,23 +631,30 @@ Offline vote: the segment vote at penalty {spec.segments:g}{kept}.{peer}{short}
 
 def _hand(ev: Evaluation) -> str:
     goals = hand_goals(ev.hand)
-    e = ev.hand.events
-    rows = [["postures per frame (%)", *[f"{100 * goals[m]['postures']:.2f}" for m in HAND_MODES],
-             f"{100 * GOALS['postures']:g} %"],
+    peers = {name: hand_figures(p.accuracy, p.onsets, p.events) for name, p in ev.hand.peers.items()}
+    peer_header = [f"{name}, {mode}" for name in peers for mode in HAND_MODES]
+
+    def cells(key: str, percent: bool = True) -> list[str]:
+        return [f"{100 * figures[m][key]:.2f}" if percent else
+                f"{_fraction(figures[m]['precision'])} / {_fraction(figures[m]['recall'])} / "
+                f"{_fraction(figures[m]['f1'])}" for figures in (goals, *peers.values()) for m in HAND_MODES]
+
+    rows = [["postures per frame (%)", *cells("postures"), f"{100 * GOALS['postures']:g} %"],
             [f"gestures from {100 * EVENT_ONSET:.0f} % of peak speed, {_hand_collar(ev.hand):g} s collar (%)",
-             *[f"{100 * goals[m]['gestures']:.2f}" for m in HAND_MODES],
+             *cells("gestures"),
              f">= {100 * GOALS['gestures offline']:g} % offline, >= {100 * GOALS['gestures live']:g} % live"],
-            ["gestures as events: precision / recall / F1",
-             *[f"{_fraction(e[m]['precision'])} / {_fraction(e[m]['recall'])} / {_fraction(e[m]['f1'])}"
-               for m in HAND_MODES], "-"]]
+            ["gestures as events: precision / recall / F1", *cells("f1", percent=False), "-"]]
+    peer_text = ("Beside it, supervised peers trained on the same training sessions with every sample's true label "
+                 "(the same scoring; their table in detail below)." if peers else
+                 "No supervised peer is run for the hand.")
     quick = " (`--quick`: fewer people)" if ev.protocol.quick else ""
     return f"""## The hand{quick}
 
 `spotfree.evaluation.hand.evaluate_hand` (also `benchmarks/hand_eval.py`): the two-stage recogniser trained on the
 training protocol of simulated people and tested on held-out people. Offline: centred windows and one gesture per
-gesture stretch; live: causal windows (`HandRecognizer`, sample by sample). No supervised peer is run for the hand.
+gesture stretch; live: causal windows (`HandRecognizer`, sample by sample). {peer_text}
 
-{_table(["", "offline", "live", "goal"], rows)}
+{_table(["", "offline", "live", *peer_header, "goal"], rows)}
 
 ![hand confusion matrices]({CONFUSION_FIGURES["hand"]})
 

@@ -21,9 +21,10 @@ import numpy as np
 
 from spotfree.errors import InputError
 from spotfree.evaluation.figures import confusion_figure, event_timeline, results_figure, training_figure
-from spotfree.evaluation.hand import evaluate_hand
+from spotfree.evaluation.hand import PEER_CHANNELS, PEER_WINDOW, evaluate_hand
 from spotfree.evaluation.metrics import naming_scores
-from spotfree.evaluation.measure import HEADLINE, MINIROCKET, check_peers, crc_runs, make_peers, method_runs, peer_runs
+from spotfree.evaluation.measure import HEADLINE, MINIROCKET, NEAREST, check_peers, crc_runs, make_peers, method_runs, \
+    peer_runs
 from spotfree.evaluation.protocol import SCENARIOS, Protocol, simulate, train_dictionary
 from spotfree.evaluation.report import Evaluation, confusion_panels, event_rides, render
 from spotfree.evaluation.ride_models import evaluate_ride_models
@@ -57,8 +58,10 @@ def evaluate(output: str | Path, seed: int = 0, quick: bool = False, progress: P
     ride_models = evaluate_ride_models(model, seed, lambda spec: {
         name: peer for name, peer in make_peers(spec.channels, spec.window, protocol, protocol.ride_train_step).items()
         if name == MINIROCKET})
-    say(f"the hand: trained on {protocol.hand_people[0]} people, tested on {protocol.hand_people[1]}")
-    hand = evaluate_hand(*protocol.hand_people, seed=seed)
+    say(f"the hand: trained on {protocol.hand_people[0]} people, tested on {protocol.hand_people[1]}, beside its peers")
+    hand = evaluate_hand(*protocol.hand_people, seed=seed, peers={
+        name: peer for name, peer in make_peers(PEER_CHANNELS, PEER_WINDOW, protocol, protocol.hand_train_step).items()
+        if name in (MINIROCKET, NEAREST)})
     seconds = time.perf_counter() - start
     figures = {f"results: {name}": f"results-{name}.png" for name in SCENARIOS}
     ev = Evaluation(

@@ -31,6 +31,12 @@ the label of the posture or the gesture dictionary accordingly; offline, each st
 its most frequent gesture (:func:`vote_stretches`). :class:`HandRecognizer` gives the live labels one sample at a
 time, the same as :func:`recognise` on a whole Recording. A sample at which any feature channel is not finite (no
 hand) gets no state and no label, and every stage starts afresh after it.
+
+Gestures as events, in both modes: one event per stretch of gesture samples at least as long as the state stage's
+switching cost (its ``smoothing``: its decoding would make no shorter run), named by the gesture most of the
+stretch's samples carry (:mod:`spotfree.classify.runs`). Live, the per-sample gesture label may change inside a
+stretch (its first windows hold mostly the posture it leaves, which several gestures share); the event, known when
+the stretch ends, is named by the whole movement.
 """
 
 from __future__ import annotations
@@ -42,6 +48,7 @@ import numpy as np
 import pandas as pd
 
 from spotfree.classify.batch import classify_recording
+from spotfree.classify.runs import RunEvent, RunEvents, run_events, vote
 from spotfree.classify.stream import RideClassifier
 from spotfree.errors import InputError
 from spotfree.hand.commands import CommandFilter
@@ -275,13 +282,15 @@ def without_class(model: DictionaryModel, name: str) -> DictionaryModel:
 
 @dataclass
 class HandLabels:
-    """Per sample: ``state`` (posture / gesture), ``label`` and wheelchair ``command``; ``""`` where none."""
+    """Per sample: ``state`` (posture / gesture), ``label`` and wheelchair ``command``; ``""`` where none. ``events``:
+    the gestures as events (module docstring), their ``start`` and ``stop`` sample indices into these arrays."""
 
     time: np.ndarray
     state: np.ndarray
     label: np.ndarray
     command: np.ndarray
     experiment: np.ndarray | None = None
+    events: list[RunEvent] = field(default_factory=list)
 
     def write_csv(self, path: str | Path) -> None:
         """Write ``time`` (s), ``state``, ``label`` and ``command`` as CSV, atomically."""
@@ -293,7 +302,7 @@ class HandLabels:
 def recognise(model: HandModel, feats: Recording, confirm: float | None = None,
               offline: bool = False) -> HandLabels:
     """Label every sample of a feature Recording (:func:`features_of`), stage by stage, and derive the commands
-    (:class:`~spotfree.hand.commands.CommandFilter`, ``confirm`` s, its default when None).
+    (:class:`~spotfree.hand.commands.CommandFilter`, ``confirm`` s, its default when None) and the gesture events.
 
     ``offline=False`` (live): causal windows, each labelling its newest sample, as :class:`HandRecognizer` does.
     ``offline=True`` (a whole log at once): centred windows, each labelling its middle sample, and one gesture per
@@ -303,33 +312,54 @@ def recognise(model: HandModel, feats: Recording, confirm: float | None = None,
     state = labels["state"].astype(object)
     ready = (state != "") & (labels["posture"] != "") & (labels["gesture"] != "")
     state = np.where(ready, state, "")
-    gestures = vote_stretches(state == "gesture", labels["gesture"]) if offline else labels["gesture"]
-    label = np.where(state == "posture", labels["posture"], np.where(state == "gesture", gestures, ""))
+    label = np.where(state == "posture", labels["posture"], np.where(state == "gesture", labels["gesture"], ""))
+    return hand_labels(feats, state, label, offline, confirm, gesture_samples(model))
+
+
+def hand_labels(feats: Recording, state: np.ndarray, label: np.ndarray, offline: bool, confirm: float | None = None,
+                min_samples: int = 1) -> HandLabels:
+    """:class:`HandLabels` from per-sample ``state`` and ``label`` (``""`` where none) of ``feats``' samples, by any
+    recogniser: offline, every gesture stretch voted (:func:`vote_stretches`); the commands (``confirm`` s, the
+    :class:`~spotfree.hand.commands.CommandFilter` default when None) and the gesture events (runs of the gesture
+    state of at least ``min_samples``) of each experiment."""
+    state = np.asarray(state, dtype=object)
+    label = np.asarray(label, dtype=object)
+    if offline:
+        label = np.where(state == "gesture", vote_stretches(state == "gesture", label), label)
     commands = np.empty(len(feats), dtype=object)
     experiment = feats.experiment if feats.experiment is not None else np.ones(len(feats), dtype=int)
     for number in np.unique(experiment):
         rows = np.flatnonzero(experiment == number)
         command = CommandFilter(feats.rate) if confirm is None else CommandFilter(feats.rate, confirm)
         commands[rows] = [command.update(state[i], label[i]) for i in rows]
-    return HandLabels(feats.time, state.astype(str), label.astype(str), commands.astype(str), feats.experiment)
+    events = run_events(state == "gesture", label.astype(str), min_samples, experiment)
+    return HandLabels(feats.time, state.astype(str), label.astype(str), commands.astype(str), feats.experiment,
+                      events)
+
+
+def gesture_samples(model: HandModel) -> int:
+    """Fewest samples of a gesture event: the state stage's switching cost (``smoothing``, s) in samples, at least
+    one."""
+    smoothing = float(model.state.parameters.get("smoothing", 0.0))
+    return max(1, int(round(smoothing * model.state.rate / model.state.step)))
 
 
 def vote_stretches(mask: np.ndarray, label: np.ndarray) -> np.ndarray:
     """``label`` with every run of consecutive ``mask`` samples given its most frequent label (ties: the one that
-    comes first in the run); samples outside ``mask`` unchanged.
+    comes first in the run, :func:`~spotfree.classify.runs.vote`); samples outside ``mask`` unchanged.
 
     A gesture is one movement from one posture to the next, so one stretch of gesture samples names one gesture:
     the windows at its ends, which hold part of the postures around it, are outvoted by those in its middle."""
     out = np.asarray(label, dtype=object).copy()
     for start, stop in true_runs(mask):
-        names, first, counts = np.unique(out[start:stop].astype(str), return_index=True, return_counts=True)
-        best = max(range(len(names)), key=lambda k: (counts[k], -first[k]))
-        out[start:stop] = names[best]
+        out[start:stop] = vote(out[start:stop])
     return out
 
 
 class HandRecognizer:
-    """One feature sample in, ``(state, label, command)`` out; the same labels as :func:`recognise`.
+    """One feature sample in, ``(state, label, command)`` out; the same labels as :func:`recognise`. Each gesture
+    event joins :attr:`events_` at the first sample after its stretch (or at :meth:`reset`), its sample indices
+    counted from the recogniser's first sample: the events of :func:`recognise` on the same samples.
 
     A sample is the hand features of :data:`~spotfree.hand.features.FEATURES` (a dict by name, or a row in that
     order), e.g. a row of :func:`~spotfree.hand.features.hand_features`; the motion channels are computed here.
@@ -346,14 +376,22 @@ class HandRecognizer:
             raise InputError(f"model channel(s) {', '.join(missing)} are not hand features or motion channels")
         self._sources = np.array([FEATURES.index(c) for c in SOURCES])
         self._commands = CommandFilter(self.rate) if confirm is None else CommandFilter(self.rate, confirm)
+        self._events = RunEvents(gesture_samples(model))
+        self.events_: list[RunEvent] = []
         self.reset()
 
     def reset(self) -> None:
-        """A new session: every stage and the command start afresh."""
+        """A new session: every stage and the command start afresh; a gesture going on ends (its event, if it makes
+        one, joins :attr:`events_`)."""
         for classifier in self._classifiers.values():
             classifier.reset()
         self._commands.reset()
         self._previous = np.full(len(SOURCES), np.nan)
+        self._keep(self._events.finish())
+
+    def _keep(self, event: RunEvent | None) -> None:
+        if event is not None:
+            self.events_.append(event)
 
     def update(self, sample) -> tuple[str, str, str]:
         """``(state, label, command)`` at this sample (``""`` for state and label where there is none)."""
@@ -368,6 +406,7 @@ class HandRecognizer:
         out = {stage: c.update_features(row[self._pick[stage]]) for stage, c in self._classifiers.items()}
         state = out["state"] if all(out.values()) else ""
         label = out[state] if state else ""
+        self._keep(self._events.update(state == "gesture", label))
         return state, label, self._commands.update(state, label)
 
 
