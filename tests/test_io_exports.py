@@ -288,3 +288,91 @@ def test_a_sensor_logger_export_without_the_time_column_uses_seconds_elapsed(tmp
     rec = read_recording(folder)
     assert_known_motion(rec)
     assert rec.meta["start_epoch"] == pytest.approx(0.0)
+
+
+# ------------------------------------------------------------------ layouts found in real exports
+
+
+def test_a_phyphox_custom_experiment_without_units_in_its_headers_reads_the_known_motion(tmp_path):
+    """A custom experiment's export names its columns as its author wrote them, here without units (header strings
+    as in a phyphox 1.1.11 iOS export: github.com/Shantanu-Mandpe/Motion-Analysis-Project, Data/bus_to_home/
+    Acceleration.csv, Gyroscope.csv, GPS.csv); phyphox records these sensors in s, m/s^2, rad/s, degrees, m and
+    m/s (phyphox.org/sensors), and iOS Core Location writes -1 for an unknown speed or course (Apple's CLLocation
+    documentation)."""
+    speed = 1.1 + 0 * T_GPS
+    speed[:2] = -1.0
+    tables = {
+        "Acceleration.csv": {"time": T_ACC, **xyz([f"Acceleration {a}" for a in "xyz"], FORCE),
+                             "abs Acceleration": np.linalg.norm(FORCE, axis=1)},
+        "Gyroscope.csv": {"time": T_GYRO, **xyz([f"Gyroscope {a}" for a in "xyz"], RATE),
+                          "abs Gyroscope": np.linalg.norm(RATE, axis=1)},
+        "GPS.csv": {"time": T_GPS, "Latitude": 53.59 + 1e-5 * T_GPS, "Longitude": 9.95 + 0 * T_GPS,
+                    "Altitude": 15 + 0 * T_GPS, "Direction": np.where(speed < 0, -1.0, 35.0), "Speed": speed},
+    }
+    rec = read_recording(write_phyphox(tmp_path / "custom.zip", tables))
+    assert_known_motion(rec)
+    assert any("give no units" in r for r in rec.meta["repairs"])
+    assert any("2 negative speed value(s)" in r for r in rec.meta["repairs"])
+    speeds = rec.array(["speed"])[:, 0]
+    assert np.nanmin(speeds) >= 0 and np.nanmax(speeds) == pytest.approx(1.1)
+    ride_features(rec)
+
+
+def test_an_accelerometer_file_that_holds_no_gravity_is_read_as_linear_acceleration(tmp_path):
+    """phyphox's iOS simple-experiment layout (file name Accelerometer.csv, X/Y/Z headers) whose numbers lack g,
+    as in github.com/rimputus/fysiikkaloppu: the data overrule the file name, and the refusal names both sensors."""
+    tables = {"Accelerometer.csv": {"Time (s)": T_ACC, **xyz([f"{a} (m/s^2)" for a in "XYZ"], LINEAR + 0.5)},
+              "Location.csv": PHYPHOX_LOCATION}
+    rec = read_recording(write_phyphox(tmp_path / "walk.zip", tables))
+    assert "ax" not in rec.channels and "lat" in rec.channels
+    assert any("named as acceleration with g" in r for r in rec.meta["repairs"])
+    with pytest.raises(InputError, match=r"linear acceleration \(without g\).*; this phyphox export has no gyroscope"):
+        ride_features(rec)
+
+
+def mix_recordings(folder, names, days=3):
+    """Move the time stamps of the named Sensor Logger files ``days`` later: an export unzipped over another one
+    (as github.com/selen-s/CNV CNV_csvs and github.com/jmandzak/ActivityDetection's top folder hold)."""
+    for name in names:
+        table = pd.read_csv(folder / f"{name}.csv")
+        table["time"] = table["time"] + days * 86_400 * 10**9
+        table.to_csv(folder / f"{name}.csv", index=False)
+
+
+def test_a_sensor_logger_file_of_another_recording_is_left_out_and_named(tmp_path):
+    folder = sensor_logger(tmp_path / "mixed", "ios")
+    mix_recordings(folder, ["Gyroscope"])
+    rec = read_recording(folder)
+    assert "gx" not in rec.channels
+    assert any("Gyroscope.csv: from another recording" in r for r in rec.meta["repairs"])
+    with pytest.raises(InputError, match=r"Gyroscope\.csv is from another recording \(it starts 2023-11-17 "
+                                         r"22:13 UTC\): enable Gyroscope in Sensor Logger"):
+        ride_features(rec)
+
+
+def test_metadata_says_which_recording_an_export_is(tmp_path):
+    folder = sensor_logger(tmp_path / "mixed", "ios")
+    table = pd.read_csv(folder / "Metadata.csv")
+    table["recording epoch time"] += 3 * 86_400 * 1000  # the recording is the later one: Gravity and Gyroscope
+    table.to_csv(folder / "Metadata.csv", index=False)
+    mix_recordings(folder, ["Gravity", "Gyroscope"])
+    with pytest.raises(InputError, match=r"Accelerometer\.csv is from another recording \(it starts 2023-11-14"):
+        ride_features(read_recording(folder))
+
+
+def test_an_unused_file_of_another_recording_does_not_stop_the_export(tmp_path):
+    folder = sensor_logger(tmp_path / "mixed", "android")
+    mix_recordings(folder, ["Location"], days=-30)
+    rec = read_recording(folder)
+    assert_known_motion(rec)
+    assert "lat" not in rec.channels and any("Location.csv: from another recording" in r for r in rec.meta["repairs"])
+
+
+def test_two_recordings_of_as_many_files_are_refused_in_one_line(tmp_path):
+    folder = sensor_logger(tmp_path / "mixed", "ios", early=True)
+    table = pd.read_csv(folder / "Metadata.csv").drop(columns="recording epoch time")
+    table.to_csv(folder / "Metadata.csv", index=False)
+    mix_recordings(folder, ["Gravity", "Gyroscope"])
+    with pytest.raises(InputError, match=r"come from 2 recordings \(Accelerometer, Location at 2023-11-14 22:13 "
+                                         r"UTC; Gravity, Gyroscope at 2023-11-17 22:13 UTC\)"):
+        read_recording(folder)

@@ -226,9 +226,9 @@ def features(
         feats = gps_features(rec)
         write_csv(feats, output, truth=False)
         said = _report_repairs_and_gaps(rec)
+        lacking = rec.missing_advice() or f"{rec.source} has no motion sensors"
         out.print(f"wrote {output}: {len(feats)} samples of GPS features ({', '.join(GPS_FEATURES)}) only: "
-                  f"{rec.source} has no motion sensors, and roll, pitch and the accelerations need the "
-                  f"accelerometer and gyroscope")
+                  f"roll, pitch and the accelerations need the accelerometer and gyroscope, and {lacking}")
         kind, mounted = "gps", None
     else:
         feats = ride_features(rec, orientation=orientation, zero_phase=zero_phase, mount=mount)

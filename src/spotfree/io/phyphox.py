@@ -196,9 +196,15 @@ def _streams(text: str, label: str, set_name: str, repairs: list[str]) -> list[t
             order = np.argsort(names) if key != LOCATION else np.arange(len(names))
             values, names = values[:, order], tuple(names[i] for i in order)
             keep = checks.order_and_deduplicate(t, values, label, time_column, repairs)
-            if key == "acceleration":
-                key = _with_or_without_g(values[keep], label, repairs)
-            out.append((key, Stream(t[keep], values[keep], names)))
+            values = values[keep]
+            if key in ("acceleration", ACCELEROMETER):
+                key = _with_or_without_g(values, label, repairs, named=key == ACCELEROMETER)
+            elif key == LOCATION:
+                _invalid_negative(values, names, label, repairs)
+            out.append((key, Stream(t[keep], values, names)))
+        if any(not _unit(c, "") for c, *_ in recognised):
+            repairs.append(f"{label}: the headers give no units; read in phyphox's sensor units (s, m/s^2, rad/s, "
+                           f"degrees, m, m/s)")
     return out
 
 
@@ -215,7 +221,7 @@ def _meaning(column: str, set_name: str, label: str) -> tuple[str | None, str | 
                 factor *= np.pi / 180
             return LOCATION, channel, factor
     axis = _AXIS.search(re.sub(r"\([^()]*\)", " ", name))
-    unit = _unit(column, "")
+    unit = _unit(column, "") or _sensor_unit(name)
     if axis is None or not unit:
         return None, None, 1.0
     words = f"{name} {set_name}".lower()
@@ -229,18 +235,51 @@ def _meaning(column: str, set_name: str, label: str) -> tuple[str | None, str | 
         if re.search(r"accelera|gyro", name, re.I):
             _factor(column, "", label)  # an acceleration or rotation rate in a unit not understood: refused
         return None, None, 1.0
-    return stream, prefix + axis.group(1).lower(), _factor(column, "", label)
+    return stream, prefix + axis.group(1).lower(), _factor(column, unit, label)
 
 
-def _with_or_without_g(values: np.ndarray, label: str, repairs: list[str]) -> str:
-    """Accelerometer or Linear Acceleration for an acceleration its header does not name, from its magnitude."""
+def _sensor_unit(name: str) -> str:
+    """The unit phyphox records a sensor in, for a header that names the sensor but gives no unit (a custom
+    experiment's export, e.g. ``"Acceleration x"``, ``"Gyroscope x"``), or ``''``."""
+    if re.search(r"accel|gravity", name, re.IGNORECASE):
+        return "m/s^2"
+    if re.search(r"gyro|rotation rate|angular", name, re.IGNORECASE):
+        return "rad/s"
+    return ""
+
+
+def _with_or_without_g(values: np.ndarray, label: str, repairs: list[str], named: bool = False) -> str:
+    """Accelerometer or Linear Acceleration from the median magnitude of an acceleration, for one its header does
+    not name, or one ``named`` as acceleration with g (a file called ``Accelerometer.csv`` may hold linear
+    acceleration: the data then overrule the name)."""
     norm = np.linalg.norm(values, axis=1)
     norm = norm[np.isfinite(norm)]
-    with_g = bool(len(norm)) and float(np.median(norm)) > WITH_G_MIN
-    repairs.append(f"{label}: the header does not say whether gravity is included; its median magnitude "
-                   f"{float(np.median(norm)) if len(norm) else float('nan'):.2f} m/s^2 says "
-                   f"{'it is' if with_g else 'it is not'}")
+    median = float(np.median(norm)) if len(norm) else float("nan")
+    with_g = bool(len(norm)) and median > WITH_G_MIN
+    if named:
+        if not with_g:
+            repairs.append(f"{label}: named as acceleration with g, but its median magnitude {median:.2f} m/s^2 "
+                           f"is far below g: read as linear acceleration (without g)")
+    else:
+        repairs.append(f"{label}: the header does not say whether gravity is included; its median magnitude "
+                       f"{median:.2f} m/s^2 says {'it is' if with_g else 'it is not'}")
     return ACCELEROMETER if with_g else LINEAR
+
+
+_INVALID_WHEN_NEGATIVE = ("speed", "heading", "gps_accuracy")
+"""Location channels a phone marks as unknown with a negative value (iOS Core Location writes -1 for an invalid
+speed or course, Apple's ``CLLocation`` documentation)."""
+
+
+def _invalid_negative(values: np.ndarray, names: tuple[str, ...], label: str, repairs: list[str]) -> None:
+    """Negative speed, heading or accuracy values of a location stream set to NaN in place (unknown, not data)."""
+    for j, name in enumerate(names):
+        if name in _INVALID_WHEN_NEGATIVE:
+            negative = values[:, j] < 0
+            if negative.any():
+                values[negative, j] = np.nan
+                repairs.append(f"{label}: {int(negative.sum())} negative {name} value(s), the phone's mark for "
+                               f"unknown, left out")
 
 
 def _unit(column: str, default: str) -> str:

@@ -91,15 +91,23 @@ class Recording:
         """True when the six raw IMU channels are present."""
         return all(c in self.channels for c in IMU_CHANNELS)
 
+    def missing_advice(self) -> str:
+        """What the reader said is missing for the ride features, in the app's terms: the advice of
+        ``meta['missing']`` for each absent sensor (accelerometer, then gyroscope), each said once, joined by
+        ``'; '``; empty when the reader said nothing."""
+        advice = self.meta.get("missing", {})
+        said = [advice[sensor] for sensor, channels in (("accelerometer", ACC_CHANNELS), ("gyroscope", GYRO_CHANNELS))
+                if sensor in advice and any(c not in self.channels for c in channels)]
+        return "; ".join(dict.fromkeys(said))
+
     def require_imu(self, purpose: str = "the ride features") -> None:
         """Raise an InputError unless the six raw IMU channels are present; its one line names what is missing
         in the recording app's terms when the reader said so (``meta['missing']``: sensor -> advice)."""
         if self.has_imu:
             return
-        advice = self.meta.get("missing", {})
-        for sensor, channels in (("accelerometer", ACC_CHANNELS), ("gyroscope", GYRO_CHANNELS)):
-            if any(c not in self.channels for c in channels) and sensor in advice:
-                raise InputError(f"{self.source}: {advice[sensor]} (needed for {purpose})")
+        advice = self.missing_advice()
+        if advice:
+            raise InputError(f"{self.source}: {advice} (needed for {purpose})")
         missing = [c for c in IMU_CHANNELS if c not in self.channels]
         raise InputError(f"{self.source}: no column {', '.join(missing)}; {purpose} need ax ay az (m/s^2, gravity "
                          f"included) and gx gy gz (rad/s)")

@@ -140,10 +140,17 @@ def _recording(sensors: dict[str, _Sensor], source: str, rate: float, max_gap: f
     repairs: list[str] = list(notes)
     warnings: list[str] = []
     metadata = _metadata(sensors.get("Metadata"))
+    sensors, elsewhere = _one_recording(sensors, metadata, source, repairs)
     missing: dict[str, str] = {}
     motion = dict(_specific_force(sensors, metadata, source, repairs, missing))
+    if "accelerometer" in missing and elsewhere.keys() & {"Accelerometer", "TotalAcceleration", "Gravity"}:
+        missing["accelerometer"] = (f"{_from_elsewhere(elsewhere, ('TotalAcceleration', 'Accelerometer', 'Gravity'))}"
+                                    f": enable Accelerometer and Gravity in Sensor Logger and record again")
     if "Gyroscope" in sensors:
         motion["Gyroscope"] = _xyz(sensors["Gyroscope"], ("gx", "gy", "gz"), repairs)
+    elif "Gyroscope" in elsewhere:
+        missing["gyroscope"] = (f"{_from_elsewhere(elsewhere, ('Gyroscope',))}: enable Gyroscope in Sensor Logger "
+                                f"and record again")
     else:
         missing["gyroscope"] = "this export has no Gyroscope.csv: enable Gyroscope in Sensor Logger and record again"
     streams = dict(motion)
@@ -168,6 +175,68 @@ def _recording(sensors: dict[str, _Sensor], source: str, rate: float, max_gap: f
                     + (f" ({'iOS' if platform == 'ios' else 'Android'})" if platform in ("ios", "android") else ""),
                     sensors=[_FILE_WORDS.get(k, k) for k in streams])
     return rec
+
+
+SAME_RECORDING_SLACK = 5.0
+"""Seconds by which two files' time spans may miss each other and still be one recording."""
+
+
+def _one_recording(sensors: dict[str, _Sensor], metadata: dict[str, str], source: str,
+                   repairs: list[str]) -> tuple[dict[str, _Sensor], dict[str, str]]:
+    """The sensor files of one recording, and ``{file name: its start (UTC text)}`` for those left out.
+
+    A folder can hold files of two recordings (an export unzipped over another one): files whose time spans
+    (``time``, UNIX ns) overlap, give or take :data:`SAME_RECORDING_SLACK`, are one recording. The recording kept
+    is the one that contains Metadata.csv's ``recording epoch time`` (ms) when the file gives it, else the one
+    with the most files; a tie is refused. Files without a ``time`` column cannot be placed and are kept."""
+    spans = {}
+    for name, sensor in sensors.items():
+        if name != "Metadata" and "time" in sensor.table.columns:
+            t = checks.numbers(sensor.table, "time", sensor.label) * 1e-9
+            t = t[np.isfinite(t)]
+            if len(t):
+                spans[name] = (float(t.min()), float(t.max()))
+    groups: list[list[str]] = []
+    for name in sorted(spans, key=lambda k: spans[k][0]):
+        if groups and spans[name][0] <= max(spans[k][1] for k in groups[-1]) + SAME_RECORDING_SLACK:
+            groups[-1].append(name)
+        else:
+            groups.append([name])
+    if len(groups) < 2:
+        return sensors, {}
+    start = {i: min(spans[k][0] for k in g) for i, g in enumerate(groups)}
+    try:
+        epoch = float(metadata.get("recording epoch time", "")) / 1000.0
+    except ValueError:
+        epoch = None
+    if epoch is not None:
+        kept = min(range(len(groups)), key=lambda i: abs(start[i] - epoch))
+    else:
+        sizes = sorted((len(g) for g in groups), reverse=True)
+        if sizes[0] == sizes[1]:
+            raise InputError(f"{source}: its files come from {len(groups)} recordings ("
+                             + "; ".join(f"{', '.join(g)} at {_utc(start[i])}" for i, g in enumerate(groups))
+                             + "); export one recording again, each into its own folder")
+        kept = max(range(len(groups)), key=lambda i: len(groups[i]))
+    elsewhere = {}
+    for i, group in enumerate(groups):
+        if i != kept:
+            for name in group:
+                elsewhere[name] = _utc(spans[name][0])
+                repairs.append(f"{sensors[name].label}: from another recording (it starts {elsewhere[name]}, the "
+                               f"recording {_utc(start[kept])}), not used")
+    return {k: v for k, v in sensors.items() if k not in elsewhere}, elsewhere
+
+
+def _utc(seconds: float) -> str:
+    """UNIX seconds as ``YYYY-MM-DD HH:MM UTC``."""
+    return pd.Timestamp(seconds, unit="s").strftime("%Y-%m-%d %H:%M UTC")
+
+
+def _from_elsewhere(elsewhere: dict[str, str], names: tuple[str, ...]) -> str:
+    """``this export's X.csv is from another recording (it starts ...)`` for the first of ``names`` left out."""
+    name = next(n for n in names if n in elsewhere)
+    return f"this export's {name}.csv is from another recording (it starts {elsewhere[name]})"
 
 
 _FILE_WORDS = {"TotalAcceleration": "accelerometer (TotalAcceleration.csv)",

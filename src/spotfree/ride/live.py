@@ -208,7 +208,7 @@ def pipeline_spec(model: DictionaryModel, classifier=None) -> dict:
         pi = GravityPI(model.rate)
         attitude = {"kind": "default", **{k: getattr(pi, k) for k in (
             "kp", "ki", "acc_scale", "rate_scale", "max_error", "rest_gyr", "rest_acc", "rest_time", "rest_gain",
-            "rest_tau", "g", "acc_tau", "motion_tau")}}
+            "rest_tau", "g", "acc_tau", "motion_tau", "startup_gain", "startup_time")}}
     else:
         design = pi_complementary_design(rate=model.rate)
         attitude = {"kind": "paper", "a": design.a.tolist(), "b_rate": design.b_rate.tolist(),

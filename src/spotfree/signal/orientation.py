@@ -131,6 +131,13 @@ class GravityPI:
     acceleration, so ``k = rest_gain`` and the bias follows the measured rate, ``b <- b + (T / rest_tau) w``,
     observing all three axes (the integral term cannot see the bias about the vertical).
 
+    Start-up: the first vertical is one accelerometer sample, wrong by whatever the phone was doing then (a log
+    often starts while the phone is put in its holder), and the bounded correction would take many seconds to
+    undo it. For the first ``startup_time`` s (unless at rest) the gain ``kp`` is replaced by
+    ``max(kp, startup_gain (1 - t / startup_time))``, unbounded and without the integral term (nothing is known
+    about the bias yet), as Madgwick-type filters ramp their gain down during initialisation (x-io Technologies'
+    Fusion AHRS: "initialisation" period). ``startup_time = 0`` gives the filter without it.
+
     Defaults: ``kp, ki, acc_scale, rate_scale, max_error, acc_tau, motion_tau`` are the point of
     ``benchmarks/tune_orientation.py``'s grid with the lowest mean inclination error on the BROAD trials (Laidig
     et al. 2021) among the points no worse on a synthetic ride-like motion (braking pulses, sway, gyro bias from
@@ -138,7 +145,8 @@ class GravityPI:
     constants are physical
     (phone gyro noise and bias are well below 2 deg/s, 0.5 m/s^2 passes handlebar vibration) and were not tuned.
     ``acc_tau = 0``, ``motion_tau = 0`` give the filter without the accelerometer low-pass (the previous
-    default had also ``acc_scale = 10``, ``rate_scale = 8``).
+    default had also ``acc_scale = 10``, ``rate_scale = 8``). The start-up constants were chosen on real phone
+    exports against the phones' own gravity sensors (``benchmarks/export_tilt.py``), not on BROAD.
 
     :meth:`update` and :meth:`run` run the same compiled step (:func:`~spotfree.signal.recursions.gravity_pi_step`).
     """
@@ -159,6 +167,8 @@ class GravityPI:
         g: float = GRAVITY,
         acc_tau: float = 2.0,
         motion_tau: float = 4.0,
+        startup_gain: float = 2.0,
+        startup_time: float = 3.0,
     ):
         if not (np.isfinite(rate) and rate > 0):
             raise InputError(f"orientation filter: rate must be a positive number of Hz, got {rate}")
@@ -168,6 +178,7 @@ class GravityPI:
         self.rest_gyr, self.rest_acc, self.rest_time = rest_gyr, rest_acc, rest_time
         self.rest_gain, self.rest_tau, self.g = rest_gain, rest_tau, g
         self.acc_tau, self.motion_tau = acc_tau, motion_tau
+        self.startup_gain, self.startup_time = startup_gain, startup_time
         self.reset()
 
     def reset(self) -> None:

@@ -36,13 +36,14 @@ PAPER_STATE = np.dtype([("z", "f8", (2, 2)), ("roll_prev", "f8"), ("turns", "f8"
 added by the unwrapping (rad)."""
 GRAVITY_PI_PARAMETERS = np.dtype([(name, "f8") for name in (
     "rate", "kp", "ki", "acc_scale", "rate_scale", "max_error", "rest_gyr", "rest_acc", "rest_time", "rest_gain",
-    "rest_tau", "g", "acc_tau", "motion_tau")])
+    "rest_tau", "g", "acc_tau", "motion_tau", "startup_gain", "startup_time")])
 """Record of :class:`~spotfree.signal.orientation.GravityPI`'s parameters as :func:`gravity_pi_step` reads them (SI
 units, rate in Hz)."""
-GRAVITY_PI_STATE = np.dtype([("u", "f8", 3), ("bias", "f8", 3), ("still", "f8"), ("acc", "f8", 3), ("motion", "f8")])
+GRAVITY_PI_STATE = np.dtype([("u", "f8", 3), ("bias", "f8", 3), ("still", "f8"), ("acc", "f8", 3), ("motion", "f8"),
+                             ("age", "f8")])
 """Record of :func:`gravity_pi_step`'s state: unit vertical (body frame), gyro bias (rad/s), time still (s), the
-specific force low-passed in the gyro-propagated frame (m/s^2, body frame) and the low-passed departure of the
-specific-force magnitude from g (m/s^2)."""
+specific force low-passed in the gyro-propagated frame (m/s^2, body frame), the low-passed departure of the
+specific-force magnitude from g (m/s^2) and the time since the start (s)."""
 SPEED_AIDED_PARAMETERS = np.dtype([(name, "f8") for name in (
     "rate", "pitch_noise", "bias_noise", "accel_noise", "reference_noise", "speed_noise", "initial_pitch",
     "initial_bias", "initial_speed")])
@@ -190,7 +191,7 @@ def gravity_pi_step(p, s, start, ax, ay, az, gx, gy, gz):  # pragma: no cover - 
             u[0], u[1], u[2] = 0.0, 0.0, 1.0
         b[0] = b[1] = b[2] = 0.0
         f[0], f[1], f[2] = ax, ay, az
-        s.still = s.motion = 0.0
+        s.still = s.motion = s.age = 0.0
     wx, wy, wz = gx - b[0], gy - b[1], gz - b[2]
     half = 0.5 / p.rate
     ux, uy, uz = _rotate(u[0], u[1], u[2], wx, wy, wz, half)
@@ -216,6 +217,9 @@ def gravity_pi_step(p, s, start, ax, ay, az, gx, gy, gz):  # pragma: no cover - 
             b[0] += step * wx
             b[1] += step * wy
             b[2] += step * wz
+        elif s.age < p.startup_time:
+            k = max(p.kp, p.startup_gain * (1.0 - s.age / p.startup_time))
+            k *= math.sqrt((1.0 + w2 / p.rate_scale**2) / (1.0 + shaken))
         else:
             trust = math.sqrt((1.0 + w2 / p.rate_scale**2) / (1.0 + shaken))
             k = p.kp * trust
@@ -231,6 +235,7 @@ def gravity_pi_step(p, s, start, ax, ay, az, gx, gy, gz):  # pragma: no cover - 
     ux, uy, uz = _rotate(ux, uy, uz, wx, wy, wz, half)
     norm_u = math.sqrt(ux * ux + uy * uy + uz * uz)
     u[0], u[1], u[2] = ux / norm_u, uy / norm_u, uz / norm_u
+    s.age += 2.0 * half
     return math.atan2(u[1], u[2]), math.atan2(-u[0], math.hypot(u[1], u[2]))
 
 

@@ -32,7 +32,7 @@
 
   class GravityPI {
     constructor(p, rate) { this.p = p; this.rate = rate; this.reset(); }
-    reset() { this.u = null; this.bias = [0, 0, 0]; this.still = 0; this.f = null; this.motion = 0; }
+    reset() { this.u = null; this.bias = [0, 0, 0]; this.still = 0; this.f = null; this.motion = 0; this.age = 0; }
     update(acc, gyr) {
       const p = this.p;
       const ax = acc[0], ay = acc[1], az = acc[2];
@@ -63,6 +63,10 @@
           k = p.rest_gain;
           const step = 2.0 * half / p.rest_tau;
           b[0] += step * wx; b[1] += step * wy; b[2] += step * wz;
+        } else if (this.age < p.startup_time) {
+          // start-up: a ramped-down gain, unbounded, no integral term
+          k = Math.max(p.kp, p.startup_gain * (1.0 - this.age / p.startup_time));
+          k *= Math.sqrt((1.0 + w2 / p.rate_scale ** 2) / (1.0 + shaken));
         } else {
           const trust = Math.sqrt((1.0 + w2 / p.rate_scale ** 2) / (1.0 + shaken));
           k = p.kp * trust;
@@ -77,6 +81,7 @@
       [ux, uy, uz] = rotate(ux, uy, uz, wx, wy, wz, half);
       const normU = Math.sqrt(ux * ux + uy * uy + uz * uz);
       this.u = [ux / normU, uy / normU, uz / normU];
+      this.age += 2.0 * half;
       return [Math.atan2(this.u[1], this.u[2]), Math.atan2(-this.u[0], Math.hypot(this.u[1], this.u[2]))];
     }
   }
