@@ -43,6 +43,7 @@ def test_body_features_train_and_classify_from_class_sets(tmp_path):
                                  "--experiment", f"{tmp_path / 'still.csv'}=still"], catch_exceptions=False)
     assert result.exit_code == 0, result.output
     assert "learner: sets" in result.output and "body channels" in result.output
+    assert result.output.count("read: ") == 2 and "mount:" not in result.output  # what was read; not a ride
     loaded = DictionaryModel.load(model)
     assert loaded.features == "body" and loaded.channels == list(BODY_CHANNELS)
     out = tmp_path / "labels.csv"
@@ -57,6 +58,22 @@ def test_body_features_train_and_classify_from_class_sets(tmp_path):
         away[max(0, change - 10):change + 10] = False
     scored = away & (labels != "")
     assert np.mean(labels[scored] == truth[scored]) >= 0.95
+
+
+def test_ride_features_of_a_log_not_from_a_handlebar_say_so(tmp_path):
+    """Trained on ride features (the default), pocket logs tell the mount found in each and point to --features
+    body; --mount flat takes the nominal mount without a doubt."""
+    _imu_log(tmp_path / "walk.csv", [("still", 8), ("walking", 10), ("still", 6)], 1)
+    _imu_log(tmp_path / "still.csv", [("still", 20)], 2)
+    args = ["train", "-o", str(tmp_path / "m.npz"), "--experiment", f"{tmp_path / 'walk.csv'}=still,walking",
+            "--experiment", f"{tmp_path / 'still.csv'}=still"]
+    result = runner.invoke(app, args, catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    assert result.output.count("read: ") == 2 and result.output.count("mount: ") == 2
+    assert "from flat" in result.output and "train with --features body" in result.output
+    result = runner.invoke(app, [*args, "--mount", "flat"], catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    assert "--features body" not in result.output
 
 
 @pytest.mark.parametrize("extra, message", [

@@ -52,6 +52,10 @@ out = _console()
 
 
 QUIET = typer.Option(False, "--quiet", "-q", help="print nothing but errors (with --json: the JSON alone)")
+MOUNT = typer.Option("auto", "--mount", help="device-to-vehicle mount of a raw log's ride features: auto (estimated "
+                     "from the log; the nominal flat mount when the estimate is within 15 deg of it), estimate (always "
+                     "the estimate), flat (on the handlebar, screen up, top edge forward), upright (in a holder, "
+                     "portrait, screen towards the rider)")
 
 
 def _json_option(keys: str):
@@ -206,10 +210,7 @@ def features(
     orientation: str = typer.Option("default", "--orientation", help="default | paper | vqf"),
     rate: float = typer.Option(20.0, "--rate", help="grid rate for logs that are not uniform, Hz"),
     zero_phase: bool = typer.Option(False, "--zero-phase", help="offline zero-phase Butterworth on accelerations"),
-    mount: str = typer.Option("auto", "--mount", help="device-to-vehicle mount: auto (estimated from the log; the "
-                              "nominal flat mount when the estimate is within 15 deg of it), estimate (always the "
-                              "estimate), flat (on the handlebar, screen up, top edge forward), upright (in a holder, "
-                              "portrait, screen towards the rider)"),
+    mount: str = MOUNT,
     quiet: bool = QUIET,
     as_json: bool = _json_option('{"output", "samples", "rate", "features" (ride | gps), "channels", '
                                  '"orientation", "mount" ({"line", "warnings"}, none for GPS features), '
@@ -268,12 +269,15 @@ def train(
     seed: int = typer.Option(0, "--seed"),
     figure: Optional[Path] = typer.Option(None, "--figure", help="also draw the training recordings coloured by "
                                           "the names the learner gave their windows (.png)"),
+    mount: str = MOUNT,
     quiet: bool = QUIET,
     as_json: bool = _json_option('{"output", "learner" (sets | paper), "features", "channels", '
                                  '"representation", "window", "step", "prior", "classes", "columns", '
                                  '"columns_per_class", "recordings" ([{"source", "declared", '
                                  '"windows"}], sets learner), "rounds_changed" (fraction of names moved per '
-                                 'round, sets learner), "warnings", "figure"}.'),
+                                 'round, sets learner), "read" (one line per log), "notes", "mounts" (the mount '
+                                 'of each log, ride features), "warnings" (the logs\', the mounts\' and the '
+                                 'learner\'s), "figure"}.'),
 ) -> None:
     """Build a dictionary of pure class representatives from whole recordings, without spotting."""
     from spotfree.pipeline import FEATURES
@@ -300,14 +304,14 @@ def train(
         representation = representation if "--representation" in given else settings["representation"]
         prior = prior if "--prior" in given else settings["prior"]
     summary = _train(output, experiment, channels, window, step, orientation, features, recipe, prior,
-                     representation, max_columns, seed, figure)
+                     representation, max_columns, seed, figure, mount)
     if as_json:
         _print_json(summary)
 
 
 def _train(output: Path, experiment: list[str], channels: Optional[str], window: int, step: int, orientation: str,
            features: str, recipe: str, prior: Optional[str], representation: str, max_columns: int, seed: int,
-           figure: Optional[Path]) -> dict:
+           figure: Optional[Path], mount: str) -> dict:
     """``spotfree train``: :class:`~spotfree.learner.SetSupervisedLearner` (``recipe`` sets) or
     :class:`~spotfree.paper_recipe.PaperRecipe` (``recipe`` paper) on the declared sets; prints the summary and
     returns it (the document of ``--json``)."""
@@ -320,11 +324,15 @@ def _train(output: Path, experiment: list[str], channels: Optional[str], window:
     from spotfree.pipeline import feature_recording
     from spotfree.presets import prior_named
 
-    recordings, sets = [], []
+    recordings, sets, logs = [], [], []
     for spec in experiment:
         path, classes = _parse_experiment(spec)
-        recordings.append(feature_recording(path, orientation=orientation, features=features))
+        log = _read_log(path, 20.0)
+        if features == "ride":
+            log.meta["mount_choice"] = mount
+        recordings.append(feature_recording(log, orientation=orientation, features=features))
         sets.append(classes)
+        logs.append(log)
     chosen = tuple(c.strip() for c in channels.split(",")) if channels else None
     if recipe == "paper":
         learner = PaperRecipe(channels=chosen, window=window, step=step, max_columns=max_columns, seed=seed)
@@ -335,6 +343,19 @@ def _train(output: Path, experiment: list[str], channels: Optional[str], window:
     learner.fit(recordings, sets)
     model = learner.model_
     model.save(output)
+    said = {"read": [], "notes": [], "mounts": [], "warnings": []}
+    for log, rec in zip(logs, recordings):
+        one = _report_repairs_and_gaps(log)
+        said["read"].append(one["read"])
+        said["notes"] += one["notes"]
+        said["warnings"] += one["warnings"]
+        if "mount" in rec.meta:
+            _report_mount(rec.meta["mount"], rec.meta["mount_warnings"])
+            said["mounts"].append(rec.meta["mount"])
+            said["warnings"] += rec.meta["mount_warnings"]
+    if any(rec.meta.get("mount_warnings") for rec in recordings):
+        err.print("note: ride features assume a phone on a vehicle's handlebar; for a phone in a pocket or a watch, "
+                  "train with --features body")
     counts = Counter(model.classes[k] for k in model.column_class)
     summary = {"output": output, "learner": recipe, "features": model.features, "channels": model.channels,
                "representation": model.representation, "window": model.window, "step": model.step,
@@ -343,7 +364,8 @@ def _train(output: Path, experiment: list[str], channels: Optional[str], window:
                "recordings": [{"source": rec["source"], "declared": rec["classes"], "windows": rec["windows"]}
                               for rec in model.summary.get("recordings", [])],
                "rounds_changed": model.summary.get("rounds_changed", []),
-               "warnings": model.summary.get("warnings", []), "figure": figure}
+               "read": said["read"], "notes": said["notes"], "mounts": said["mounts"],
+               "warnings": said["warnings"] + model.summary.get("warnings", []), "figure": figure}
     if recipe == "paper":
         out.print(f"learner: the paper's recipe (hankel of {model.features} channels {','.join(model.channels)})")
         out.print("columns per class: " + ", ".join(f"{c} {counts[c]}" for c in model.classes))
@@ -407,10 +429,7 @@ def classify(
                                     "(its units; yaw_rate=0.09 for the lateral model)"),
     offline: bool = typer.Option(False, "--offline", help="each model's offline votes stored in its file ('spotfree "
                                  "votes'), instead of the vote options"),
-    mount: str = typer.Option("auto", "--mount", help="device-to-vehicle mount: auto (estimated from the log; the "
-                              "nominal flat mount when the estimate is within 15 deg of it), estimate (always the "
-                              "estimate), flat (on the handlebar, screen up, top edge forward), upright (in a holder, "
-                              "portrait, screen towards the rider)"),
+    mount: str = MOUNT,
     quiet: bool = QUIET,
     as_json: bool = _json_option('{"output", "samples", "method", "alignment" (causal | centred), '
                                  '"smoothing", "votes", "models" (per model, by file stem: {"features", '

@@ -13,8 +13,9 @@ from spotfree.signal.features import DERIVED_CHANNELS, FEATURE_CHANNELS, ride_fe
 FEATURES = ("ride", "body")
 
 
-def feature_recording(spec: str, orientation: str = "default", rate: float = 20.0, features: str = "ride") -> Recording:
-    """Read ``spec`` (``PATH`` or ``PATH@K``); a raw IMU log becomes, by ``features``, the ride features with the
+def feature_recording(spec: str | Recording, orientation: str = "default", rate: float = 20.0,
+                      features: str = "ride") -> Recording:
+    """Read ``spec`` (``PATH`` or ``PATH@K``, or a Recording already read); a raw IMU log becomes, by ``features``, the ride features with the
     derived channels (:data:`~spotfree.signal.features.DERIVED_CHANNELS`: a phone on a vehicle's handlebar) or the
     body channels (:data:`~spotfree.signal.body.BODY_CHANNELS`: a phone in a pocket, a watch); any other log is used
     as is, but a GPS-only log (a track: nothing for a model to learn from but where and how fast) is refused,
@@ -25,7 +26,7 @@ def feature_recording(spec: str, orientation: str = "default", rate: float = 20.
     """
     if features not in FEATURES:
         raise InputError(f"--features {features!r}: use one of {', '.join(FEATURES)}")
-    rec = read_recording(spec, rate=rate)
+    rec = spec if isinstance(spec, Recording) else read_recording(spec, rate=rate)
     check_recording(rec)
     if rec.has_imu and features == "body":
         return body_features(rec)
