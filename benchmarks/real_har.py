@@ -51,8 +51,17 @@ MINIROCKET_KERNELS = 2_016
 the tens of thousands of training windows did not finish in 15 minutes on the 2-core machine."""
 
 
+def on_grid(t: np.ndarray, values: np.ndarray, labels: np.ndarray, source: str) -> Recording:
+    """Raw IMU samples (``t`` in s, ``values`` the six :data:`IMU_CHANNELS`) on the 20 Hz grid with their body
+    channels and, as truth, the label of the nearest raw sample."""
+    rec = merge_streams({"imu": Stream(t, values, IMU_CHANNELS)}, rate=RATE, source=source)
+    nearest = np.clip(np.searchsorted(t, rec.time), 0, len(t) - 1)
+    rec.truth["label"] = labels[nearest]
+    return body_features(rec)
+
+
 def load(path: Path) -> Recording:
-    """One recording on the 20 Hz grid with its body channels and, as truth, the label of the nearest sample."""
+    """One recording of the data set on the 20 Hz grid (:func:`on_grid`)."""
     with gzip.open(path, "rt") as fh:
         header = fh.readline().strip().split(",")
         rows = [line.rstrip("\n").split(",") for line in fh if line.strip()]
@@ -63,10 +72,7 @@ def load(path: Path) -> Recording:
     values, labels = values[first], labels[first]
     t = t - t[0]
     assert header[:6] == ["x_acc", "y_acc", "z_acc", "x_gyro", "y_gyro", "z_gyro"], header
-    rec = merge_streams({"imu": Stream(t, values, IMU_CHANNELS)}, rate=RATE, source=path.stem.replace(".csv", ""))
-    nearest = np.clip(np.searchsorted(t, rec.time), 0, len(t) - 1)
-    rec.truth["label"] = labels[nearest]
-    return body_features(rec)
+    return on_grid(t, values, labels, path.stem.replace(".csv", ""))
 
 
 def clips(rec: Recording, seconds: float) -> list[Recording]:
@@ -94,17 +100,13 @@ def score(predictions: list[np.ndarray], tests: list[Recording], classes: list[s
     return {"away": bal, "strict": strict, "recall": recall}
 
 
-def run(device: str, train_subjects: int, clip: float, seeds: list[int], quick: bool) -> list[dict]:
-    files = sorted((DATA / "DATA").glob(f"s*/s*_{device}.csv.gz"))
-    subjects = sorted({f.parent.name for f in files})
-    train_ids, test_ids = set(subjects[:train_subjects]), set(subjects[train_subjects:])
-    if quick:
-        test_ids = set(sorted(test_ids)[:3])
-    train = [c for f in files if f.parent.name in train_ids for c in clips(load(f), clip)]
-    tests = [load(f) for f in files if f.parent.name in test_ids]
+def compare(train: list[Recording], tests: list[Recording], seeds: list[int], **tags) -> list[dict]:
+    """Every method fitted on the clips ``train`` (the learner and the paper's recipe given each clip's class set, the
+    peers every sample's label) and scored on the whole recordings ``tests``; one row a method, carrying ``tags``."""
     sets = [sorted(set(c.truth["label"])) for c in train]
     classes = sorted(set().union(*sets))
     rows = []
+    name_of_run = " ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in tags.values())
 
     def measure(name, supervision, fit, predict):
         t0 = time.perf_counter()
@@ -113,10 +115,10 @@ def run(device: str, train_subjects: int, clip: float, seeds: list[int], quick: 
         t0 = time.perf_counter()
         preds = [predict(r) for r in tests]
         pred_s = time.perf_counter() - t0
-        rows.append({"device": device, "method": name, "supervision": supervision, "fit_s": fit_s,
+        rows.append({**tags, "method": name, "supervision": supervision, "fit_s": fit_s,
                      "predict_s": pred_s, **score(preds, tests, classes)})
-        print(f"{device} {name}: {rows[-1]['away']:.3f} away, {rows[-1]['strict']:.3f} strict, fit {fit_s:.1f} s",
-              file=sys.stderr)
+        print(f"{name_of_run} {name}: {rows[-1]['away']:.3f} away, {rows[-1]['strict']:.3f} strict, "
+              f"fit {fit_s:.1f} s", file=sys.stderr)
 
     for seed in seeds:  # the learner's forests and samples are seeded: its spread over seeds is part of the result
         learner = SetSupervisedLearner(seed=seed)
@@ -130,13 +132,44 @@ def run(device: str, train_subjects: int, clip: float, seeds: list[int], quick: 
                                                      n_kernels=MINIROCKET_KERNELS))):
         measure(name, "every sample", lambda p=peer: p.fit(train), peer.predict)
     for r in rows:
-        r.update(clip=clip, train_clips=len(train), test_recordings=len(tests),
-                 class_sets=len({tuple(s) for s in sets}))
+        r.update(train_clips=len(train), test_recordings=len(tests), class_sets=len({tuple(s) for s in sets}))
     return rows
 
 
-def write(rows: list[dict], command: str) -> None:
+def run(device: str, train_subjects: int, clip: float, seeds: list[int], quick: bool) -> list[dict]:
+    files = sorted((DATA / "DATA").glob(f"s*/s*_{device}.csv.gz"))
+    subjects = sorted({f.parent.name for f in files})
+    train_ids, test_ids = set(subjects[:train_subjects]), set(subjects[train_subjects:])
+    if quick:
+        test_ids = set(sorted(test_ids)[:3])
+    train = [c for f in files if f.parent.name in train_ids for c in clips(load(f), clip)]
+    tests = [load(f) for f in files if f.parent.name in test_ids]
+    return compare(train, tests, seeds, device=device, clip=clip)
+
+
+def table(rows: list[dict], first: str, prefix: str = "") -> list[str]:
+    """The rows of :func:`compare` as a Markdown table (first column the tag ``first``, then the clip length), and
+    below it the learner's mean and range over its seeds beside the peers, per ``first`` (named after ``prefix``) and
+    clip length."""
     classes = list(rows[0]["recall"])
+    lines = [f"| {first} | clip s (clips, distinct sets) | method | supervision | balanced, away | balanced, strict | "
+             + " | ".join(f"{c} recall" for c in classes) + " | fit s | predict s |",
+             "|---|---|---|---|---|---|" + "---|" * len(classes) + "---|---|"]
+    for r in rows:
+        lines.append(f"| {r[first]} | {r['clip']:g} ({r['train_clips']}, {r['class_sets']}) | {r['method']} | "
+                     f"{r['supervision']} | {100 * r['away']:.1f} % | "
+                     f"{100 * r['strict']:.1f} % | " + " | ".join(f"{100 * r['recall'][c]:.1f} %" for c in classes)
+                     + f" | {r['fit_s']:.1f} | {r['predict_s']:.1f} |")
+    lines += ["", "spotfree over its seeds, balanced accuracy away from changes (mean, lowest, highest), beside the peers:", ""]
+    for key in dict.fromkeys((r[first], r["clip"]) for r in rows):
+        group = [r for r in rows if (r[first], r["clip"]) == key]
+        ours = [100 * r["away"] for r in group if r["method"].startswith("spotfree")]
+        peers = ", ".join(f"{r['method']} {100 * r['away']:.1f} %" for r in group if r["supervision"] == "every sample")
+        lines.append(f"- {prefix}{key[0]}, {key[1]:g}-s clips: {np.mean(ours):.1f} % ({min(ours):.1f}-{max(ours):.1f}); {peers}")
+    return lines
+
+
+def write(rows: list[dict], command: str) -> None:
     lines = ["# Spotting-free learning on real recordings (sp_sw_har)", "",
              f"- command: `{command}`",
              f"- machine: {describe()}",
@@ -144,21 +177,7 @@ def write(rows: list[dict], command: str) -> None:
              "- training: the recordings of the first training subjects cut into clips, each declared with its set of "
              f"classes; test: {rows[0]['test_recordings']} whole recordings of the other subjects per device",
              "- balanced accuracy = mean of per-class recalls; away = leaving out samples within 0.5 s of a true "
-             "change; centred labels", "",
-             "| device | clip s (clips, distinct sets) | method | supervision | balanced, away | balanced, strict | "
-             + " | ".join(f"{c} recall" for c in classes) + " | fit s | predict s |",
-             "|---|---|---|---|---|---|" + "---|" * len(classes) + "---|---|"]
-    for r in rows:
-        lines.append(f"| {r['device']} | {r['clip']:g} ({r['train_clips']}, {r['class_sets']}) | {r['method']} | "
-                     f"{r['supervision']} | {100 * r['away']:.1f} % | "
-                     f"{100 * r['strict']:.1f} % | " + " | ".join(f"{100 * r['recall'][c]:.1f} %" for c in classes)
-                     + f" | {r['fit_s']:.1f} | {r['predict_s']:.1f} |")
-    lines += ["", "spotfree over its seeds, balanced accuracy away from changes (mean, lowest, highest), beside the peers:", ""]
-    for key in dict.fromkeys((r["device"], r["clip"]) for r in rows):
-        group = [r for r in rows if (r["device"], r["clip"]) == key]
-        ours = [100 * r["away"] for r in group if r["method"].startswith("spotfree")]
-        peers = ", ".join(f"{r['method']} {100 * r['away']:.1f} %" for r in group if r["supervision"] == "every sample")
-        lines.append(f"- {key[0]}, {key[1]:g}-s clips: {np.mean(ours):.1f} % ({min(ours):.1f}-{max(ours):.1f}); {peers}")
+             "change; centred labels", "", *table(rows, "device")]
     RESULTS.parent.mkdir(exist_ok=True)
     RESULTS.write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
