@@ -113,14 +113,22 @@ def test_the_segment_vote_is_said_and_keeps_the_labelled_samples(folder):
     assert flips(voted["label"]) < flips(plain["label"])
 
 
-@pytest.mark.parametrize("case", ["rate", "model", "method", "smooth", "segments", "keep", "events", "edges",
+def test_a_log_at_another_rate_is_read_onto_the_models_grid(folder):
+    source = folder / "fast.csv"
+    assert invoke("simulate", "cruising", "-o", source, "--repeats", "1", "--rate", "50").exit_code == 0
+    result = invoke("classify", folder / "model.npz", source, "-o", folder / "fast_labels.csv")
+    assert result.exit_code == 0, result.output
+    assert "sampled at 50 Hz; resampled onto the 20 Hz grid" in result.output
+    labels = pd.read_csv(folder / "fast_labels.csv", keep_default_na=False)
+    simulated = pd.read_csv(source)
+    assert abs(len(labels) / 20.0 - len(simulated) / 50.0) <= 0.1
+
+
+@pytest.mark.parametrize("case", ["model", "method", "smooth", "segments", "keep", "events", "edges",
                                   "edge-level", "edges-alone"])
 def test_bad_input_is_one_line_and_exit_2_and_writes_nothing(folder, case):
     source, model, extra = folder / "ride.csv", folder / "model.npz", []
-    if case == "rate":
-        source = folder / "fast.csv"
-        assert invoke("simulate", "cruising", "-o", source, "--repeats", "1", "--rate", "50").exit_code == 0
-    elif case == "model":
+    if case == "model":
         model = folder / "missing.npz"
     elif case == "method":
         extra = ["--method", "lasso"]
@@ -142,8 +150,7 @@ def test_bad_input_is_one_line_and_exit_2_and_writes_nothing(folder, case):
     assert result.exit_code == 2
     lines = [line for line in result.output.splitlines() if line.strip()]
     assert len(lines) == 1, result.output
-    expected = {"rate": "model expects channels [a-z_,]+ at 20 Hz; .*fast.csv has .* at 50 Hz",
-                "model": "missing.npz: no such model file", "method": "'lasso' is unknown",
+    expected = {"model": "missing.npz: no such model file", "method": "'lasso' is unknown",
                 "smooth": r"\(--smooth\).* got -3", "segments": r"\(--segments\).* got -1",
                 "keep": "--keep kerb: not a class of the model",
                 "events": "--events straight: not a class of the model",

