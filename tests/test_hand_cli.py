@@ -55,6 +55,20 @@ def test_run_offline_names_each_gesture_stretch_once(files):
     assert len(out) == len(live) and (out.time == live.time).all()
 
 
+def test_run_writes_the_gesture_events_on_request(files):
+    """Offline, each gesture stretch of the stream is one event, with the stretch's times and gesture."""
+    result = runner.invoke(app, ["hand", "run", str(files / "m.npz"), str(files / "test.jsonl"), "--offline",
+                                 "-o", str(files / "stream.csv"), "--events", str(files / "events.csv")])
+    assert result.exit_code == 0, result.output
+    out = pd.read_csv(files / "stream.csv", keep_default_na=False)
+    events = pd.read_csv(files / "events.csv", keep_default_na=False)
+    assert list(events.columns) == ["start", "stop", "gesture"] and f"{len(events)} gesture event(s)" in result.output
+    assert len(events) and set(events.gesture) <= set(GESTURES) and (events.stop >= events.start).all()
+    for start, stop, gesture in events.itertuples(index=False):
+        inside = out[(out.time >= start - 1e-9) & (out.time <= stop + 1e-9)]
+        assert (inside.state == "gesture").all() and (inside.label == gesture).all()
+
+
 def test_bad_frames_are_clear_errors_and_no_labels_are_invented(files, tmp_path):
     lines = (files / "test.jsonl").read_text().splitlines()
     bad = tmp_path / "bad.jsonl"

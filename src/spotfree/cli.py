@@ -711,6 +711,8 @@ def hand_run(
     output: Path = typer.Option(..., "-o", "--output", help="CSV file to write: time, state, label, command"),
     offline: bool = typer.Option(False, "--offline", help="centred windows and one gesture per gesture stretch "
                                  "(sees half a window ahead; default: causal, as live)"),
+    events: Optional[Path] = typer.Option(None, "--events", help="also write the gestures as events to this CSV: "
+                                          "start, stop (s), gesture"),
 ) -> None:
     """Recognise postures and gestures in a log and emit wheelchair commands."""
     from spotfree.hand.log import read_hand_log
@@ -720,10 +722,14 @@ def hand_run(
     rec = read_hand_log(log, rate=hand_model.state.rate)
     labels = recognise(hand_model, features_of(rec), offline=offline)
     labels.write_csv(output)
+    if events is not None:
+        labels.write_events_csv(events)
     _report_repairs_and_gaps(rec)
     labelled = labels.state != ""
     out.print(f"wrote {output}: {int(labelled.sum())} of {len(labels.time)} samples labelled; no label and the "
               f"command 'stop' where there is no hand")
+    if events is not None:
+        out.print(f"wrote {events}: {len(labels.events)} gesture event(s)")
 
 
 @fleet_app.callback()

@@ -298,6 +298,15 @@ class HandLabels:
                    "label": self.label, "command": self.command}
         write_text(Path(path), pd.DataFrame(columns).to_csv(index=False, lineterminator="\n"))
 
+    def write_events_csv(self, path: str | Path) -> None:
+        """Write the gesture events as CSV, atomically: ``start`` and ``stop`` (s: the time of an event's first
+        sample and of its last) and ``gesture``, one row per event."""
+        columns = {"start": [repr(float(round(self.time[e.start], 9))) for e in self.events],
+                   "stop": [repr(float(round(self.time[e.stop - 1], 9))) for e in self.events],
+                   "gesture": [e.label for e in self.events]}
+        write_text(Path(path), pd.DataFrame(columns, columns=["start", "stop", "gesture"])
+                   .to_csv(index=False, lineterminator="\n"))
+
 
 def recognise(model: HandModel, feats: Recording, confirm: float | None = None,
               offline: bool = False) -> HandLabels:
