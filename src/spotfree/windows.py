@@ -131,7 +131,7 @@ def recording_windows(
     x = rec.array(channels)
     if scaling is not None:
         x = scaling.transform(x)
-    experiments = rec.experiment if rec.experiment is not None else np.ones(len(rec), dtype=int)
+    experiments = rec.experiment_numbers()
     blocks, ends = [], []
     for start, stop in rec.segments():
         blocks.append(block_hankel(x[start:stop], length, step))

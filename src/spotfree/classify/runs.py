@@ -57,12 +57,9 @@ def run_events(active: np.ndarray, label: np.ndarray, min_samples: int = 1,
     label = np.asarray(label)
     if label.shape != active.shape:
         raise InputError(f"{len(label)} labels for {len(active)} samples: give one label per sample")
+    starts = np.zeros(len(active), dtype=bool)
     if experiment is not None and len(active) > 1:
-        cut = np.flatnonzero(np.diff(np.asarray(experiment)) != 0) + 1
-        starts = np.zeros(len(active), dtype=bool)
-        starts[cut] = True
-    else:
-        starts = np.zeros(len(active), dtype=bool)
+        starts[np.flatnonzero(np.diff(np.asarray(experiment)) != 0) + 1] = True
     events = []
     for start, stop in true_runs(active):
         bounds = [start, *(np.flatnonzero(starts[start + 1:stop]) + start + 1).tolist(), stop]

@@ -153,7 +153,7 @@ def evaluate_hand(train_people: int = TRAINING_PEOPLE, test_people: int = 6, see
     streaming = _streaming(model, feats, labels["live"])
     truth_state, truth_label = feats.truth["state"], feats.truth["label"]
     pace = feats.truth["pace"].astype(float)
-    experiment = feats.experiment if feats.experiment is not None else np.ones(len(feats), dtype=int)
+    experiment = feats.experiment_numbers()
     latencies, wrong = [], 0
     runs = {mode: [] for mode in MODES}
     for number, part in feats.experiments():
@@ -208,7 +208,7 @@ def hand_figures(accuracy: dict, onsets: dict, events: dict) -> dict[str, dict[s
 
 def _events(labels: HandLabels, feats) -> dict[str, float]:
     """:func:`gesture_events` of ``labels`` against the test truth from :data:`EVENT_ONSET`."""
-    experiment = feats.experiment if feats.experiment is not None else np.ones(len(feats), dtype=int)
+    experiment = feats.experiment_numbers()
     truth = onset_truth(feats.truth["state"], feats.truth["label"], feats.truth["pace"].astype(float), experiment,
                         EVENT_ONSET)[1]
     return gesture_events(labels.events, truth, experiment, feats.rate)
@@ -219,7 +219,7 @@ def _peer_scores(peer: Peer, training: list, feats, min_samples: int, say) -> Pe
     test ``feats`` and score them as the recogniser's labels (the state is the one the label belongs to)."""
     truth_state, truth_label = feats.truth["state"], feats.truth["label"]
     pace = feats.truth["pace"].astype(float)
-    experiment = feats.experiment if feats.experiment is not None else np.ones(len(feats), dtype=int)
+    experiment = feats.experiment_numbers()
     accuracy, onsets, events, fit = {}, {}, {}, 0.0
     for mode, alignment in MODE_ALIGNMENT.items():
         say(f"peer {type(peer).__name__}, {alignment} windows")
@@ -249,7 +249,7 @@ def state_grid(settings: list[tuple[tuple[str, ...], int]], train_people: int = 
     sessions = [(features_of(part), task) for part, task in session_tasks(training)]
     dev = features_of(frames_to_recording(simulate_hands(dev_people, dev_seed, rounds, first=DEV_FIRST)))
     truth = dev.truth["state"]
-    experiment = dev.experiment if dev.experiment is not None else np.ones(len(dev), dtype=int)
+    experiment = dev.experiment_numbers()
     rows = []
     for channels, window in settings:
         learner = SetSupervisedLearner(**{**STAGE_PARAMETERS["state"], "channels": tuple(channels), "window": window,
@@ -413,7 +413,7 @@ def _streaming(model: HandModel, feats, labels: HandLabels) -> dict[str, float]:
     """Samples per second of the streaming recogniser over the test runs, and its disagreements with batch: samples
     and gesture events (those of one but not the other)."""
     rows = feats.array(FEATURES)
-    experiment = feats.experiment if feats.experiment is not None else np.ones(len(feats), dtype=int)
+    experiment = feats.experiment_numbers()
     recogniser = HandRecognizer(model)
     out = []
     clock = time.perf_counter()

@@ -336,7 +336,7 @@ def hand_labels(feats: Recording, state: np.ndarray, label: np.ndarray, offline:
     if offline:
         label = np.where(state == "gesture", vote_stretches(state == "gesture", label), label)
     commands = np.empty(len(feats), dtype=object)
-    experiment = feats.experiment if feats.experiment is not None else np.ones(len(feats), dtype=int)
+    experiment = feats.experiment_numbers()
     for number in np.unique(experiment):
         rows = np.flatnonzero(experiment == number)
         command = CommandFilter(feats.rate) if confirm is None else CommandFilter(feats.rate, confirm)

@@ -147,6 +147,10 @@ class Recording:
         merged = {**self.channels, **channels} if keep else dict(channels)
         return replace(self, channels=merged, truth=dict(self.truth), meta=dict(self.meta), gaps=list(self.gaps))
 
+    def experiment_numbers(self) -> np.ndarray:
+        """The experiment number of every sample (all 1 when there is no column)."""
+        return self.experiment if self.experiment is not None else np.ones(len(self), dtype=int)
+
     def experiments(self) -> list[tuple[int, "Recording"]]:
         """``(number, Recording)`` for each experiment in the file (one, numbered 1, when there is no column)."""
         if self.experiment is None:

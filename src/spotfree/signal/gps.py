@@ -37,7 +37,7 @@ def gps_features(rec: Recording) -> Recording:
     if not has_gps(rec):
         raise InputError(f"{rec.source}: no GPS fixes (lat, lon or speed); GPS features need a track")
     out = {name: np.full(len(rec), np.nan) for name in GPS_FEATURES}
-    experiment = rec.experiment if rec.experiment is not None else np.ones(len(rec), dtype=int)
+    experiment = rec.experiment_numbers()
     for number in np.unique(experiment):
         rows = np.flatnonzero(experiment == number)
         fixes = rows[_fix_mask(rec, rows)]

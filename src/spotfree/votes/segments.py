@@ -40,6 +40,7 @@ from collections.abc import Iterable
 import numba
 import numpy as np
 
+from spotfree.classify.runs import vote
 from spotfree.io.checks import true_runs
 from spotfree.signal.features import LEVEL_CHANNELS
 
@@ -172,8 +173,6 @@ def segment_vote(labels: np.ndarray, ends: np.ndarray, keep: Iterable[str] = ())
     for end in ends:
         voters = labels[start:end][~kept[start:end]]
         if len(voters):
-            names, first, counts = np.unique(voters.astype(str), return_index=True, return_counts=True)
-            winner = str(names[np.lexsort((first, -counts))[0]])
-            out[start:end][~kept[start:end]] = winner
+            out[start:end][~kept[start:end]] = vote(voters)
         start = end
     return out
