@@ -82,6 +82,7 @@ def test_ride_features_of_a_log_not_from_a_handlebar_say_so(tmp_path):
     (["--recipe", "evidence"], "--recipe 'evidence': use one of sets, paper"),
     (["--prior", "lean"], "--prior 'lean': use one of ride"),
     (["--features", "wrist"], "--features 'wrist'"),
+    (["--mount", "sideways"], "--mount 'sideways' is not known; give auto, estimate, flat, upright"),
 ])
 def test_misuse_of_the_learner_options_exits_2(tmp_path, extra, message):
     _imu_log(tmp_path / "walk.csv", [("still", 5), ("walking", 5)], 1)
@@ -89,6 +90,7 @@ def test_misuse_of_the_learner_options_exits_2(tmp_path, extra, message):
                                  "--experiment", f"{tmp_path / 'walk.csv'}=still,walking", *extra])
     assert result.exit_code == 2
     assert message in " ".join(result.output.split())
+    assert not (tmp_path / "m.npz").exists()
 
 
 def test_a_recording_shorter_than_a_window_exits_2_with_one_line(tmp_path):
