@@ -38,9 +38,13 @@ completed class and ``f m`` for the part outside, against ``C f m`` without the 
 not offered: ``K_LL^{-1/2}`` amplifies rounding by its largest singular value, large when landmarks lie close together
 (``K_LL`` near singular), enough to change labels.
 
-Landmarks are taken per class, in proportion to its atoms (at least one), by farthest-point sampling of its atoms (all
-of them when it has no more; deterministic, so every process labels alike); ``gamma = gamma_scale / median_{j<l}
-||a_j - a_l||^2``, so the kernel does not depend on the windows' units.
+Landmarks are taken per class, in proportion to its atoms (at least one): the class's atoms fall into as many k-means
+groups, and each group gives its atom nearest its mean (all atoms when the class has no more). The Nystroem error is
+bounded by how far the points lie from their nearest landmark, which k-means makes small (Zhang, Tsang and Kwok,
+"Improved Nystroem low-rank approximation and error analysis", ICML 2008); landmarks spread as far apart as possible
+would go to the outliers instead. The k-means runs on one thread from a fixed seed, so every process that fits the
+same dictionary places the same landmarks. ``gamma = gamma_scale / median_{j<l} ||a_j - a_l||^2``, so the kernel does
+not depend on the windows' units.
 
 Compared with CRC_RLS, a normal stop no longer matches a scaled-down sudden stop. The number of landmarks is a
 model's (``parameters["landmarks"]``, set by training; 32 for models without it).
@@ -50,7 +54,9 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.spatial.distance import pdist
+from sklearn.cluster import KMeans
 from sklearn.utils.validation import check_is_fitted
+from threadpoolctl import threadpool_limits
 
 from spotfree.classify.base import UNKNOWN, ResidualClassifier
 from spotfree.classify.crc import CRCClassifier, check_n_jobs, in_chunks
@@ -116,7 +122,7 @@ class KernelCRCClassifier(ResidualClassifier):
             return np.ascontiguousarray(atoms)
         counts = np.bincount(atom_class)
         share = np.maximum(1, np.round(self.landmarks * counts / counts.sum()).astype(int))
-        return np.ascontiguousarray(np.vstack([_farthest_points(atoms[atom_class == i], m)
+        return np.ascontiguousarray(np.vstack([_central_points(atoms[atom_class == i], m)
                                                for i, m in enumerate(share)]))
 
     def _features(self, X: np.ndarray) -> np.ndarray:
@@ -222,14 +228,16 @@ def _block_squares(z: np.ndarray, width: int) -> np.ndarray:
     return np.einsum("ij,ij->i", blocks, blocks).reshape(len(z), -1)
 
 
-def _farthest_points(points: np.ndarray, m: int) -> np.ndarray:
-    """``m`` of ``points`` (all when there are no more) spread over them: the one nearest their mean, then each time
-    the one farthest from those chosen (deterministic: no random start, ties to the first)."""
-    if len(points) <= m:
-        return points
-    chosen = [int(np.argmin(np.linalg.norm(points - points.mean(axis=0), axis=1)))]
-    distance = np.linalg.norm(points - points[chosen[0]], axis=1)
-    while len(chosen) < m:
-        chosen.append(int(np.argmax(distance)))
-        distance = np.minimum(distance, np.linalg.norm(points - points[chosen[-1]], axis=1))
-    return points[chosen]
+def _central_points(points: np.ndarray, m: int) -> np.ndarray:
+    """``m`` of ``points`` (all when there are no more) that represent them: the member nearest the mean of each of
+    ``m`` k-means groups (k-means++ start from a fixed seed, one thread: the same points give the same choice); the
+    distinct points when there are no more than ``m``."""
+    distinct = np.unique(points, axis=0)
+    if len(distinct) <= m:
+        return distinct
+    with threadpool_limits(limits=1):
+        groups = KMeans(n_clusters=m, n_init=1, random_state=0).fit(points)
+    distance = np.linalg.norm(points - groups.cluster_centers_[groups.labels_], axis=1)
+    order = np.lexsort((distance, groups.labels_))  # by group, nearest its mean first
+    first = order[np.r_[True, np.diff(groups.labels_[order]) != 0]]
+    return points[np.sort(first)]
