@@ -20,7 +20,7 @@ the vector the dictionary holds and the classifier compares:
     kerb strike's ``max``).
 
 Both are computed for a whole matrix at once and for one window (streaming) by the same compiled kernel
-(:func:`~spotfree.classify.kernels.summary_features`, with the tables of :func:`summary_tables`).
+(:func:`~spotfree.kernels.summary_features`, with the tables of :func:`summary_tables`).
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from spotfree.classify.kernels import summary_matrix
+from spotfree.kernels import summary_matrix
 from spotfree.errors import InputError
 
 REPRESENTATIONS = ("summary", "hankel")

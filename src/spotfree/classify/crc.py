@@ -13,7 +13,7 @@ Batch: the ``C`` operators stacked, ``E = [E_1; ...; E_C]`` ``(C d, d)``, turn a
 product ``Z = Y E^T`` (``2 C d^2`` flops per window, BLAS), then the norm of each ``d``-block of each row of ``Z``
 is taken. Chunks keep ``Z`` in cache; threads take whole chunks, each with a single-threaded BLAS, so that the
 threads do not contend for the cores inside one BLAS call (``benchmarks/crc_speed.py`` times it). Streaming
-(:meth:`CRCClassifier.predict_one`): one compiled kernel (:func:`~spotfree.classify.kernels.crc_window`) computes
+(:meth:`CRCClassifier.predict_one`): one compiled kernel (:func:`~spotfree.kernels.crc_window`) computes
 the ``C`` norms of ``E y`` and the argmin for a single window, without numpy's per-call overhead.
 """
 
@@ -29,7 +29,7 @@ from sklearn.utils.validation import check_is_fitted
 from threadpoolctl import ThreadpoolController
 
 from spotfree.classify.base import UNKNOWN, ResidualClassifier
-from spotfree.classify.kernels import crc_window
+from spotfree.kernels import crc_window
 from spotfree.errors import InputError
 
 DTYPES = ("float64", "float32")

@@ -34,7 +34,7 @@ need its remaining rows times those rows (``decision_function`` completes every 
 CRC_RLS. A window costs ``m (d + 2)`` multiply-adds for the kernel row, ``C h m`` for the bounds, ``(f - h) m`` per
 completed class and ``f m`` for the part outside, against ``C f m`` without the bounds. Streaming
 (:meth:`KernelCRCClassifier.predict_one`, the ring step) does the same in one compiled call
-(:func:`~spotfree.classify.kernels.kernel_window`), abandoning a class as soon as its sum exceeds the best. Float32 is
+(:func:`~spotfree.kernels.kernel_window`), abandoning a class as soon as its sum exceeds the best. Float32 is
 not offered: ``K_LL^{-1/2}`` amplifies rounding by its largest singular value, large when landmarks lie close together
 (``K_LL`` near singular), enough to change labels.
 
@@ -60,7 +60,7 @@ from threadpoolctl import threadpool_limits
 
 from spotfree.classify.base import UNKNOWN, ResidualClassifier
 from spotfree.classify.crc import CRCClassifier, check_n_jobs, in_chunks
-from spotfree.classify.kernels import kernel_window
+from spotfree.kernels import kernel_window
 from spotfree.errors import InputError
 
 HEAD = 8

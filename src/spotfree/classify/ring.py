@@ -2,7 +2,7 @@
 
 :class:`ModelRing` keeps the last ``L_max`` feature vectors of a segment (``L_max`` the longest window among its
 models) in a ring buffer stored twice over, so that the last ``L`` samples of any model are contiguous; per sample
-one compiled call (:func:`~spotfree.classify.kernels.ring_step`) stores the sample and windows, represents and
+one compiled call (:func:`~spotfree.kernels.ring_step`) stores the sample and windows, represents and
 classifies every model whose window is due. Windows and labels are those of
 :func:`~spotfree.classify.batch.classify_recording` (same scaling, same representation, same order, causal alignment).
 CRC_RLS and kernel CRC_RLS run compiled for every representation; other classifiers get the gathered window in
@@ -18,7 +18,7 @@ import numpy as np
 from spotfree.classify.base import UNKNOWN
 from spotfree.classify.crc import CRCClassifier
 from spotfree.classify.kcrc import KernelCRCClassifier
-from spotfree.classify.kernels import IN_PYTHON, MODEL, NOT_FINITE, ring_block, ring_step
+from spotfree.kernels import IN_PYTHON, MODEL, NOT_FINITE, ring_block, ring_step
 from spotfree.classify.smoothing import MajorityVote
 from spotfree.errors import InputError
 from spotfree.model import DictionaryModel
