@@ -27,7 +27,7 @@ def files(tmp_path_factory):
 
 
 def test_train_writes_three_stage_files_and_run_writes_the_stream(files):
-    assert all((files / n).exists() for n in ("m.npz", "m.posture.npz", "m.gesture.npz"))
+    assert all((files / n).exists() for n in ("m.npz", "m.live-state.npz", "m.posture.npz", "m.gesture.npz"))
     result = runner.invoke(app, ["hand", "run", str(files / "m.npz"), str(files / "test.jsonl"),
                                  "-o", str(files / "out.csv")])
     assert result.exit_code == 0, result.output

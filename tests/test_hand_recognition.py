@@ -4,6 +4,8 @@ equal to batch, model files, commands and their confirmation rule."""
 import numpy as np
 import pytest
 
+from spotfree.classify.batch import classify_recording
+from spotfree.classify.confined import classify_stretches
 from spotfree.errors import InputError
 from spotfree.hand.commands import COMMANDS, CommandFilter, command_latencies
 from spotfree.hand.features import FEATURES
@@ -57,7 +59,7 @@ def test_truth_is_never_read_by_training(training, result, tmp_path):
         scrambled.append((copy, task))
     train_hand(scrambled).model.save(tmp_path / "a.npz")
     result.model.save(tmp_path / "b.npz")
-    for name in ("a.npz", "a.posture.npz", "a.gesture.npz"):
+    for name in ("a.npz", "a.live-state.npz", "a.posture.npz", "a.gesture.npz"):
         a, b = np.load(tmp_path / name), np.load(tmp_path / name.replace("a", "b", 1))
         assert a.files == b.files and all(np.array_equal(a[k], b[k]) for k in a.files if k != "metadata")
         assert str(a["metadata"]).replace('"a.', '"b.') == str(b["metadata"])
@@ -144,6 +146,30 @@ def test_model_files_round_trip_and_missing_sibling_is_clear(result, test_run, t
     result.model.posture.save(tmp_path / "plain.npz")
     with pytest.raises(InputError, match="not a hand model"):
         HandModel.load(tmp_path / "plain.npz")
+
+
+def test_a_model_without_a_live_state_labels_live_with_its_state_stage(result, test_run, tmp_path):
+    old = HandModel(result.model.state, result.model.posture, result.model.gesture)
+    old.save(tmp_path / "old.npz")
+    assert not (tmp_path / "old.live-state.npz").exists()
+    loaded = HandModel.load(tmp_path / "old.npz")
+    assert loaded.live_state is None and set(loaded.stages()) == {"state", "posture", "gesture"}
+    live = recognise(loaded, test_run)
+    state = classify_recording(result.model.state, test_run).label
+    assert list(live.state[live.state != ""]) == list(state[live.state != ""])
+
+
+def test_live_labels_use_the_live_state_and_postures_read_their_stretch_only(result, test_run):
+    model = result.model
+    assert model.live_state.representation == "hankel" and model.state.representation == "summary"
+    live, offline = recognise(model, test_run), recognise(model, test_run, offline=True)
+    for labels, state_model, centred in ((live, model.live_state, False), (offline, model.state, True)):
+        state = classify_recording(state_model, test_run, centred=centred).label
+        ok = labels.state != ""
+        assert list(labels.state[ok]) == list(state[ok])
+        posture = classify_stretches(model.posture, test_run, state == "posture", centred=centred)
+        at = labels.state == "posture"
+        assert at.sum() > 100 and list(labels.label[at]) == list(posture[at])
 
 
 def test_a_log_that_is_not_the_protocol_is_refused(test_run):

@@ -700,7 +700,8 @@ def hand_train(
     for stage, model in result.model.stages().items():
         columns = ", ".join(f"{c} {k}" for c, k in model.summary["columns_per_class"].items())
         out.print(f"{stage}: window {model.window} samples, channels {','.join(model.channels)}; columns: {columns}")
-    out.print(f"wrote {output} and its posture and gesture stages next to it, from {len(sessions)} sessions")
+    out.print(f"wrote {output} and its live-state, posture and gesture stages next to it, from {len(sessions)} "
+              "sessions")
 
 
 @hand_app.command("run")

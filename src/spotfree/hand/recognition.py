@@ -1,10 +1,11 @@
 """Two-stage hand recognition trained without spotting: posture or gesture, then which one.
 
-Three dictionaries, each learnt from class sets by :class:`~spotfree.learner.SetSupervisedLearner` (its parameters
+Four dictionaries, each learnt from class sets by :class:`~spotfree.learner.SetSupervisedLearner` (its parameters
 per stage in :data:`STAGE_PARAMETERS`) and classified by its kernel CRC_RLS:
 
 1. **state** (``posture`` / ``gesture``) on the :mod:`~spotfree.hand.motion` channels ``speed turn``, which do not
-   depend on the posture held;
+   depend on the posture held: ``state`` for offline labels and ``live-state``, learnt from the same sessions on
+   whole windows, for live labels;
 2. **posture** (the five postures) on palm position, normal (but its x) and direction;
 3. **gesture** (the eight gestures) on palm velocity, normal, direction and the signed rates of the last two.
 
@@ -26,11 +27,17 @@ on the posture stretches and the gesture stage on the gesture stretches (the res
 that no window spans a cut); the ``hold`` class and its columns are then dropped from the gesture dictionary
 (:func:`without_class`), so that it names one of the eight gestures. Ground truth is never read.
 
-Recognition, per sample: the state label of the window that ends at it (live) or is centred on it (offline), and
-the label of the posture or the gesture dictionary accordingly; offline, each stretch of gesture samples then takes
-its most frequent gesture (:func:`vote_stretches`). :class:`HandRecognizer` gives the live labels one sample at a
-time, the same as :func:`recognise` on a whole Recording. A sample at which any feature channel is not finite (no
-hand) gets no state and no label, and every stage starts afresh after it.
+Recognition, per sample: the state label of the window that ends at it (live, ``live-state``) or is centred on it
+(offline, ``state``), and the label of the posture or the gesture dictionary accordingly; offline, each stretch of
+gesture samples then takes its most frequent gesture (:func:`vote_stretches`). The posture dictionary, trained on
+posture stretches alone, reads only the samples of the current stretch of posture samples
+(:mod:`spotfree.classify.confined`: a stretch that does not yet fill its window is completed with its first sample,
+and offline with its last): the window of the first samples after a gesture would otherwise still hold the
+gesture's end, unlike any window of its training. The gesture dictionary reads its windows as they come: it was
+trained on gesture stretches widened by :data:`MARGIN`, so its windows hold the posture a gesture starts from.
+:class:`HandRecognizer` gives the live labels one sample at a time, the same as :func:`recognise` on a whole
+Recording. A sample at which any feature channel is not finite (no hand) gets no state and no label, and every stage
+starts afresh after it.
 
 Gestures as events, in both modes: one event per stretch of gesture samples at least as long as the state stage's
 switching cost (its ``smoothing``: its decoding would make no shorter run), named by the gesture most of the
@@ -48,6 +55,7 @@ import numpy as np
 import pandas as pd
 
 from spotfree.classify.batch import classify_recording
+from spotfree.classify.confined import StretchClassifier, classify_stretches
 from spotfree.classify.runs import RunEvent, RunEvents, run_events, vote
 from spotfree.classify.stream import RideClassifier
 from spotfree.errors import InputError
@@ -61,13 +69,14 @@ from spotfree.io.recording import Recording
 from spotfree.learner import SetSupervisedLearner
 from spotfree.model import DictionaryModel
 
-STAGES = ("state", "posture", "gesture")
+STAGES = ("state", "live-state", "posture", "gesture")
 STATES = ("posture", "gesture")
 HOLD = "hold"
 """Background class of the gesture stage's training (the postures at the ends of a gesture stretch)."""
 
 STAGE_PARAMETERS = {
     "state": {"channels": ("speed", "turn"), "window": 4, "smoothing": 0.1},
+    "live-state": {"channels": ("speed", "turn"), "window": 4, "smoothing": 0.1, "representation": "hankel"},
     "posture": {"channels": ("pos_x", "pos_y", "pos_z", "normal_y", "normal_z", *DIRECTION), "window": 6,
                 "smoothing": 0.1},
     "gesture": {"channels": (*VELOCITY, *NORMAL, *DIRECTION, *NORMAL_RATE, *DIRECTION_RATE), "window": 6,
@@ -79,11 +88,18 @@ STAGE_PARAMETERS = {
 Windows, samples at 20 Hz: 0.2 s for the state (a causal window labels its last sample, so the live state lags a
 change by up to a window), 0.3 s (the shortest gesture of the simulator) for the labels. ``smoothing``, the
 switching cost of the learner's decoding in seconds, is 0.1 s in every stage, under the shortest gesture: a
-gesture alternates with postures of a few seconds, and a longer cost merges it into them. The gesture stage keeps
-its windows whole (``hankel``): a movement and its reverse pass through the same orientations in the opposite order,
-which the ``summary`` of a window (levels, spreads, band powers) does not keep.
+gesture alternates with postures of a few seconds, and a longer cost merges it into them.
 
-Channels: the state stage reads the motion channels ``speed`` and ``turn``, which do not depend on the posture held
+Representations: the ``live-state`` stage (the state stage of live labels, learnt from the same sessions and class
+sets as ``state``) and the gesture stage keep their windows whole (``hankel``), because the ``summary`` of a window
+(levels, spreads, band powers) does not change when the window is reversed in time. A movement and its reverse pass
+through the same orientations in the opposite order. And a live window labels its newest sample, while the summary
+of a window in which the hand comes to rest is that of one in which it starts to move: with summaries, the live
+windows just after a gesture, which still hold its end, are called gesture. Offline, a window labels its middle
+sample, which its summary does not misplace, and the ``summary`` state finds a gesture's first samples more often
+than ``hankel`` windows do; it also cuts the training sessions into the posture and gesture stages' stretches.
+
+Channels: the state stages read the motion channels ``speed`` and ``turn``, which do not depend on the posture held
 (``flex`` is left out: the extended flags flip on tracking noise in a held posture as often as during a movement);
 the posture stage reads palm position, normal and direction, but not ``normal_x`` (the palm's roll about the
 forearm varies little between postures, so its small scale would let a person's habitual roll weigh much); the
@@ -108,44 +124,54 @@ class HandTrainingConfig:
 
 @dataclass
 class HandModel:
-    """The three dictionaries of the two-stage recogniser."""
+    """The dictionaries of the two-stage recogniser: the state (offline), the state for live labels (a model
+    without it, written before it existed, labels live with ``state``), the posture and the gesture."""
 
     state: DictionaryModel
     posture: DictionaryModel
     gesture: DictionaryModel
+    live_state: DictionaryModel | None = None
 
     def stages(self) -> dict[str, DictionaryModel]:
-        return {"state": self.state, "posture": self.posture, "gesture": self.gesture}
+        out = {"state": self.state, "live-state": self.live_state, "posture": self.posture, "gesture": self.gesture}
+        return {stage: model for stage, model in out.items() if model is not None}
+
+    def state_model(self, offline: bool) -> DictionaryModel:
+        """The state dictionary of a mode: ``state`` offline, ``live_state`` (when there is one) live."""
+        return self.state if offline or self.live_state is None else self.live_state
 
     def save(self, path: str | Path) -> None:
-        """Write ``MODEL.npz`` (the state dictionary, naming its siblings) and ``MODEL.posture.npz``,
-        ``MODEL.gesture.npz`` next to it (:meth:`DictionaryModel.save` each)."""
+        """Write ``MODEL.npz`` (the state dictionary, naming its siblings) and ``MODEL.live-state.npz``,
+        ``MODEL.posture.npz``, ``MODEL.gesture.npz`` next to it (:meth:`DictionaryModel.save` each)."""
         path = Path(path)
         if path.suffix != ".npz":
             raise InputError(f"{path}: a model file must end in .npz")
-        siblings = {stage: _sibling(path, stage).name for stage in STAGES[1:]}
-        self.posture.save(path.parent / siblings["posture"])
-        self.gesture.save(path.parent / siblings["gesture"])
+        stages = self.stages()
+        siblings = {stage: _sibling(path, stage).name for stage in STAGES[1:] if stage in stages}
+        for stage, name in siblings.items():
+            stages[stage].save(path.parent / name)
         state = replace(self.state, parameters={**self.state.parameters, "hand": siblings})
         state.save(path)
 
     @classmethod
     def load(cls, path: str | Path) -> "HandModel":
-        """Read a model written by :meth:`save` (three ``.npz`` files; never unpickles)."""
+        """Read a model written by :meth:`save` (four ``.npz`` files, or three without the live state; never
+        unpickles)."""
         path = Path(path)
         state = DictionaryModel.load(path)
         siblings = state.parameters.get("hand")
-        if not isinstance(siblings, dict) or set(siblings) != set(STAGES[1:]):
+        if not isinstance(siblings, dict) or not {"posture", "gesture"} <= set(siblings) <= set(STAGES[1:]):
             raise InputError(f"{path}: not a hand model (no posture and gesture stages); train one with "
                              f"'spotfree hand train -o {path.name}'")
         stages = {}
         for stage, name in siblings.items():
             if not (path.parent / name).exists():
-                raise InputError(f"{path}: its {stage} stage {path.parent / name} is missing; keep the three files "
-                                 f"of 'spotfree hand train' together")
-            stages[stage] = DictionaryModel.load(path.parent / name)
-        if sorted(state.classes) != sorted(STATES):
-            raise InputError(f"{path}: state stage classes {state.classes} are not {list(STATES)}; retrain it")
+                raise InputError(f"{path}: its {stage} stage {path.parent / name} is missing; keep the files of "
+                                 f"'spotfree hand train' together")
+            stages[stage.replace("-", "_")] = DictionaryModel.load(path.parent / name)
+        for model in (state, stages.get("live_state")):
+            if model is not None and sorted(model.classes) != sorted(STATES):
+                raise InputError(f"{path}: state stage classes {model.classes} are not {list(STATES)}; retrain it")
         return cls(state=state, **stages)
 
 
@@ -196,7 +222,7 @@ def declared(task: str, stage: str) -> list[str]:
 
 def train_hand(sessions: list[tuple[Recording, str]], config: HandTrainingConfig | None = None,
                progress=None) -> HandTrainingResult:
-    """Train the three stages from feature sessions (:func:`features_of`) of the training protocol, each with its
+    """Train the four stages from feature sessions (:func:`features_of`) of the training protocol, each with its
     task name (see the module docstring)."""
     config = config or HandTrainingConfig()
     say = progress or (lambda message: None)
@@ -217,6 +243,7 @@ def train_hand(sessions: list[tuple[Recording, str]], config: HandTrainingConfig
             say(f"{stage} stage: {warning}")
 
     fit("state", [rec for rec, _ in sessions], [declared(task, "state") for _, task in sessions])
+    fit("live-state", [rec for rec, _ in sessions], [declared(task, "state") for _, task in sessions])
     posture, gesture = ([], []), ([], [])
     for rec, task in sessions:
         labels = learners["state"].predict(rec, centred=True)
@@ -229,7 +256,7 @@ def train_hand(sessions: list[tuple[Recording, str]], config: HandTrainingConfig
     fit("posture", *posture)
     fit("gesture", *gesture)
     model = HandModel(learners["state"].model_, learners["posture"].model_,
-                      without_class(learners["gesture"].model_, HOLD))
+                      without_class(learners["gesture"].model_, HOLD), learners["live-state"].model_)
     for stage, classes in (("posture", POSTURES), ("gesture", GESTURES)):
         dictionary = getattr(model, stage)
         kept = {c for i, c in enumerate(dictionary.classes) if (dictionary.column_class == i).any()}
@@ -317,11 +344,12 @@ def recognise(model: HandModel, feats: Recording, confirm: float | None = None,
     ``offline=True`` (a whole log at once): centred windows, each labelling its middle sample, and one gesture per
     gesture stretch (:func:`vote_stretches`); it sees up to ``window // 2`` samples ahead, which a live stream
     cannot."""
-    labels = {stage: classify_recording(m, feats, centred=offline).label for stage, m in model.stages().items()}
+    labels = {"state": classify_recording(model.state_model(offline), feats, centred=offline).label,
+              "gesture": classify_recording(model.gesture, feats, centred=offline).label}
     state = labels["state"].astype(object)
-    ready = (state != "") & (labels["posture"] != "") & (labels["gesture"] != "")
-    state = np.where(ready, state, "")
-    label = np.where(state == "posture", labels["posture"], np.where(state == "gesture", labels["gesture"], ""))
+    posture = classify_stretches(model.posture, feats, state == "posture", centred=offline)
+    state = np.where((state != "") & (labels["gesture"] != ""), state, "")
+    label = np.where(state == "posture", posture, np.where(state == "gesture", labels["gesture"], ""))
     return hand_labels(feats, state, label, offline, confirm, gesture_samples(model))
 
 
@@ -377,9 +405,12 @@ class HandRecognizer:
     def __init__(self, model: HandModel, confirm: float | None = None):
         self.model = model
         self.rate = model.state.rate
-        self._classifiers = {stage: RideClassifier(m) for stage, m in model.stages().items()}
+        self._classifiers = {"state": RideClassifier(model.state_model(offline=False)),
+                             "gesture": RideClassifier(model.gesture)}
+        self._posture = StretchClassifier(model.posture)
         self._pick = {stage: np.array([_CHANNELS.index(c) for c in m.channels])
                       for stage, m in model.stages().items()}
+        self._pick["state"] = self._pick["live-state" if model.live_state is not None else "state"]
         missing = sorted({c for m in model.stages().values() for c in m.channels} - set(_CHANNELS))
         if missing:
             raise InputError(f"model channel(s) {', '.join(missing)} are not hand features or motion channels")
@@ -394,6 +425,7 @@ class HandRecognizer:
         one, joins :attr:`events_`)."""
         for classifier in self._classifiers.values():
             classifier.reset()
+        self._posture.reset()
         self._commands.reset()
         self._previous = np.full(len(SOURCES), np.nan)
         self._keep(self._events.finish())
@@ -413,7 +445,8 @@ class HandRecognizer:
         if not np.isfinite(row).all():
             row[:] = np.nan
         out = {stage: c.update_features(row[self._pick[stage]]) for stage, c in self._classifiers.items()}
-        state = out["state"] if all(out.values()) else ""
+        out["posture"] = self._posture.update(row[self._pick["posture"]], out["state"] == "posture")
+        state = out["state"] if out["state"] and out["gesture"] else ""
         label = out[state] if state else ""
         self._keep(self._events.update(state == "gesture", label))
         return state, label, self._commands.update(state, label)
