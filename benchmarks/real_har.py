@@ -9,7 +9,8 @@ Protocol (issue 31): the recordings of the first ``--train-subjects`` subjects a
 seconds (each length a run of its own), each declared only with the set of classes in it (the learner never sees a
 per-sample label); the whole recordings of the other subjects are the test. Scores per sample, centred labels:
 balanced accuracy (mean of the per-class recalls) leaving out the samples within 0.5 s of a true change ("away"),
-and the strict figure beside.
+and the strict figure beside. For the learner also the share of its training windows named right (its final name
+of a window against the true label at the window's centre, :func:`named_right`): the naming of step 3, directly.
 
 Methods in the same run:
 
@@ -100,6 +101,17 @@ def score(predictions: list[np.ndarray], tests: list[Recording], classes: list[s
     return {"away": bal, "strict": strict, "recall": recall}
 
 
+def named_right(learner: SetSupervisedLearner, train: list[Recording]) -> float:
+    """Share of the learner's training windows whose final name (``window_labels_``) is the true label at the
+    window's centre sample (never shown to the learner): how well step 3 of the learner named the clips' windows."""
+    right = total = 0
+    for clip, names, ends in zip(train, learner.window_labels_, learner.window_ends_):
+        truth = np.asarray(clip.truth["label"]).astype(str)[ends - learner.window // 2]
+        right += int(np.sum(truth == names))
+        total += len(names)
+    return right / total
+
+
 def compare(train: list[Recording], tests: list[Recording], seeds: list[int], **tags) -> list[dict]:
     """Every method fitted on the clips ``train`` (the learner and the paper's recipe given each clip's class set, the
     peers every sample's label) and scored on the whole recordings ``tests``; one row a method, carrying ``tags``."""
@@ -108,7 +120,7 @@ def compare(train: list[Recording], tests: list[Recording], seeds: list[int], **
     rows = []
     name_of_run = " ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in tags.values())
 
-    def measure(name, supervision, fit, predict):
+    def measure(name, supervision, fit, predict, named=None):
         t0 = time.perf_counter()
         fit()
         fit_s = time.perf_counter() - t0
@@ -116,13 +128,14 @@ def compare(train: list[Recording], tests: list[Recording], seeds: list[int], **
         preds = [predict(r) for r in tests]
         pred_s = time.perf_counter() - t0
         rows.append({**tags, "method": name, "supervision": supervision, "fit_s": fit_s,
-                     "predict_s": pred_s, **score(preds, tests, classes)})
+                     "predict_s": pred_s, "named": named() if named else None, **score(preds, tests, classes)})
         print(f"{name_of_run} {name}: {rows[-1]['away']:.3f} away, {rows[-1]['strict']:.3f} strict, "
               f"fit {fit_s:.1f} s", file=sys.stderr)
 
     for seed in seeds:  # the learner's forests and samples are seeded: its spread over seeds is part of the result
         learner = SetSupervisedLearner(seed=seed)
-        measure(f"spotfree, seed {seed}", "class sets", lambda: learner.fit(train, sets), learner.predict)
+        measure(f"spotfree, seed {seed}", "class sets", lambda: learner.fit(train, sets), learner.predict,
+                lambda: named_right(learner, train))
     paper = PaperRecipe(seed=seeds[0])
     measure("paper recipe", "class sets", lambda: paper.fit(train, sets), paper.predict)
     from spotfree.evaluation.peers import MiniRocketPeer, NearestNeighbourPeer
@@ -152,20 +165,23 @@ def table(rows: list[dict], first: str, prefix: str = "") -> list[str]:
     below it the learner's mean and range over its seeds beside the peers, per ``first`` (named after ``prefix``) and
     clip length."""
     classes = list(rows[0]["recall"])
-    lines = [f"| {first} | clip s (clips, distinct sets) | method | supervision | balanced, away | balanced, strict | "
-             + " | ".join(f"{c} recall" for c in classes) + " | fit s | predict s |",
-             "|---|---|---|---|---|---|" + "---|" * len(classes) + "---|---|"]
+    lines = [f"| {first} | clip s (clips, distinct sets) | method | supervision | training windows named right | "
+             "balanced, away | balanced, strict | " + " | ".join(f"{c} recall" for c in classes) + " | fit s | predict s |",
+             "|---|---|---|---|---|---|---|" + "---|" * len(classes) + "---|---|"]
     for r in rows:
+        named = f"{100 * r['named']:.1f} %" if r.get("named") is not None else "-"
         lines.append(f"| {r[first]} | {r['clip']:g} ({r['train_clips']}, {r['class_sets']}) | {r['method']} | "
-                     f"{r['supervision']} | {100 * r['away']:.1f} % | "
+                     f"{r['supervision']} | {named} | {100 * r['away']:.1f} % | "
                      f"{100 * r['strict']:.1f} % | " + " | ".join(f"{100 * r['recall'][c]:.1f} %" for c in classes)
                      + f" | {r['fit_s']:.1f} | {r['predict_s']:.1f} |")
     lines += ["", "spotfree over its seeds, balanced accuracy away from changes (mean, lowest, highest), beside the peers:", ""]
     for key in dict.fromkeys((r[first], r["clip"]) for r in rows):
         group = [r for r in rows if (r[first], r["clip"]) == key]
         ours = [100 * r["away"] for r in group if r["method"].startswith("spotfree")]
+        named = [100 * r["named"] for r in group if r["method"].startswith("spotfree")]
         peers = ", ".join(f"{r['method']} {100 * r['away']:.1f} %" for r in group if r["supervision"] == "every sample")
-        lines.append(f"- {prefix}{key[0]}, {key[1]:g}-s clips: {np.mean(ours):.1f} % ({min(ours):.1f}-{max(ours):.1f}); {peers}")
+        lines.append(f"- {prefix}{key[0]}, {key[1]:g}-s clips: {np.mean(ours):.1f} % ({min(ours):.1f}-{max(ours):.1f}), "
+                     f"training windows named right {np.mean(named):.1f} %; {peers}")
     return lines
 
 
@@ -177,7 +193,8 @@ def write(rows: list[dict], command: str) -> None:
              "- training: the recordings of the first training subjects cut into clips, each declared with its set of "
              f"classes; test: {rows[0]['test_recordings']} whole recordings of the other subjects per device",
              "- balanced accuracy = mean of per-class recalls; away = leaving out samples within 0.5 s of a true "
-             "change; centred labels", "", *table(rows, "device")]
+             "change; centred labels; training windows named right = the learner's final names of its training windows "
+             "against the true label at each window's centre", "", *table(rows, "device")]
     RESULTS.parent.mkdir(exist_ok=True)
     RESULTS.write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
