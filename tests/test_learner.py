@@ -296,15 +296,3 @@ def test_classes_declared_together_everywhere_are_warned_about_unless_a_prior_te
 
     learner = SetSupervisedLearner(seed=0, prior=Flat()).fit(both, [{"still", "slow"}] * 2)
     assert not any("declared by the same recordings" in w for w in learner.warnings_)
-
-
-def test_windows_that_have_just_entered_a_class_are_judged_by_its_clearest_margin_just_after():
-    from spotfree.learner import _entering_margins
-
-    labels = np.array([0, 0, 1, 1, 1, 1, 0])
-    margin = np.array([1.0, 2.0, 0.1, 0.2, 3.0, 0.5, 4.0])
-    # windows 2 and 3 have just entered class 1 (one of the two windows before differs); 6 has entered class 0
-    out = _entering_margins(margin, labels, [(0, 7)], 2, 2)
-    np.testing.assert_array_equal(out, [1.0, 2.0, 3.0, 3.0, 3.0, 0.5, 4.0])
-    split = _entering_margins(margin, labels, [(0, 3), (3, 7)], 2, 2)  # never across two runs of windows
-    np.testing.assert_array_equal(split, [1.0, 2.0, 0.1, 0.2, 3.0, 0.5, 4.0])

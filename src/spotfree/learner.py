@@ -35,11 +35,7 @@ Method (``docs/training.md`` has the derivation and the references):
 4. **Dictionary.** Per class, the windows whose posterior margin is at or above the class's median, at most
    ``max_columns`` of them spread evenly over time, become the dictionary's columns: windows that straddle a change
    stay eligible, so that the dictionary also holds a class's onsets and ends, which the test windows show as
-   often. The causal columns are chosen alike among the windows named by the class at their last sample; one that
-   has just entered its class (a name within its span differs) is judged by the clearest margin of its class from
-   that sample to half a window after it (:func:`_entering_margins`): the margins, averaged over the switching
-   cost, fall at every change of names, and such a window, which holds mostly the class before, is what a causal
-   classifier sees first of the class; judged by its own margin, it is left out and every change is found late.
+   often. The causal columns are chosen alike among the windows named by the class at their last sample.
    Classification is kernel CRC_RLS on the dictionary (:class:`~spotfree.classify.kcrc.KernelCRCClassifier`).
 
 Domain knowledge enters only through ``prior``: an object whose ``log_prior(recording, centres, classes)`` returns an
@@ -393,11 +389,10 @@ class SetSupervisedLearner(BaseEstimator):
         names = np.asarray(self.classes_)
         causal = np.full(len(labels), -1)
         causal_margin = np.full(len(labels), -np.inf)
-        ahead = _entering_margins(margin, labels, data.runs, max(1, (self.window - 1) // self.step), half)
         for a, b in data.runs:
             if b - a > half:
                 causal[a:b - half] = labels[a + half:b]
-                causal_margin[a:b - half] = ahead[a + half:b]
+                causal_margin[a:b - half] = margin[a + half:b]
         columns, column_class = _pick(labels, margin, len(names), self.max_columns)
         causal_columns, causal_class = _pick(causal, causal_margin, len(names), self.max_columns)
         found = np.bincount(column_class, minlength=len(names))
@@ -473,27 +468,6 @@ def _pick(labels: np.ndarray, margin: np.ndarray, n_classes: int, max_columns: i
         picked.append(np.sort(idx))
         owner.append(np.full(len(idx), c))
     return np.concatenate(picked).astype(int), np.concatenate(owner).astype(int)
-
-
-def _entering_margins(margin: np.ndarray, labels: np.ndarray, runs: list[tuple[int, int]], back: int,
-                      ahead: int) -> np.ndarray:
-    """Per window whose label differs from that of one of the ``back`` windows before it (it has just entered its
-    class), the largest ``margin`` among the windows of its label from it to ``ahead`` windows after it; elsewhere its
-    own ``margin``. Windows are compared within their run of contiguous windows only."""
-    run = np.full(len(margin), -1)
-    for r, (a, b) in enumerate(runs):
-        run[a:b] = r
-    n = len(margin)
-    entering = np.zeros(n, dtype=bool)
-    for k in range(1, back + 1):
-        i = np.arange(k, n)
-        entering[i] |= (labels[i - k] != labels[i]) & (run[i - k] == run[i])
-    out = margin.copy()
-    for k in range(1, ahead + 1):
-        i = np.arange(max(0, n - k))
-        i = i[entering[i] & (labels[i + k] == labels[i]) & (run[i + k] == run[i])]
-        out[i] = np.maximum(out[i], margin[i + k])
-    return out
 
 
 EXHAUSTIVE = 20_000_000
