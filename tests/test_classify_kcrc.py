@@ -93,3 +93,18 @@ def test_bad_parameters_are_a_clear_error(params):
     X, y, _, _, _ = amplitude_data(0)
     with pytest.raises(InputError, match="gamma_scale|landmarks"):
         KernelCRCClassifier(**params).fit(X, y)
+
+
+def test_landmarks_are_atoms_near_the_middle_of_their_groups_not_outliers():
+    from spotfree.classify.kcrc import _central_points
+
+    rng = np.random.default_rng(0)
+    centres = np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]])
+    points = np.vstack([c + rng.normal(scale=0.5, size=(60, 2)) for c in centres] + [[[40.0, 40.0]]])  # one outlier
+    chosen = _central_points(points, 3)
+    assert len(chosen) == 3 and all((points == row).all(axis=1).any() for row in chosen)  # atoms, not means
+    assert sorted(np.argmin(cdist(chosen, centres), axis=1)) == [0, 1, 2]  # one in every group
+    assert cdist(chosen, centres).min(axis=1).max() < 1.0  # near its group's middle; the outlier is not taken
+    np.testing.assert_array_equal(chosen, _central_points(points, 3))  # the same points, the same landmarks
+    few = np.repeat(points[:2], 5, axis=0)  # two distinct atoms
+    np.testing.assert_array_equal(_central_points(few, 3), np.unique(points[:2], axis=0))

@@ -52,9 +52,12 @@ model's (``parameters["landmarks"]``, set by training; 32 for models without it)
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 from scipy.spatial.distance import pdist
 from sklearn.cluster import KMeans
+from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils.validation import check_is_fitted
 from threadpoolctl import threadpool_limits
 
@@ -229,13 +232,14 @@ def _block_squares(z: np.ndarray, width: int) -> np.ndarray:
 
 
 def _central_points(points: np.ndarray, m: int) -> np.ndarray:
-    """``m`` of ``points`` (all when there are no more) that represent them: the member nearest the mean of each of
+    """``m`` of ``points`` that represent them: the member nearest the mean of each of
     ``m`` k-means groups (k-means++ start from a fixed seed, one thread: the same points give the same choice); the
     distinct points when there are no more than ``m``."""
     distinct = np.unique(points, axis=0)
     if len(distinct) <= m:
         return distinct
-    with threadpool_limits(limits=1):
+    with threadpool_limits(limits=1), warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)  # fewer groups than m: one landmark a group, as meant
         groups = KMeans(n_clusters=m, n_init=1, random_state=0).fit(points)
     distance = np.linalg.norm(points - groups.cluster_centers_[groups.labels_], axis=1)
     order = np.lexsort((distance, groups.labels_))  # by group, nearest its mean first
