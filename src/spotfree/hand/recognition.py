@@ -405,15 +405,13 @@ class HandRecognizer:
     def __init__(self, model: HandModel, confirm: float | None = None):
         self.model = model
         self.rate = model.state.rate
-        self._classifiers = {"state": RideClassifier(model.state_model(offline=False)),
-                             "gesture": RideClassifier(model.gesture)}
-        self._posture = StretchClassifier(model.posture)
-        self._pick = {stage: np.array([_CHANNELS.index(c) for c in m.channels])
-                      for stage, m in model.stages().items()}
-        self._pick["state"] = self._pick["live-state" if model.live_state is not None else "state"]
-        missing = sorted({c for m in model.stages().values() for c in m.channels} - set(_CHANNELS))
+        live = {"state": model.state_model(offline=False), "posture": model.posture, "gesture": model.gesture}
+        missing = sorted({c for m in live.values() for c in m.channels} - set(_CHANNELS))
         if missing:
             raise InputError(f"model channel(s) {', '.join(missing)} are not hand features or motion channels")
+        self._pick = {stage: np.array([_CHANNELS.index(c) for c in m.channels]) for stage, m in live.items()}
+        self._classifiers = {stage: RideClassifier(live[stage]) for stage in ("state", "gesture")}
+        self._posture = StretchClassifier(model.posture)
         self._sources = np.array([FEATURES.index(c) for c in SOURCES])
         self._commands = CommandFilter(self.rate) if confirm is None else CommandFilter(self.rate, confirm)
         self._events = RunEvents(gesture_samples(model))
