@@ -240,3 +240,12 @@ def test_dropping_the_hold_class_drops_its_causal_columns_too():
     np.testing.assert_array_equal(out.dictionary, columns[:, [0, 2, 3, 5]])
     np.testing.assert_array_equal(out.causal_dictionary, columns[:, ::-1][:, [0, 2, 3, 5]])
     assert out.column_class.tolist() == out.causal_column_class.tolist() == [0, 1, 1, 0]
+
+
+def test_a_model_on_channels_that_are_not_hand_features_is_a_clear_error(result):
+    from dataclasses import replace
+
+    channels = ["wrist_temperature", *result.model.posture.channels[1:]]  # one channel no hand log has
+    odd = replace(result.model, posture=replace(result.model.posture, channels=channels))
+    with pytest.raises(InputError, match="wrist_temperature.*not hand features"):
+        HandRecognizer(odd)
