@@ -1,6 +1,8 @@
 """`spotfree train --recipe sets` and `--features body`: a raw IMU log that is not a ride trains and classifies on
 body channels; the summary says which learner and channels a model uses; misuse exits 2 with one line."""
 
+import json
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -102,3 +104,27 @@ def test_a_recording_shorter_than_a_window_exits_2_with_one_line(tmp_path):
     assert result.exit_code == 2
     assert "short.csv: no gap-free stretch is as long as one window" in " ".join(result.output.split())
     assert not (tmp_path / "m.npz").exists()
+
+
+def test_train_on_many_logs_says_what_they_share_once(tmp_path):
+    """Six logs resampled alike: one read line for all and their shared note once, as the first says it, with its count; every line of
+    each in the JSON summary."""
+    args = []
+    for k in range(6):
+        path = tmp_path / f"clip{k}.csv"
+        _imu_log(path, [("still", 4), ("walking", 4)], k)
+        frame = pd.read_csv(path)
+        frame["time"] += np.random.default_rng(k).uniform(-0.01, 0.01, len(frame))  # irregular steps: a repair note
+        frame.to_csv(path, index=False)
+        args += ["--experiment", f"{path}=still,walking"]
+    result = runner.invoke(app, ["train", "-o", str(tmp_path / "m.npz"), "--features", "body", "--json", *args])
+    assert result.exit_code == 0, result.output
+    lines = result.stderr.splitlines()
+    read = [line for line in lines if line.startswith("read: ")]
+    notes = [line for line in lines if line.startswith("note: ")]
+    assert len(read) == 1 and read[0].startswith("read: 6 logs, ") and str(tmp_path / "clip0.csv") in read[0]
+    first = tmp_path / "clip0.csv"
+    assert len(notes) == 1 and notes[0].startswith(f"note: 6 logs, the first {first}: time steps are irregular")
+    summary = json.loads(result.stdout)
+    assert len(summary["read"]) == 6 and len(summary["notes"]) == 6
+    assert notes[0].endswith(summary["notes"][0].split(": ", 1)[1])

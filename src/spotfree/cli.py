@@ -9,6 +9,7 @@ import contextlib
 import functools
 import importlib.util
 import json
+import re
 import warnings
 from pathlib import Path
 from typing import Callable, Optional
@@ -158,23 +159,59 @@ def _report_mount(line: str, warnings: list[str]) -> None:
 
 
 def _report_repairs_and_gaps(rec) -> dict:
+    """:func:`_report_logs` of one recording, its ``read`` the line or None."""
+    said = _report_logs([rec])
+    return {**said, "read": said["read"][0] if said["read"] else None}
+
+
+def _report_logs(recs: list) -> dict:
     """Refuse a recording outside what a phone records (:func:`spotfree.limits.check_recording`), then tell the
     user what was read (for a sensor log), every repair a reader made and every gap it found (never silently);
-    called once the command's work is done, so that a refusal stays one line. Returns the same for a JSON summary:
-    ``{"read": str or None, "notes": [...], "warnings": [...]}``."""
+    called once the command's work is done, so that a refusal stays one line. A message that several recordings
+    share (their source aside) is said once, with how many said it; the read lines of more than
+    :data:`READ_LINES` recordings become one. Returns them all for a JSON summary:
+    ``{"read": [...], "notes": [...], "warnings": [...]}`` (a read line per sensor log)."""
     from spotfree.io import describe
     from spotfree.limits import check_recording
 
-    check_recording(rec)
-    said = {"read": describe(rec) if rec.meta.get("describe") else None, "notes": list(rec.meta.get("repairs", [])),
-            "warnings": list(rec.meta.get("warnings", [])) + [f"{rec.source}: {gap}; no output there"
-                                                              for gap in rec.gaps]}
-    if said["read"]:
-        err.print(f"read: {said['read']}")
-    for note in said["notes"]:
-        err.print(f"note: {note}")
-    for warning in said["warnings"]:
-        err.print(f"warning: {warning}")
+    read, notes, warnings_ = [], [], []
+    for rec in recs:
+        check_recording(rec)
+        if rec.meta.get("describe"):
+            read.append(describe(rec))
+        notes += list(rec.meta.get("repairs", []))
+        warnings_ += list(rec.meta.get("warnings", [])) + [f"{rec.source}: {gap}; no output there" for gap in rec.gaps]
+    if len(read) > READ_LINES:
+        seconds = sum(len(rec) / rec.rate for rec in recs)
+        err.print(f"read: {len(read)} logs, {seconds:.1f} s in all; the first: {read[0]}")
+    else:
+        for line in read:
+            err.print(f"read: {line}")
+    for kind, lines in (("note", notes), ("warning", warnings_)):
+        for line in _grouped(lines, [rec.source for rec in recs]):
+            err.print(f"{kind}: {line}")
+    return {"read": read, "notes": notes, "warnings": warnings_}
+
+
+READ_LINES = 5
+"""Most recordings whose read line :func:`_report_logs` prints one by one."""
+
+
+def _grouped(lines: list[str], sources: list[str]) -> list[str]:
+    """``lines`` in order, those that differ only in the leading ``source: `` of one of ``sources`` and in their
+    numbers said once, as the first of them says it: ``N logs, the first FIRST: message``."""
+    groups: dict[str, list[tuple[str, str]]] = {}
+    for line in lines:
+        source = next((s for s in sources if line.startswith(f"{s}: ")), "")
+        message = line[len(source) + 2:] if source else line
+        groups.setdefault(re.sub(r"\d+(\.\d+)?", "#", message), []).append((source, message))
+    said = []
+    for said_by in groups.values():
+        source, message = said_by[0]
+        if len(said_by) == 1:
+            said.append(f"{source}: {message}" if source else message)
+        else:
+            said.append(f"{len(said_by)} logs, the first {source}: {message}")
     return said
 
 
@@ -343,12 +380,8 @@ def _train(output: Path, experiment: list[str], channels: Optional[str], window:
     learner.fit(recordings, sets)
     model = learner.model_
     model.save(output)
-    said = {"read": [], "notes": [], "mounts": [], "warnings": []}
-    for log, rec in zip(logs, recordings):
-        one = _report_repairs_and_gaps(log)
-        said["read"].append(one["read"])
-        said["notes"] += one["notes"]
-        said["warnings"] += one["warnings"]
+    said = {**_report_logs(logs), "mounts": []}
+    for rec in recordings:
         if "mount" in rec.meta:
             _report_mount(rec.meta["mount"], rec.meta["mount_warnings"])
             said["mounts"].append(rec.meta["mount"])
