@@ -1,8 +1,7 @@
 import numpy as np
 import pytest
 
-from spotfree.classify import CRCClassifier
-from spotfree.classify.crc import CHUNK_BYTES
+from spotfree.classify import CRCClassifier, crc
 from spotfree.errors import InputError
 
 
@@ -30,9 +29,10 @@ def ride_sized_problem(seed: int, n_windows: int):
 
 @pytest.mark.parametrize(("dtype", "rtol", "n_jobs"), [("float64", 1e-12, -1), ("float64", 1e-12, 1),
                                                        ("float32", 1e-5, 2)])
-def test_chunked_batch_path_equals_the_plain_formula(dtype, rtol, n_jobs):
+def test_chunked_batch_path_equals_the_plain_formula(dtype, rtol, n_jobs, monkeypatch):
+    monkeypatch.setattr(crc, "CHUNK_BYTES", 1 << 18)
     atoms, labels, windows = ride_sized_problem(1, 1000)  # 3000 windows: several chunks
-    assert len(windows) * 180 * 8 > 2 * CHUNK_BYTES
+    assert len(windows) * 180 * 8 > 2 * crc.CHUNK_BYTES
     clf = CRCClassifier(dtype=dtype, n_jobs=n_jobs).fit(atoms, labels)
     plain = np.linalg.norm(np.einsum("cij,nj->nci", clf.residual_operators_, windows), axis=2)
     fast = clf.decision_function(windows)

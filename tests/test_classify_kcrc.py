@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.spatial.distance import cdist, pdist
 
-from spotfree.classify import UNKNOWN, KernelCRCClassifier
+from spotfree.classify import UNKNOWN, KernelCRCClassifier, crc
 from spotfree.errors import InputError
 
 from classify_fixtures import amplitude_data
@@ -55,7 +55,7 @@ def test_predict_one_equals_predict(landmarks):
         clf.predict_one(test[0, :-1])
 
 
-def test_labels_are_the_least_residuals_although_classes_are_pruned():
+def test_labels_are_the_least_residuals_although_classes_are_pruned(monkeypatch):
     # three amplitudes of one shape; windows between them and of another shape, so that bounds are close
     rng = np.random.default_rng(5)
     shape = np.sin(np.linspace(0, np.pi, 30))
@@ -64,8 +64,10 @@ def test_labels_are_the_least_residuals_although_classes_are_pruned():
     labels = np.repeat(["one", "two", "three"], 40)
     windows = np.vstack([np.outer(rng.uniform(0.5, 3.5, 300), shape) + 0.05 * rng.normal(size=(300, 30)),
                          rng.normal(size=(50, 30))])
+    monkeypatch.setattr(crc, "CHUNK_BYTES", 1 << 14)  # windows in several chunks, shared out to two threads
     for reject in (None, 0.5):
-        clf = KernelCRCClassifier(landmarks=24, reject=reject).fit(atoms, labels)
+        clf = KernelCRCClassifier(landmarks=24, reject=reject, n_jobs=2).fit(atoms, labels)
+        assert len(windows) * clf._heads_t.itemsize * sum(clf._heads_t.shape) > 4 * crc.CHUNK_BYTES
         assert clf.head_ < len(clf.normalisation_)  # rows are left out of the bounds
         residuals = clf.decision_function(windows)  # every class completed
         expected = np.where(residuals.min(axis=1) > (reject or np.inf), UNKNOWN,

@@ -33,8 +33,11 @@ from spotfree.kernels import crc_window
 from spotfree.errors import InputError
 
 DTYPES = ("float64", "float32")
-CHUNK_BYTES = 1 << 20
-"""Size of one chunk's product ``Z`` (bytes): it stays in the 2 MiB L2 cache of the reference machine."""
+CHUNK_BYTES = 1 << 22
+"""Size of one chunk's product ``Z`` (bytes). Each chunk costs, besides its matrix products, a fixed amount of Python
+between them and a hand-over between threads (which hold the interpreter's lock there); chunks of a few thousand
+windows make that small against the products, which then run from the shared L3 cache rather than from a core's
+L2 (``benchmarks/crc_speed.py`` measures the throughput)."""
 
 
 class CRCClassifier(ResidualClassifier):
