@@ -136,3 +136,20 @@ def test_train_warnings_stay_on_stderr_and_are_in_the_document(rides, tmp_path):
     assert [line.removeprefix("warning: ") for line in lines if line.startswith("warning: ")] == summary["warnings"]
     assert [line.removeprefix("read: ") for line in lines if line.startswith("read: ")] == summary["read"]
     assert len(summary["read"]) == len(summary["mounts"]) == 2
+
+
+def test_train_on_many_ride_logs_tells_each_mount_once_per_kind(rides):
+    """Six ride logs (over the few told one by one): one read line, each mount said once with how many logs it
+    fits, every line of each log in the JSON summary."""
+    folder, _ = rides
+    logs = [f"{folder / name}@{k}" for name in ("nb.csv", "sb.csv") for k in (1, 2)] + [str(folder / "nb.csv")] * 2
+    args = [a for log in logs for a in ("--experiment", f"{log}=cruising,normal-braking,sudden-braking")]
+    result = _run("train", "-o", str(folder / "many.npz"), "--preset", "braking", "--json", *args)
+    summary = json.loads(result.stdout)
+    lines = result.stderr.splitlines()
+    read = [line for line in lines if line.startswith("read: ")]
+    mounts = [line for line in lines if line.startswith("mount: ")]
+    assert len(read) == 1 and read[0].startswith("read: 6 logs, ")
+    assert len(summary["read"]) == len(summary["mounts"]) == 6
+    assert 1 <= len(mounts) < 6 and any(line.startswith("mount: 2 logs, the first ") for line in mounts)
+    assert all(m.startswith("mount: up is ") for m in summary["mounts"])

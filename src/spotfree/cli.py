@@ -159,38 +159,48 @@ def _report_mount(line: str, warnings: list[str]) -> None:
 
 
 def _report_repairs_and_gaps(rec) -> dict:
-    """:func:`_report_logs` of one recording, its ``read`` the line or None."""
+    """:func:`_report_logs` of one recording without a mount, its ``read`` the line or None."""
     said = _report_logs([rec])
-    return {**said, "read": said["read"][0] if said["read"] else None}
+    return {"read": said["read"][0] if said["read"] else None, "notes": said["notes"], "warnings": said["warnings"]}
 
 
-def _report_logs(recs: list) -> dict:
+def _report_logs(recs: list, mounts: list | None = None) -> dict:
     """Refuse a recording outside what a phone records (:func:`spotfree.limits.check_recording`), then tell the
-    user what was read (for a sensor log), every repair a reader made and every gap it found (never silently);
-    called once the command's work is done, so that a refusal stays one line. A message that several recordings
-    share (their source aside) is said once, with how many said it; the read lines of more than
-    :data:`READ_LINES` recordings become one. Returns them all for a JSON summary:
-    ``{"read": [...], "notes": [...], "warnings": [...]}`` (a read line per sensor log)."""
+    user what was read (for a sensor log), every repair a reader made, every gap it found (never silently) and, when
+    ``mounts`` gives one ``(line, warnings)`` per recording (None: no mount), the mount its features used; called
+    once the command's work is done, so that a refusal stays one line. Up to :data:`READ_LINES` recordings are told
+    one after the other; of more, the read lines become one and a message that several share (their source and
+    numbers aside) is said once, with how many said it. Returns them all for a JSON summary:
+    ``{"read": [...], "notes": [...], "warnings": [...], "mounts": [...]}`` (a read line per sensor log)."""
     from spotfree.io import describe
     from spotfree.limits import check_recording
 
-    read, notes, warnings_ = [], [], []
-    for rec in recs:
+    mounts = mounts or [None] * len(recs)
+    said = {"read": [], "notes": [], "warnings": [], "mounts": []}
+    told = []  # (kind, line) in the order a few recordings are told
+    for rec, mount in zip(recs, mounts):
         check_recording(rec)
-        if rec.meta.get("describe"):
-            read.append(describe(rec))
-        notes += list(rec.meta.get("repairs", []))
-        warnings_ += list(rec.meta.get("warnings", [])) + [f"{rec.source}: {gap}; no output there" for gap in rec.gaps]
-    if len(read) > READ_LINES:
+        lines = [("read", describe(rec))] if rec.meta.get("describe") else []
+        lines += [("note", note) for note in rec.meta.get("repairs", [])]
+        lines += [("warning", w) for w in rec.meta.get("warnings", [])]
+        lines += [("warning", f"{rec.source}: {gap}; no output there") for gap in rec.gaps]
+        if mount is not None:
+            said["mounts"].append(mount[0])
+            lines += [("mount", mount[0].removeprefix("mount: "))] + [("warning", w) for w in mount[1]]
+        for kind, line in lines:
+            if kind != "mount":
+                said[{"read": "read", "note": "notes", "warning": "warnings"}[kind]].append(line)
+        told += lines
+    if len(recs) > READ_LINES:
         seconds = sum(len(rec) / rec.rate for rec in recs)
-        err.print(f"read: {len(read)} logs, {seconds:.1f} s in all; the first: {read[0]}")
-    else:
-        for line in read:
-            err.print(f"read: {line}")
-    for kind, lines in (("note", notes), ("warning", warnings_)):
-        for line in _grouped(lines, [rec.source for rec in recs]):
-            err.print(f"{kind}: {line}")
-    return {"read": read, "notes": notes, "warnings": warnings_}
+        told = [("read", f"{len(said['read'])} logs, {seconds:.1f} s in all; the first: {said['read'][0]}")
+                if said["read"] else None]
+        mounted = [f"{rec.source}: {m[0].removeprefix('mount: ')}" for rec, m in zip(recs, mounts) if m is not None]
+        for kind, lines in (("note", said["notes"]), ("warning", said["warnings"]), ("mount", mounted)):
+            told += [(kind, line) for line in _grouped(lines, [rec.source for rec in recs])]
+    for kind, line in filter(None, told):
+        err.print(f"{kind}: {line}")
+    return said
 
 
 READ_LINES = 5
@@ -380,12 +390,8 @@ def _train(output: Path, experiment: list[str], channels: Optional[str], window:
     learner.fit(recordings, sets)
     model = learner.model_
     model.save(output)
-    said = {**_report_logs(logs), "mounts": []}
-    for rec in recordings:
-        if "mount" in rec.meta:
-            _report_mount(rec.meta["mount"], rec.meta["mount_warnings"])
-            said["mounts"].append(rec.meta["mount"])
-            said["warnings"] += rec.meta["mount_warnings"]
+    said = _report_logs(logs, [(rec.meta["mount"], rec.meta["mount_warnings"]) if "mount" in rec.meta else None
+                               for rec in recordings])
     if any(rec.meta.get("mount_warnings") for rec in recordings):
         err.print("note: ride features assume a phone on a vehicle's handlebar; for a phone in a pocket or a watch, "
                   "train with --features body")
