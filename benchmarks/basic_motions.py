@@ -88,8 +88,9 @@ def main() -> None:
               f"--order, into recordings of {CASES * 10:g} s and cut into clips, each declared with its set of "
               f"classes; test: {rows[0]['test_recordings']} whole recordings of the test cases joined the same way")
         print("- balanced accuracy = mean of per-class recalls; away = leaving out samples within 0.5 s of a true "
-              "change; centred labels; training windows named right = the learner's final names of its training "
-              "windows against the true label at each window's centre")
+              "change; centred labels (offline), and live: causal labels (each window labels its last sample; a "
+              "peer trained on that alignment, its fit time included); training windows named right = the learner's "
+              "final names of its training windows against the true label at each window's centre")
         print()
         print("\n".join(table(rows, "order", prefix="order ")))
 
