@@ -128,3 +128,25 @@ def test_train_on_many_logs_says_what_they_share_once(tmp_path):
     summary = json.loads(result.stdout)
     assert len(summary["read"]) == 6 and len(summary["notes"]) == 6
     assert notes[0].endswith(summary["notes"][0].split(": ", 1)[1])
+
+
+def test_train_on_more_logs_than_table_rows_shows_a_row_per_declared_set(tmp_path, monkeypatch):
+    """Over the table's rows, recordings that declare the same set share a row: how many, and the windows named in
+    them all (the sum of the per-recording counts, which the JSON summary keeps)."""
+    import spotfree.cli as cli
+
+    monkeypatch.setattr(cli, "TABLE_ROWS", 3)
+    args = []
+    for k, parts in enumerate([[("still", 6), ("walking", 6)]] * 3 + [[("still", 8)]] * 2):
+        path = tmp_path / f"log{k}.csv"
+        _imu_log(path, parts, k)
+        args += ["--experiment", f"{path}={'still,walking' if len(parts) == 2 else 'still'}"]
+    result = runner.invoke(app, ["train", "-o", str(tmp_path / "m.npz"), "--features", "body", "--json", *args])
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.stdout)
+    shown = runner.invoke(app, ["train", "-o", str(tmp_path / "m2.npz"), "--features", "body", *args]).stdout
+    assert str(tmp_path / "log0.csv") not in shown  # no row per recording
+    rows = [line for line in shown.splitlines() if "still,walking" in line or "│ still " in line]
+    both = [r for r in summary["recordings"] if r["declared"] == ["still", "walking"]]
+    named = {c: sum(r["windows"].get(c, 0) for r in both) for c in ("still", "walking")}
+    assert len(rows) == 2 and "│ 3 " in rows[0] and f"still {named['still']} walking {named['walking']}" in rows[0]

@@ -364,8 +364,6 @@ def _train(output: Path, experiment: list[str], channels: Optional[str], window:
     returns it (the document of ``--json``)."""
     from collections import Counter
 
-    from rich.table import Table
-
     from spotfree.learner import SetSupervisedLearner
     from spotfree.paper_recipe import PaperRecipe
     from spotfree.pipeline import feature_recording
@@ -411,13 +409,8 @@ def _train(output: Path, experiment: list[str], channels: Optional[str], window:
         return summary
     out.print(f"learner: sets ({model.representation} of {model.features} channels {','.join(model.channels)}; "
               f"prior: {prior or 'none'})")
-    table = Table(title=f"{output}: {model.dictionary.shape[1]} columns, window {window} samples")
-    for column in ("recording", "declared", "windows named"):
-        table.add_column(column)
-    for rec in model.summary["recordings"]:
-        table.add_row(rec["source"], ",".join(rec["classes"]),
-                      " ".join(f"{c} {k}" for c, k in rec["windows"].items()))
-    out.print(table)
+    out.print(_naming_table(model.summary["recordings"], f"{output}: {model.dictionary.shape[1]} columns, window "
+                            f"{window} samples"))
     out.print("columns per class: " + ", ".join(f"{c} {k}" for c, k in model.summary["columns_per_class"].items()))
     out.print("names moved per round: " + (", ".join(f"{100 * h:.1f} %" for h in learner.history_) or "none"))
     for warning in learner.warnings_:
@@ -428,6 +421,37 @@ def _train(output: Path, experiment: list[str], channels: Optional[str], window:
         training_figure(learner, recordings, figure)
         out.print(f"figure: {figure}")
     return summary
+
+
+TABLE_ROWS = 20
+"""Most recordings :func:`_naming_table` shows a row each; of more, a row per declared set."""
+
+
+def _naming_table(recordings: list[dict], title: str):
+    """A rich Table of what the learner named in each training recording (``{"source", "classes", "windows"}`` of
+    the model summary): a row a recording, or, of more than :data:`TABLE_ROWS`, a row per declared set with how
+    many recordings declare it and the windows named in them all."""
+    from collections import Counter
+
+    from rich.table import Table
+
+    table = Table(title=title)
+    if len(recordings) <= TABLE_ROWS:
+        for column in ("recording", "declared", "windows named"):
+            table.add_column(column)
+        for rec in recordings:
+            table.add_row(rec["source"], ",".join(rec["classes"]),
+                          " ".join(f"{c} {k}" for c, k in rec["windows"].items()))
+        return table
+    groups: dict[tuple, tuple[int, Counter]] = {}  # declared set: recordings, windows named
+    for rec in recordings:
+        count, windows = groups.get(tuple(rec["classes"]), (0, Counter()))
+        groups[tuple(rec["classes"])] = (count + 1, windows + Counter(rec["windows"]))
+    for column in ("declared", "recordings", "windows named"):
+        table.add_column(column)
+    for classes, (count, windows) in sorted(groups.items(), key=lambda item: -item[1][0]):
+        table.add_row(",".join(classes), str(count), " ".join(f"{c} {windows[c]}" for c in classes if windows[c]))
+    return table
 
 
 def _parse_experiment(spec: str) -> tuple[str, list[str]]:
