@@ -177,30 +177,33 @@ def _report_logs(recs: list, mounts: list | None = None) -> dict:
 
     mounts = mounts or [None] * len(recs)
     said = {"read": [], "notes": [], "warnings": [], "mounts": []}
-    told = []  # (kind, line) in the order a few recordings are told
+    told = []  # the lines of a few recordings, one recording after the other
     for rec, mount in zip(recs, mounts):
         check_recording(rec)
         lines = [("read", describe(rec))] if rec.meta.get("describe") else []
-        lines += [("note", note) for note in rec.meta.get("repairs", [])]
-        lines += [("warning", w) for w in rec.meta.get("warnings", [])]
-        lines += [("warning", f"{rec.source}: {gap}; no output there") for gap in rec.gaps]
-        if mount is not None:
-            said["mounts"].append(mount[0])
-            lines += [("mount", mount[0].removeprefix("mount: "))] + [("warning", w) for w in mount[1]]
-        for kind, line in lines:
-            if kind != "mount":
-                said[{"read": "read", "note": "notes", "warning": "warnings"}[kind]].append(line)
-        told += lines
+        lines += [("notes", note) for note in rec.meta.get("repairs", [])]
+        lines += [("warnings", w) for w in rec.meta.get("warnings", [])]
+        lines += [("warnings", f"{rec.source}: {gap}; no output there") for gap in rec.gaps]
+        if mount is not None:  # its line says "mount: ..." itself
+            lines += [("mounts", mount[0])] + [("warnings", w) for w in mount[1]]
+        for key, line in lines:
+            said[key].append(line)
+            told.append(line if key == "mounts" else f"{TOLD_AS[key]}: {line}")
     if len(recs) > READ_LINES:
         seconds = sum(len(rec) / rec.rate for rec in recs)
-        told = [("read", f"{len(said['read'])} logs, {seconds:.1f} s in all; the first: {said['read'][0]}")
-                if said["read"] else None]
+        told = ([f"read: {len(said['read'])} logs, {seconds:.1f} s in all; the first: {said['read'][0]}"]
+                if said["read"] else [])
+        sources = [rec.source for rec in recs]
         mounted = [f"{rec.source}: {m[0].removeprefix('mount: ')}" for rec, m in zip(recs, mounts) if m is not None]
-        for kind, lines in (("note", said["notes"]), ("warning", said["warnings"]), ("mount", mounted)):
-            told += [(kind, line) for line in _grouped(lines, [rec.source for rec in recs])]
-    for kind, line in filter(None, told):
-        err.print(f"{kind}: {line}")
+        for key, lines in (("notes", said["notes"]), ("warnings", said["warnings"]), ("mounts", mounted)):
+            told += [f"{TOLD_AS[key]}: {line}" for line in _grouped(lines, sources)]
+    for line in told:
+        err.print(line)
     return said
+
+
+TOLD_AS = {"read": "read", "notes": "note", "warnings": "warning", "mounts": "mount"}
+"""The word that starts each kind of line :func:`_report_logs` prints."""
 
 
 READ_LINES = 5

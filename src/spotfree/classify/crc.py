@@ -11,7 +11,7 @@ ICCV 2011; the paper's eqs. (6)-(7). With the dictionary ``A = [A_1, ..., A_C]``
 
 Batch: the ``C`` operators stacked, ``E = [E_1; ...; E_C]`` ``(C d, d)``, turn a chunk of windows into one matrix
 product ``Z = Y E^T`` (``2 C d^2`` flops per window, BLAS), then the norm of each ``d``-block of each row of ``Z``
-is taken. Chunks keep ``Z`` in cache; threads take whole chunks, each with a single-threaded BLAS, so that the
+is taken, chunk by chunk (:data:`CHUNK_BYTES`); threads take whole chunks, each with a single-threaded BLAS, so that the
 threads do not contend for the cores inside one BLAS call (``benchmarks/crc_speed.py`` times it). Streaming
 (:meth:`CRCClassifier.predict_one`): one compiled kernel (:func:`~spotfree.kernels.crc_window`) computes
 the ``C`` norms of ``E y`` and the argmin for a single window, without numpy's per-call overhead.
