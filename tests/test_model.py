@@ -5,6 +5,7 @@ import pytest
 
 from spotfree.errors import InputError
 from spotfree.model import DictionaryModel
+from spotfree.representation import representation_size
 
 
 def _model():
@@ -84,6 +85,20 @@ def test_a_model_on_vibration_channels_of_an_earlier_feature_version_is_refused(
     _model().save(tmp_path / "braking.npz")  # channels whose computation has not changed load as before
     _rewrite_metadata(tmp_path / "braking.npz", feature_version=None)
     assert DictionaryModel.load(tmp_path / "braking.npz").channels == ["pitch", "pitch_rate"]
+
+
+def test_a_summary_model_of_an_older_schema_is_refused_and_a_hankel_one_still_loads(tmp_path):
+    summary = DictionaryModel(**{**vars(_model()), "representation": "summary",
+                                 "dictionary": np.zeros((representation_size(2, 5, "summary"), 3)), "column_class": [0, 1, 1],
+                                 "feature_offset": None, "feature_scale": None})
+    summary.save(tmp_path / "summary.npz")
+    assert DictionaryModel.load(tmp_path / "summary.npz").representation == "summary"
+    _rewrite_metadata(tmp_path / "summary.npz", schema_version=2)
+    with pytest.raises(InputError, match="summary model of schema 2.*retrain"):
+        DictionaryModel.load(tmp_path / "summary.npz")
+    _model().save(tmp_path / "hankel.npz")
+    _rewrite_metadata(tmp_path / "hankel.npz", schema_version=2)
+    assert DictionaryModel.load(tmp_path / "hankel.npz").representation == "hankel"
 
 
 def test_inconsistent_shapes_are_rejected():

@@ -313,8 +313,9 @@ def train(
     recipe: str = typer.Option("sets", "--recipe", help="sets (the general learner from class sets) | paper (the "
                                "paper's recipe, literally: a baseline)"),
     prior: Optional[str] = typer.Option(None, "--prior", help="ride: braking loses GPS speed (sets learner only)"),
-    representation: str = typer.Option("summary", "--representation", help="sets learner: summary (level, spread "
-                                       "and band powers of each window) | hankel (the paper's raw windows)"),
+    representation: str = typer.Option("summary", "--representation", help="sets learner: summary (level, spread, "
+                                       "their change and band powers of each window) | hankel (the paper's raw "
+                                       "windows)"),
     max_columns: int = typer.Option(300, "--max-columns", min=1, help="dictionary columns kept per class"),
     seed: int = typer.Option(0, "--seed"),
     figure: Optional[Path] = typer.Option(None, "--figure", help="also draw the training recordings coloured by "

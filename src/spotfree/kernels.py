@@ -142,12 +142,14 @@ def kernel_window(landmarks, gamma, operator, head, normalisation, n_classes, y,
 @numba.njit(cache=True, nogil=True)  # no reassociation: the same bits in batch and in the ring step
 def summary_features(x, channels, taper, cos, sin, band, bands, out):  # pragma: no cover - compiled
     """The ``summary`` representation of one window ``x`` ``(channels L,)`` (channels stacked, each in time order)
-    into ``out`` ``(channels (4 + bands),)``: per channel its mean, standard deviation, minimum, maximum and
+    into ``out`` ``(channels (6 + bands),)``: per channel its mean, standard deviation, minimum, maximum, the change
+    of mean and of standard deviation from the older to the newer ``L // 2`` samples (0 when ``L < 2``) and
     ``log(1 + sum_{k in band b} |X_k|^2 / L)`` per band, ``X_k`` the spectral bin ``k`` of the tapered, mean-removed
     channel from the rows ``cos``, ``sin`` ``(bins, L)`` of the tables, ``band`` ``(bins,)`` each bin's band
     (:func:`spotfree.representation.summary_tables`)."""
     length = x.shape[0] // channels
-    width = 4 + bands
+    half = length // 2
+    width = 6 + bands
     v = np.empty(length)
     for c in range(channels):
         first = c * length
@@ -165,16 +167,29 @@ def summary_features(x, channels, taper, cos, sin, band, bands, out):  # pragma:
             v[t] = e * taper[t]
         o = c * width
         out[o], out[o + 1], out[o + 2], out[o + 3] = mean, np.sqrt(var / length), low, high
+        out[o + 4], out[o + 5] = 0.0, 0.0
+        if half > 0:
+            older, newer = 0.0, 0.0
+            for t in range(half):
+                older += x[first + t]
+                newer += x[first + length - half + t]
+            older /= half
+            newer /= half
+            older_var, newer_var = 0.0, 0.0
+            for t in range(half):
+                older_var += (x[first + t] - older) ** 2
+                newer_var += (x[first + length - half + t] - newer) ** 2
+            out[o + 4], out[o + 5] = newer - older, np.sqrt(newer_var / half) - np.sqrt(older_var / half)
         for b in range(bands):
-            out[o + 4 + b] = 0.0
+            out[o + 6 + b] = 0.0
         for k in range(cos.shape[0]):
             re, im = 0.0, 0.0
             for t in range(length):
                 re += cos[k, t] * v[t]
                 im += sin[k, t] * v[t]
-            out[o + 4 + int(band[k])] += (re * re + im * im) / length
+            out[o + 6 + int(band[k])] += (re * re + im * im) / length
         for b in range(bands):
-            out[o + 4 + b] = np.log1p(out[o + 4 + b])
+            out[o + 6 + b] = np.log1p(out[o + 6 + b])
 
 
 @numba.njit(cache=True, nogil=True)

@@ -10,14 +10,18 @@ the vector the dictionary holds and the classifier compares:
     two cycles of one periodic motion taken at different phases are far apart.
 
 ``summary``
-    Per channel ``x`` (``L`` samples), ``4 + B`` numbers: the level and spread ``mean(x)``, ``std(x)``, ``min(x)``,
-    ``max(x)``, and the log power of the Hann-tapered, mean-removed window in ``B`` frequency bands,
+    Per channel ``x`` (``L`` samples), ``6 + B`` numbers: the level and spread ``mean(x)``, ``std(x)``, ``min(x)``,
+    ``max(x)``; their change across the window, ``mean(x'') - mean(x')`` and ``std(x'') - std(x')`` with ``x'`` the
+    older and ``x''`` the newer ``L // 2`` samples; and the log power of the Hann-tapered, mean-removed window in
+    ``B`` frequency bands,
 
         P_b = log(1 + sum_{k in band b} |X_k|^2 / L)     X = rfft(hann * (x - mean(x)))
 
     the bins ``1 .. L // 2`` split into ``B`` bands of (about) equal width on a log scale. These do not change when a
     periodic motion is shifted in phase, and keep a level (a hard stop against a soft one) and a short peak (a
-    kerb strike's ``max``).
+    kerb strike's ``max``). The two changes are the only ones that see the order of the samples: without them a
+    window that leaves one class for another is the same as one that enters it, and a live label, which a window
+    gives its newest sample, could not tell which of the two classes that sample belongs to.
 
 Both are computed for a whole matrix at once and for one window (streaming) by the same compiled kernel
 (:func:`~spotfree.kernels.summary_features`, with the tables of :func:`summary_tables`).
@@ -68,7 +72,7 @@ def summary_tables(length: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.
 def represent(windows: np.ndarray, channels: int, representation: str) -> np.ndarray:
     """Representation of every column of ``windows`` ``(channels * L, m)``, as rows: ``(m, p)``.
 
-    ``p = channels * L`` for ``hankel`` and ``channels * (4 + B')`` for ``summary`` (module docstring).
+    ``p = channels * L`` for ``hankel`` and ``channels * (6 + B')`` for ``summary`` (module docstring).
     """
     windows = np.asarray(windows, dtype=float)
     if windows.ndim == 1:
@@ -82,7 +86,7 @@ def represent(windows: np.ndarray, channels: int, representation: str) -> np.nda
         raise InputError(f"windows of {d} values do not split into {channels} channels")
     length = d // channels
     taper, cos, sin, band, bands = summary_tables(length)
-    out = np.empty((m, channels * (4 + bands)))
+    out = np.empty((m, channels * (6 + bands)))
     summary_matrix(np.ascontiguousarray(windows.T), channels, taper, cos, sin, band, bands, out)
     return out
 
@@ -91,4 +95,4 @@ def representation_size(channels: int, length: int, representation: str) -> int:
     """Length ``p`` of one represented window."""
     if representation == "hankel":
         return channels * length
-    return channels * (4 + len(band_edges(length)) - 1)
+    return channels * (6 + len(band_edges(length)) - 1)

@@ -92,12 +92,13 @@ gesture alternates with postures of a few seconds, and a longer cost merges it i
 
 Representations: the ``live-state`` stage (the state stage of live labels, learnt from the same sessions and class
 sets as ``state``) and the gesture stage keep their windows whole (``hankel``), because the ``summary`` of a window
-(levels, spreads, band powers) does not change when the window is reversed in time. A movement and its reverse pass
-through the same orientations in the opposite order. And a live window labels its newest sample, while the summary
-of a window in which the hand comes to rest is that of one in which it starts to move: with summaries, the live
-windows just after a gesture, which still hold its end, are called gesture. Offline, a window labels its middle
-sample, which its summary does not misplace, and the ``summary`` state finds a gesture's first samples more often
-than ``hankel`` windows do; it also cuts the training sessions into the posture and gesture stages' stretches.
+keeps of the order of its samples only the change of level and spread between its halves. A movement and its
+reverse pass through the same orientations in the opposite order. And a live window labels its newest sample, while
+the summary of a window in which the hand comes to rest is much like that of one in which it starts to move: with
+summaries, the live windows just after a gesture, which still hold its end, were called gesture. Offline, a window
+labels its middle sample, which its summary does not misplace, and the ``summary`` state finds a gesture's first
+samples more often than ``hankel`` windows do; it also cuts the training sessions into the posture and gesture
+stages' stretches.
 
 Channels: the state stages read the motion channels ``speed`` and ``turn``, which do not depend on the posture held
 (``flex`` is left out: the extended flags flip on tracking noise in a held posture as often as during a movement);

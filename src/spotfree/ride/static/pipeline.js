@@ -448,10 +448,11 @@
       return this.label;
     }
     summarise(y) {
-      // summary representation (spotfree.representation): per channel mean, std, min, max and the log power of the
-      // tapered, mean-removed window in each band, log(1 + sum_{k in band} |X_k|^2 / L); then standardised
+      // summary representation (spotfree.representation): per channel mean, std, min, max, the change of mean and
+      // of std from the older to the newer L/2 samples, and the log power of the tapered, mean-removed window in each
+      // band, log(1 + sum_{k in band} |X_k|^2 / L); then standardised
       const S = this.spec.summary, c = this.spec.channels.length, L = this.spec.window, bins = S.band.length;
-      const width = 4 + S.bands, z = new Float64Array(c * width), v = new Float64Array(L);
+      const half = Math.floor(L / 2), width = 6 + S.bands, z = new Float64Array(c * width), v = new Float64Array(L);
       for (let i = 0; i < c; i++) {
         let total = 0.0, low = Infinity, high = -Infinity;
         for (let t = 0; t < L; t++) {
@@ -469,12 +470,25 @@
         }
         const o = i * width;
         z[o] = mean; z[o + 1] = Math.sqrt(variance / L); z[o + 2] = low; z[o + 3] = high;
+        if (half > 0) {
+          let older = 0.0, newer = 0.0, olderVar = 0.0, newerVar = 0.0;
+          for (let t = 0; t < half; t++) { older += y[i * L + t]; newer += y[i * L + L - half + t]; }
+          older /= half;
+          newer /= half;
+          for (let t = 0; t < half; t++) {
+            const a = y[i * L + t] - older, b = y[i * L + L - half + t] - newer;
+            olderVar += a * a;
+            newerVar += b * b;
+          }
+          z[o + 4] = newer - older;
+          z[o + 5] = Math.sqrt(newerVar / half) - Math.sqrt(olderVar / half);
+        }
         for (let k = 0; k < bins; k++) {
           let re = 0.0, im = 0.0;
           for (let t = 0; t < L; t++) { re += S.cos[k * L + t] * v[t]; im += S.sin[k * L + t] * v[t]; }
-          z[o + 4 + S.band[k]] += (re * re + im * im) / L;
+          z[o + 6 + S.band[k]] += (re * re + im * im) / L;
         }
-        for (let b = 0; b < S.bands; b++) z[o + 4 + b] = Math.log1p(z[o + 4 + b]);
+        for (let b = 0; b < S.bands; b++) z[o + 6 + b] = Math.log1p(z[o + 6 + b]);
       }
       for (let j = 0; j < z.length; j++) z[j] = (z[j] - S.offset[j]) / S.scale[j];
       return z;
