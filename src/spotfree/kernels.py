@@ -149,37 +149,38 @@ def summary_features(x, channels, taper, cos, sin, band, bands, out):  # pragma:
     (:func:`spotfree.representation.summary_tables`)."""
     length = x.shape[0] // channels
     half = length // 2
+    n_half = max(half, 1)
     width = 6 + bands
     v = np.empty(length)
     for c in range(channels):
         first = c * length
-        total, low, high = 0.0, np.inf, -np.inf
+        total, low, high, older, newer = 0.0, np.inf, -np.inf, 0.0, 0.0
         for t in range(length):
             s = x[first + t]
             total += s
             low = min(low, s)
             high = max(high, s)
+            if t < half:
+                older += s
+            if t >= length - half:
+                newer += s
         mean = total / length
-        var = 0.0
+        older /= n_half
+        newer /= n_half
+        var, older_var, newer_var = 0.0, 0.0, 0.0
         for t in range(length):
-            e = x[first + t] - mean
+            s = x[first + t]
+            e = s - mean
             var += e * e
             v[t] = e * taper[t]
+            if t < half:
+                older_var += (s - older) * (s - older)
+            if t >= length - half:
+                newer_var += (s - newer) * (s - newer)
         o = c * width
         out[o], out[o + 1], out[o + 2], out[o + 3] = mean, np.sqrt(var / length), low, high
-        out[o + 4], out[o + 5] = 0.0, 0.0
-        if half > 0:
-            older, newer = 0.0, 0.0
-            for t in range(half):
-                older += x[first + t]
-                newer += x[first + length - half + t]
-            older /= half
-            newer /= half
-            older_var, newer_var = 0.0, 0.0
-            for t in range(half):
-                older_var += (x[first + t] - older) ** 2
-                newer_var += (x[first + length - half + t] - newer) ** 2
-            out[o + 4], out[o + 5] = newer - older, np.sqrt(newer_var / half) - np.sqrt(older_var / half)
+        out[o + 4] = newer - older
+        out[o + 5] = np.sqrt(newer_var / n_half) - np.sqrt(older_var / n_half)
         for b in range(bands):
             out[o + 6 + b] = 0.0
         for k in range(cos.shape[0]):

@@ -454,35 +454,30 @@
       const S = this.spec.summary, c = this.spec.channels.length, L = this.spec.window, bins = S.band.length;
       const half = Math.floor(L / 2), width = 6 + S.bands, z = new Float64Array(c * width), v = new Float64Array(L);
       for (let i = 0; i < c; i++) {
-        let total = 0.0, low = Infinity, high = -Infinity;
+        let total = 0.0, low = Infinity, high = -Infinity, older = 0.0, newer = 0.0;
         for (let t = 0; t < L; t++) {
           const x = y[i * L + t];
           total += x;
           low = Math.min(low, x);
           high = Math.max(high, x);
+          if (t < half) older += x;
+          if (t >= L - half) newer += x;
         }
-        const mean = total / L;
-        let variance = 0.0;
+        const mean = total / L, n = Math.max(half, 1);
+        older /= n;
+        newer /= n;
+        let variance = 0.0, olderVar = 0.0, newerVar = 0.0;
         for (let t = 0; t < L; t++) {
-          const e = y[i * L + t] - mean;
+          const x = y[i * L + t], e = x - mean;
           variance += e * e;
           v[t] = e * S.taper[t];
+          if (t < half) olderVar += (x - older) * (x - older);
+          if (t >= L - half) newerVar += (x - newer) * (x - newer);
         }
         const o = i * width;
         z[o] = mean; z[o + 1] = Math.sqrt(variance / L); z[o + 2] = low; z[o + 3] = high;
-        if (half > 0) {
-          let older = 0.0, newer = 0.0, olderVar = 0.0, newerVar = 0.0;
-          for (let t = 0; t < half; t++) { older += y[i * L + t]; newer += y[i * L + L - half + t]; }
-          older /= half;
-          newer /= half;
-          for (let t = 0; t < half; t++) {
-            const a = y[i * L + t] - older, b = y[i * L + L - half + t] - newer;
-            olderVar += a * a;
-            newerVar += b * b;
-          }
-          z[o + 4] = newer - older;
-          z[o + 5] = Math.sqrt(newerVar / half) - Math.sqrt(olderVar / half);
-        }
+        z[o + 4] = newer - older;
+        z[o + 5] = Math.sqrt(newerVar / n) - Math.sqrt(olderVar / n);
         for (let k = 0; k < bins; k++) {
           let re = 0.0, im = 0.0;
           for (let t = 0; t < L; t++) { re += S.cos[k * L + t] * v[t]; im += S.sin[k * L + t] * v[t]; }
