@@ -245,6 +245,16 @@ def test_short_nan_runs_are_filled_and_long_ones_are_gaps(tmp_path):
     assert np.isnan(rec.array()[50:60]).all() and np.isfinite(rec.array()[60:]).all()
 
 
+def test_a_missing_value_in_a_resampled_file_is_dropped_and_logged(tmp_path):
+    columns = imu_table(n=250, rate=50.0)
+    columns["gx"][100] = np.nan
+    rec = read_csv(write_table(tmp_path / "nan50.csv", columns), rate=20.0)
+    assert np.isfinite(rec.array()).all() and not rec.gaps
+    assert any("dropped 1 sample(s)" in r and "missing (empty or NaN) gx" in r for r in rec.meta["repairs"])
+    assert not any("dropped" in r for r in read_csv(write_table(tmp_path / "ok50.csv", imu_table(n=250, rate=50.0)),
+                                                    rate=20.0).meta["repairs"])
+
+
 # ---------------------------------------------------------------- time
 
 
@@ -354,6 +364,17 @@ def test_read_recording_selects_an_experiment(tmp_path):
         read_recording(f"{tmp_path / 'ride.csv'}@5")
     with pytest.raises(InputError, match="experiment number"):
         read_recording(f"{tmp_path / 'ride.csv'}@two")
+
+
+@pytest.mark.parametrize("rate", [RATE, 50.0])
+def test_a_motion_channel_that_never_changes_is_warned_about(tmp_path, rate):
+    columns = imu_table(n=250, rate=rate)
+    columns["gy"] = np.full(250, 0.5)
+    rec = read_recording(write_table(tmp_path / "still.csv", columns))
+    assert [w for w in rec.meta["warnings"] if "never changes" in w] == [
+        f"{tmp_path / 'still.csv'}: gy holds 0.5 throughout; check that its sensor recorded (a channel that never changes tells no "
+        "class apart)"]
+    assert not read_recording(write_table(tmp_path / "moving.csv", imu_table(n=250, rate=rate))).meta["warnings"]
 
 
 def test_read_recording_names_a_missing_file(tmp_path):

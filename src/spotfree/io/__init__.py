@@ -8,6 +8,10 @@ and picks the reader from the path and, where the extension does not settle it, 
 * a folder or zip -> Sensor Logger when it holds ``Metadata.csv`` or a CSV with a ``seconds_elapsed`` column,
   phyphox when it holds ``meta/`` or a CSV whose first column is ``"Time (s)"``;
 * any other file is CSV text: phyphox when its first column is ``"Time (s)"``, the generic CSV otherwise.
+
+A raw motion channel (``ax`` ... ``gz``) that holds one value throughout the recording (a sensor that did not
+record, or an export that wrote zeros for it) is warned about in ``meta['warnings']``: a real sensor is never that
+quiet, and a channel that never changes tells no class apart.
 """
 
 from pathlib import Path
@@ -19,7 +23,7 @@ from spotfree.io.checks import Archive
 from spotfree.io.csvlog import read_csv, write_csv
 from spotfree.io.gpx import read_gpx, write_gpx
 from spotfree.io.phyphox import is_phyphox_table, read_phyphox
-from spotfree.io.recording import Gap, Recording
+from spotfree.io.recording import IMU_CHANNELS, Gap, Recording
 from spotfree.io.resample import Stream, merge_streams
 from spotfree.io.sensorlogger import is_sensorlogger_table, read_sensorlogger
 
@@ -41,7 +45,21 @@ def read_recording(spec: str | Path, rate: float = 20.0, max_gap: float = 0.5) -
     else:
         reader = {"csv": read_csv, "sensorlogger": read_sensorlogger, "phyphox": read_phyphox}[kind]
         rec = reader(path, rate=rate, max_gap=max_gap)
-    return rec if experiment is None else rec.select_experiment(experiment)
+    rec = rec if experiment is None else rec.select_experiment(experiment)
+    rec.meta.setdefault("warnings", []).extend(_constant_channels(rec))
+    return rec
+
+
+def _constant_channels(rec: Recording) -> list[str]:
+    """A warning per raw motion channel of ``rec`` whose finite samples (at least two) all hold one value, up to
+    the rounding that resampling adds (``1e-9`` of its size)."""
+    warnings = []
+    for name in (c for c in IMU_CHANNELS if c in rec.channels):
+        values = rec.channels[name][np.isfinite(rec.channels[name])]
+        if len(values) > 1 and np.ptp(values) <= 1e-9 * max(1.0, float(np.abs(values).max())):
+            warnings.append(f"{rec.source}: {name} holds {np.median(values):g} throughout; check that its sensor "
+                            "recorded (a channel that never changes tells no class apart)")
+    return warnings
 
 
 _SENSOR_CHANNELS = (("accelerometer", "ax"), ("gyroscope", "gx"), ("GPS", "lat"), ("GPS speed", "speed"))

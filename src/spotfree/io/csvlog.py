@@ -326,7 +326,7 @@ def _resampled(
         values = np.column_stack([columns[c] for c in gps])
         fixes = np.isfinite(values).any(axis=1)
         streams["gps"] = Stream(t[fixes], values[fixes], tuple(gps))
-    rec = merge_streams(streams, rate=rate, max_gap=max_gap, source=source)
+    rec = merge_streams(streams, rate=rate, max_gap=max_gap, source=source, repairs=repairs)
     nearest = np.clip(np.rint(np.interp(rec.time, t, np.arange(len(t)))).astype(int), 0, len(t) - 1)
     rec.truth = {c: v[nearest] for c, v in truth.items()}
     if irregular:

@@ -120,7 +120,7 @@ def read_phyphox(path: str | Path, rate: float = 20.0, max_gap: float = 0.5) -> 
                          "\"Acceleration x (m/s^2)\", \"X (rad/s)\"); in phyphox, record Acceleration (with g) "
                          "and Gyroscope, e.g. ticked in a simple experiment"))
     streams.pop(LINEAR, None)
-    rec = merge_streams(streams, rate=rate, max_gap=max_gap, source=source)
+    rec = merge_streams(streams, rate=rate, max_gap=max_gap, source=source, repairs=repairs)
     if ACCELEROMETER in streams:
         checks.check_acceleration_units(rec.array(["ax", "ay", "az"]), source, "'Acceleration x/y/z'")
     rec.meta.update(repairs=repairs, warnings=warnings, format="phyphox export", missing=missing,

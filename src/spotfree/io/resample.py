@@ -75,20 +75,24 @@ class Stream:
 
 
 def merge_streams(
-    streams: Mapping[str, Stream], rate: float = 20.0, max_gap: float = 0.5, source: str = "<memory>"
+    streams: Mapping[str, Stream], rate: float = 20.0, max_gap: float = 0.5, source: str = "<memory>",
+    repairs: list[str] | None = None,
 ) -> Recording:
     """Streams with their own clocks on one uniform grid of ``rate`` Hz (see the module docstring).
 
     ``streams`` maps a sensor name (used in gap reports) to its :class:`Stream`; channel names must be unique
-    across streams. Dense samples with any NaN value are treated as missing. Returns a Recording whose
-    ``meta['native_rates']`` gives each stream's median rate (Hz) and whose ``gaps`` list every gap.
+    across streams. Dense samples with any NaN value are treated as missing: dropped before resampling, which
+    ``repairs`` (when given) is told in one line per sensor. Returns a Recording whose ``meta['native_rates']``
+    gives each stream's median rate (Hz), whose ``meta['repairs']`` is ``repairs`` (or empty) and whose ``gaps``
+    list every gap.
     """
     if not rate > 0 or not max_gap > 0:
         raise InputError(f"{source}: rate ({rate}) and max_gap ({max_gap}) must be positive")
     names = [n for s in streams.values() for n in s.names]
     if len(set(names)) != len(names):
         raise ValueError(f"channel names repeat across streams: {names}")
-    dense = {k: _drop_missing(s) for k, s in streams.items() if not s.sparse}
+    repairs = [] if repairs is None else repairs
+    dense = {k: _drop_missing(s, k, source, repairs) for k, s in streams.items() if not s.sparse}
     sparse = {k: s for k, s in streams.items() if s.sparse}
     for key, stream in dense.items():
         _check_dense(stream, key, max_gap, source)
@@ -111,13 +115,18 @@ def merge_streams(
     native = {k: s.native_rate for k, s in streams.items()}
     return Recording(
         time=grid, channels=channels, rate=rate, source=source, gaps=gaps,
-        meta={"repairs": [], "native_rates": native},
+        meta={"repairs": repairs, "native_rates": native},
     )
 
 
-def _drop_missing(stream: Stream) -> Stream:
+def _drop_missing(stream: Stream, key: str, source: str, repairs: list[str]) -> Stream:
     keep = np.all(np.isfinite(stream.values), axis=1) & np.isfinite(stream.time)
-    return stream if keep.all() else Stream(stream.time[keep], stream.values[keep], stream.names)
+    if keep.all():
+        return stream
+    names = [n for n, ok in zip(stream.names, np.isfinite(stream.values[~keep]).all(axis=0)) if not ok] or ["time"]
+    repairs.append(f"{source}: dropped {int((~keep).sum())} sample(s) of sensor '{key}' with a missing (empty or NaN) "
+                   f"{', '.join(names)} before resampling")
+    return Stream(stream.time[keep], stream.values[keep], stream.names)
 
 
 def _check_dense(stream: Stream, key: str, max_gap: float, source: str) -> None:

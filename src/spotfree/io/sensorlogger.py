@@ -162,7 +162,7 @@ def _recording(sensors: dict[str, _Sensor], source: str, rate: float, max_gap: f
                          f"Gyroscope in Sensor Logger and record again")
     origin = min(float(s.time[0]) for s in (motion or streams).values())
     streams = {k: Stream(s.time - origin, s.values, s.names) for k, s in streams.items()}
-    rec = merge_streams(streams, rate=rate, max_gap=max_gap, source=source)
+    rec = merge_streams(streams, rate=rate, max_gap=max_gap, source=source, repairs=repairs)
     if "ax" in rec.channels:
         checks.check_acceleration_units(rec.array(["ax", "ay", "az"]), source, "'x', 'y', 'z' of the accelerometer")
     warnings += _rate_warnings(rec.meta["native_rates"], metadata, source)
