@@ -372,8 +372,8 @@ def test_a_motion_channel_that_never_changes_is_warned_about(tmp_path, rate):
     columns["gy"] = np.full(250, 0.5)
     rec = read_recording(write_table(tmp_path / "still.csv", columns))
     assert [w for w in rec.meta["warnings"] if "never changes" in w] == [
-        f"{tmp_path / 'still.csv'}: gy holds 0.5 throughout; check that its sensor recorded (a channel that never changes tells no "
-        "class apart)"]
+        f"{tmp_path / 'still.csv'}: gy holds 0.5 throughout; check that its sensor recorded (a channel that never "
+        "changes tells no class apart)"]
     assert not read_recording(write_table(tmp_path / "moving.csv", imu_table(n=250, rate=rate))).meta["warnings"]
 
 

@@ -89,8 +89,8 @@ def test_a_model_on_vibration_channels_of_an_earlier_feature_version_is_refused(
 
 def test_a_summary_model_of_an_older_schema_is_refused_and_a_hankel_one_still_loads(tmp_path):
     summary = DictionaryModel(**{**vars(_model()), "representation": "summary",
-                                 "dictionary": np.zeros((representation_size(2, 5, "summary"), 3)), "column_class": [0, 1, 1],
-                                 "feature_offset": None, "feature_scale": None})
+                                 "dictionary": np.zeros((representation_size(2, 5, "summary"), 3)),
+                                 "column_class": [0, 1, 1], "feature_offset": None, "feature_scale": None})
     summary.save(tmp_path / "summary.npz")
     assert DictionaryModel.load(tmp_path / "summary.npz").representation == "summary"
     _rewrite_metadata(tmp_path / "summary.npz", schema_version=2)

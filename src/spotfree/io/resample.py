@@ -82,9 +82,9 @@ def merge_streams(
 
     ``streams`` maps a sensor name (used in gap reports) to its :class:`Stream`; channel names must be unique
     across streams. Dense samples with any NaN value are treated as missing: dropped before resampling, which
-    ``repairs`` (when given) is told in one line per sensor. Returns a Recording whose ``meta['native_rates']``
-    gives each stream's median rate (Hz), whose ``meta['repairs']`` is ``repairs`` (or empty) and whose ``gaps``
-    list every gap.
+    ``repairs`` (when given) is told in one line per sensor that had any. Returns a Recording whose
+    ``meta['native_rates']`` gives each stream's median rate (Hz), whose ``meta['repairs']`` is ``repairs`` (or
+    empty) and whose ``gaps`` list every gap.
     """
     if not rate > 0 or not max_gap > 0:
         raise InputError(f"{source}: rate ({rate}) and max_gap ({max_gap}) must be positive")
@@ -92,7 +92,7 @@ def merge_streams(
     if len(set(names)) != len(names):
         raise ValueError(f"channel names repeat across streams: {names}")
     repairs = [] if repairs is None else repairs
-    dense = {k: _drop_missing(s, k, source, repairs) for k, s in streams.items() if not s.sparse}
+    dense = {k: _drop_missing(s, source, repairs) for k, s in streams.items() if not s.sparse}
     sparse = {k: s for k, s in streams.items() if s.sparse}
     for key, stream in dense.items():
         _check_dense(stream, key, max_gap, source)
@@ -119,13 +119,13 @@ def merge_streams(
     )
 
 
-def _drop_missing(stream: Stream, key: str, source: str, repairs: list[str]) -> Stream:
+def _drop_missing(stream: Stream, source: str, repairs: list[str]) -> Stream:
     keep = np.all(np.isfinite(stream.values), axis=1) & np.isfinite(stream.time)
     if keep.all():
         return stream
     names = [n for n, ok in zip(stream.names, np.isfinite(stream.values[~keep]).all(axis=0)) if not ok] or ["time"]
-    repairs.append(f"{source}: dropped {int((~keep).sum())} sample(s) of sensor '{key}' with a missing (empty or NaN) "
-                   f"{', '.join(names)} before resampling")
+    repairs.append(f"{source}: dropped {int((~keep).sum())} sample(s) with a missing (empty or NaN) {', '.join(names)} "
+                   "before resampling")
     return Stream(stream.time[keep], stream.values[keep], stream.names)
 
 
