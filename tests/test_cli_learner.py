@@ -150,3 +150,47 @@ def test_train_on_more_logs_than_table_rows_shows_a_row_per_declared_set(tmp_pat
     both = [r for r in summary["recordings"] if r["declared"] == ["still", "walking"]]
     named = {c: sum(r["windows"].get(c, 0) for r in both) for c in ("still", "walking")}
     assert len(rows) == 2 and "│ 3 " in rows[0] and f"still {named['still']} walking {named['walking']}" in rows[0]
+
+
+def test_a_sets_file_of_spans_trains_the_model_of_the_same_spans_written_as_files(tmp_path):
+    """`--sets`: rows naming spans of one log give the dictionary that the same spans, written as files of their own
+    and declared with `--experiment`, give; the log is read once; each span is named in the summary."""
+    rng = np.random.default_rng(4)
+    n = int(60 * RATE)
+    t = np.arange(n) / RATE
+    moving = (t % 20) >= 12  # 12 s still, 8 s moving, three times
+    x = np.where(moving, np.sin(2 * np.pi * 1.5 * t), 0.0) + rng.normal(0, 0.05, n)
+    frame = pd.DataFrame({"time": t, "x": x, "y": np.where(moving, 1.0, 0.0) + rng.normal(0, 0.05, n)})
+    frame.to_csv(tmp_path / "long.csv", index=False)
+    spans = [(0, 10, "still"), (10, 22, "still;moving"), (22, 30, "still"), (45, 60, "still;moving")]
+    pd.DataFrame([{"recording": "long.csv", "start": a, "end": b, "classes": c} for a, b, c in spans]).to_csv(
+        tmp_path / "sets.csv", index=False)
+    args = []
+    for k, (a, b, c) in enumerate(spans):
+        frame[(t >= a) & (t < b)].to_csv(tmp_path / f"part{k}.csv", index=False)
+        args += ["--experiment", f"{tmp_path / f'part{k}.csv'}={c.replace(';', ',')}"]
+    from_sets = runner.invoke(app, ["train", "-o", str(tmp_path / "sets.npz"), "--channels", "x,y", "--json",
+                                    "--sets", str(tmp_path / "sets.csv")])
+    from_files = runner.invoke(app, ["train", "-o", str(tmp_path / "files.npz"), "--channels", "x,y", *args])
+    assert from_sets.exit_code == 0 and from_files.exit_code == 0, from_sets.output + from_files.output
+    a, b = DictionaryModel.load(tmp_path / "sets.npz"), DictionaryModel.load(tmp_path / "files.npz")
+    np.testing.assert_array_equal(a.dictionary, b.dictionary)
+    np.testing.assert_array_equal(a.column_class, b.column_class)
+    summary = json.loads(from_sets.stdout)
+    assert len(summary["read"]) == 1
+    assert [r["source"] for r in summary["recordings"]] == [f"{tmp_path / 'long.csv'}[{a}-{b} s]"
+                                                            for a, b, _ in spans]
+    assert summary["recordings"][1]["declared"] == ["moving", "still"]
+
+
+def test_train_without_recordings_or_with_a_bad_sets_file_exits_2(tmp_path):
+    none = runner.invoke(app, ["train", "-o", str(tmp_path / "m.npz")])
+    assert none.exit_code == 2 and "give --experiment PATH=CLASS[,CLASS...] or --sets FILE" in none.output
+    _imu_log(tmp_path / "walk.csv", [("still", 6), ("walking", 6)], 1)
+    (tmp_path / "sets.csv").write_text("recording,classes,start,end\nwalk.csv,still,30,40\n")
+    empty = runner.invoke(app, ["train", "-o", str(tmp_path / "m.npz"), "--features", "body",
+                                "--sets", str(tmp_path / "sets.csv")])
+    assert empty.exit_code == 2
+    assert "walk.csv[30-40 s]: no sample in this span; the log runs from 0 s to 11.95 s" in " ".join(
+        empty.output.split())
+    assert not (tmp_path / "m.npz").exists()

@@ -299,7 +299,10 @@ def features(
 def train(
     ctx: typer.Context,
     output: Path = typer.Option(..., "-o", "--output", help="model file to write (.npz)"),
-    experiment: list[str] = typer.Option(..., "--experiment", help="PATH=CLASS[,CLASS...]: classes that occur in it"),
+    experiment: list[str] = typer.Option([], "--experiment", help="PATH=CLASS[,CLASS...]: classes that occur in it"),
+    sets: Optional[Path] = typer.Option(None, "--sets", help="CSV of training recordings, one per row: recording "
+                                        "(PATH or PATH@K, relative to the file), classes (that occur in it) and "
+                                        "optionally start, end (s: a span of the log)"),
     channels: Optional[str] = typer.Option(None, "--channels", help="feature channels, comma-separated"),
     window: int = typer.Option(20, "--window", min=1, help="window length, samples"),
     step: int = typer.Option(1, "--step", min=1, help="stride of the windows, samples (training and classification)"),
@@ -354,18 +357,24 @@ def train(
         window = window if "--window" in given else settings["window"]
         representation = representation if "--representation" in given else settings["representation"]
         prior = prior if "--prior" in given else settings["prior"]
-    summary = _train(output, experiment, channels, window, step, orientation, features, recipe, prior,
+    from spotfree.io.class_sets import read_class_sets
+
+    declared = [_parse_experiment(spec) for spec in experiment] + (read_class_sets(sets) if sets else [])
+    if not declared:
+        raise InputError("no training recording: give --experiment PATH=CLASS[,CLASS...] or --sets FILE")
+    summary = _train(output, declared, channels, window, step, orientation, features, recipe, prior,
                      representation, max_columns, seed, figure, mount)
     if as_json:
         _print_json(summary)
 
 
-def _train(output: Path, experiment: list[str], channels: Optional[str], window: int, step: int, orientation: str,
+def _train(output: Path, declared: list, channels: Optional[str], window: int, step: int, orientation: str,
            features: str, recipe: str, prior: Optional[str], representation: str, max_columns: int, seed: int,
            figure: Optional[Path], mount: str) -> dict:
     """``spotfree train``: :class:`~spotfree.learner.SetSupervisedLearner` (``recipe`` sets) or
-    :class:`~spotfree.paper_recipe.PaperRecipe` (``recipe`` paper) on the declared sets; prints the summary and
-    returns it (the document of ``--json``)."""
+    :class:`~spotfree.paper_recipe.PaperRecipe` (``recipe`` paper) on the ``declared`` recordings and their sets
+    (:class:`~spotfree.io.class_sets.Declared`: each log read and turned into features once, then cut into its
+    spans); prints the summary and returns it (the document of ``--json``)."""
     from collections import Counter
 
     from spotfree.learner import SetSupervisedLearner
@@ -373,15 +382,16 @@ def _train(output: Path, experiment: list[str], channels: Optional[str], window:
     from spotfree.pipeline import feature_recording
     from spotfree.presets import prior_named
 
-    recordings, sets, logs = [], [], []
-    for spec in experiment:
-        path, classes = _parse_experiment(spec)
-        log = _read_log(path, 20.0)
-        if features == "ride":
-            log.meta["mount_choice"] = mount
-        recordings.append(feature_recording(log, orientation=orientation, features=features))
-        sets.append(classes)
-        logs.append(log)
+    read: dict[str, tuple] = {}  # log spec: (log, its features)
+    for item in declared:
+        if item.recording not in read:
+            log = _read_log(item.recording, 20.0)
+            if features == "ride":
+                log.meta["mount_choice"] = mount
+            read[item.recording] = (log, feature_recording(log, orientation=orientation, features=features))
+    recordings = [item.take(read[item.recording][1]) for item in declared]
+    sets = [list(item.classes) for item in declared]
+    logs = [log for log, _ in read.values()]
     chosen = tuple(c.strip() for c in channels.split(",")) if channels else None
     if recipe == "paper":
         learner = PaperRecipe(channels=chosen, window=window, step=step, max_columns=max_columns, seed=seed)
@@ -393,7 +403,7 @@ def _train(output: Path, experiment: list[str], channels: Optional[str], window:
     model = learner.model_
     model.save(output)
     said = _report_logs(logs, [(rec.meta["mount"], rec.meta["mount_warnings"]) if "mount" in rec.meta else None
-                               for rec in recordings])
+                               for _, rec in read.values()])
     if any(rec.meta.get("mount_warnings") for rec in recordings):
         err.print("note: ride features assume a phone on a vehicle's handlebar; for a phone in a pocket or a watch, "
                   "train with --features body")
@@ -458,12 +468,15 @@ def _naming_table(recordings: list[dict], title: str):
     return table
 
 
-def _parse_experiment(spec: str) -> tuple[str, list[str]]:
+def _parse_experiment(spec: str):
+    """``--experiment PATH=CLASS[,CLASS...]`` as a :class:`~spotfree.io.class_sets.Declared` recording."""
+    from spotfree.io.class_sets import Declared
+
     path, sep, classes = spec.rpartition("=")
-    names = [c.strip() for c in classes.split(",") if c.strip()]
+    names = tuple(dict.fromkeys(c.strip() for c in classes.split(",") if c.strip()))
     if not sep or not path or not names:
         raise InputError(f"--experiment '{spec}': write PATH=CLASS[,CLASS...], e.g. ride.csv@1=cruising,sudden-braking")
-    return path, names
+    return Declared(path, names)
 
 
 @app.command()
