@@ -132,10 +132,13 @@ def test_train_on_many_logs_says_what_they_share_once(tmp_path):
 
 def test_train_on_more_logs_than_table_rows_shows_a_row_per_declared_set(tmp_path, monkeypatch):
     """Over the table's rows, recordings that declare the same set share a row: how many, and the windows named in
-    them all (the sum of the per-recording counts, which the JSON summary keeps)."""
+    them all (the sum of the per-recording counts, which the JSON summary keeps); the figure draws the first logs
+    and says so."""
     import spotfree.cli as cli
+    import spotfree.evaluation.figures as figures
 
     monkeypatch.setattr(cli, "TABLE_ROWS", 3)
+    monkeypatch.setattr(figures, "FIGURE_ROWS", 2)
     args = []
     for k, parts in enumerate([[("still", 6), ("walking", 6)]] * 3 + [[("still", 8)]] * 2):
         path = tmp_path / f"log{k}.csv"
@@ -144,8 +147,10 @@ def test_train_on_more_logs_than_table_rows_shows_a_row_per_declared_set(tmp_pat
     result = runner.invoke(app, ["train", "-o", str(tmp_path / "m.npz"), "--features", "body", "--json", *args])
     assert result.exit_code == 0, result.output
     summary = json.loads(result.stdout)
-    shown = runner.invoke(app, ["train", "-o", str(tmp_path / "m2.npz"), "--features", "body", *args]).stdout
+    shown = runner.invoke(app, ["train", "-o", str(tmp_path / "m2.npz"), "--features", "body", *args, "--figure",
+                                str(tmp_path / "names.png")]).stdout
     assert str(tmp_path / "log0.csv") not in shown  # no row per recording
+    assert f"figure: {tmp_path / 'names.png'} (2 of 5 training logs)" in " ".join(shown.split())
     rows = [line for line in shown.splitlines() if "still,walking" in line or "│ still " in line]
     both = [r for r in summary["recordings"] if r["declared"] == ["still", "walking"]]
     named = {c: sum(r["windows"].get(c, 0) for r in both) for c in ("still", "walking")}
@@ -170,7 +175,7 @@ def test_a_sets_file_of_spans_trains_the_model_of_the_same_spans_written_as_file
         frame[(t >= a) & (t < b)].to_csv(tmp_path / f"part{k}.csv", index=False)
         args += ["--experiment", f"{tmp_path / f'part{k}.csv'}={c.replace(';', ',')}"]
     from_sets = runner.invoke(app, ["train", "-o", str(tmp_path / "sets.npz"), "--channels", "x,y", "--json",
-                                    "--sets", str(tmp_path / "sets.csv")])
+                                    "--sets", str(tmp_path / "sets.csv"), "--figure", str(tmp_path / "names.png")])
     from_files = runner.invoke(app, ["train", "-o", str(tmp_path / "files.npz"), "--channels", "x,y", *args])
     assert from_sets.exit_code == 0 and from_files.exit_code == 0, from_sets.output + from_files.output
     a, b = DictionaryModel.load(tmp_path / "sets.npz"), DictionaryModel.load(tmp_path / "files.npz")
@@ -181,6 +186,7 @@ def test_a_sets_file_of_spans_trains_the_model_of_the_same_spans_written_as_file
     assert [r["source"] for r in summary["recordings"]] == [f"{tmp_path / 'long.csv'}[{a}-{b} s]"
                                                             for a, b, _ in spans]
     assert summary["recordings"][1]["declared"] == ["moving", "still"]
+    assert (tmp_path / "names.png").stat().st_size > 0
 
 
 def test_train_without_recordings_or_with_a_bad_sets_file_exits_2(tmp_path):

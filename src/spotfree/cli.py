@@ -321,7 +321,8 @@ def train(
                                        "windows)"),
     max_columns: int = typer.Option(300, "--max-columns", min=1, help="dictionary columns kept per class"),
     seed: int = typer.Option(0, "--seed"),
-    figure: Optional[Path] = typer.Option(None, "--figure", help="also draw the training recordings coloured by "
+    figure: Optional[Path] = typer.Option(None, "--figure", help="also draw the training logs (the first 12; the "
+                                          "spans of a log on its row) coloured by "
                                           "the names the learner gave their windows (.png)"),
     mount: str = MOUNT,
     quiet: bool = QUIET,
@@ -432,8 +433,8 @@ def _train(output: Path, declared: list, channels: Optional[str], window: int, s
     if figure is not None:
         from spotfree.evaluation.figures import training_figure
 
-        training_figure(learner, recordings, figure)
-        out.print(f"figure: {figure}")
+        shown = training_figure(learner, recordings, figure, [item.recording for item in declared])
+        out.print(f"figure: {figure} ({shown})")
     return summary
 
 

@@ -63,26 +63,43 @@ def results_figure(test: Recording, labels: Labels, classes, path: str | Path, t
     plt.close(fig)
 
 
-def training_figure(learner: SetSupervisedLearner, recordings: list[Recording], path: str | Path) -> None:
-    """One row per training recording: the model's first channel, each window's centre coloured by the class the
-    fitted ``learner`` named it."""
+FIGURE_ROWS = 12
+"""Most rows (training logs) of :func:`training_figure`."""
+
+
+def training_figure(learner: SetSupervisedLearner, recordings: list[Recording], path: str | Path,
+                    logs: list[str] | None = None) -> str:
+    """One row per training log, at most :data:`FIGURE_ROWS` (the first logs): the model's first channel, each
+    window's centre coloured by the class the fitted ``learner`` named it. ``logs`` names the log of each recording
+    (spans of one log share its row, on its time axis); None: each recording is its own log. Returns what the figure
+    shows, e.g. ``"12 of 115 training logs"``."""
     model = learner.model_
     channel = model.channels[0]
     colour = class_colours(learner.classes_)
-    fig, axes = plt.subplots(len(recordings), 1, figsize=(12, 2.4 * len(recordings)), squeeze=False)
-    for ax, rec, names, ends in zip(axes[:, 0], recordings, learner.window_labels_, learner.window_ends_):
+    logs = logs if logs is not None else [rec.source for rec in recordings]
+    distinct = list(dict.fromkeys(logs))
+    shown = distinct[:FIGURE_ROWS]
+    fig, axes = plt.subplots(len(shown), 1, figsize=(12, 2.4 * len(shown)), squeeze=False)
+    row = dict(zip(shown, axes[:, 0]))
+    for log, rec, names, ends in zip(logs, recordings, learner.window_labels_, learner.window_ends_):
+        if log not in row:
+            continue
         signal = rec.channels[channel]
         centre = ends - model.window // 2
-        ax.plot(rec.time, signal, color="0.85", lw=0.8)
-        ax.scatter(rec.time[centre], signal[centre], c=[colour[str(n)] for n in names], s=4)
-        ax.set_ylabel(f"{Path(rec.source).name}\n{channel}", fontsize=8)
+        row[log].plot(rec.time, signal, color="0.85", lw=0.8)
+        row[log].scatter(rec.time[centre], signal[centre], c=[colour[str(n)] for n in names], s=4)
+    for log, ax in row.items():
+        ax.set_ylabel(f"{Path(log).name}\n{channel}", fontsize=8)
+    said = f"{len(shown)} of {len(distinct)} training logs" if len(shown) < len(distinct) else \
+        f"{len(shown)} training log{'s' * (len(shown) > 1)}"
     handles = [plt.Line2D([], [], marker="o", ls="", color=c, label=name) for name, c in colour.items()]
     axes[0, 0].legend(handles=handles, fontsize=7, loc="upper right")
-    axes[0, 0].set_title("training windows by the name the learner gave them", fontsize=9)
+    axes[0, 0].set_title(f"training windows by the name the learner gave them ({said})", fontsize=9)
     axes[-1, 0].set_xlabel("time (s)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+    return said
 
 
 def confusion_figure(panels: list[tuple[str, np.ndarray, list[str], list[str]]], path: str | Path) -> None:
