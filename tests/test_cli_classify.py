@@ -195,3 +195,38 @@ def test_a_sensor_logger_export_without_gyroscope_is_refused_in_the_apps_terms(f
     errors = [line for line in result.output.splitlines() if line.strip()]
     assert len(errors) == 1 and "no Gyroscope.csv: enable Gyroscope in Sensor Logger" in errors[0]
     assert "give the raw IMU log" not in result.output
+
+
+def test_several_logs_in_one_call_write_what_one_call_each_writes(folder, tmp_path):
+    """`classify MODEL IN1 IN2 -o FOLDER`: one CSV per log, named by the log (NAME@K for PATH@K), equal to the file
+    a call per log writes; the JSON document holds one document per log."""
+    import json
+
+    out = tmp_path / "labels"
+    out.mkdir()
+    logs = [folder / "ride.csv", f"{folder / 'ride.csv'}@2", folder / "normal-braking.csv"]
+    result = runner.invoke(app, ["classify", str(folder / "model.npz"), *map(str, logs), "-o", str(out), "--json"])
+    assert result.exit_code == 0, result.output
+    assert sorted(p.name for p in out.iterdir()) == ["normal-braking.csv", "ride.csv", "ride@2.csv"]
+    document = json.loads(result.stdout)
+    assert [d["output"] for d in document["logs"]] == [str(out / n) for n in ("ride.csv", "ride@2.csv",
+                                                                             "normal-braking.csv")]
+    for log, name in zip(logs, ("ride.csv", "ride@2.csv", "normal-braking.csv")):
+        alone = invoke("classify", folder / "model.npz", log, "-o", tmp_path / "alone.csv")
+        assert alone.exit_code == 0
+        assert (tmp_path / "alone.csv").read_text() == (out / name).read_text()
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["ride.csv", "normal-braking.csv", "-o", "several.csv"], "with 2 logs give an existing folder"),
+    (["ride.csv", "ride.csv", "-o", "."], "ride.csv is given twice"),
+    (["ride.csv", "model.npz", "-o", "."], "model.npz is a model file among the logs; give the model files first"),
+    (["-o", "x.csv"], "at least one model file and the log"),
+])
+def test_several_logs_misgiven_exit_2_with_one_line(folder, argv, message, monkeypatch):
+    monkeypatch.chdir(folder)
+    before = sorted(folder.iterdir())
+    result = invoke("classify", "model.npz", *argv)
+    assert result.exit_code == 2
+    assert message in " ".join(result.output.split())
+    assert sorted(folder.iterdir()) == before

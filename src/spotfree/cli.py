@@ -483,11 +483,12 @@ def _parse_experiment(spec: str):
 @app.command()
 @user_errors
 def classify(
-    paths: list[str] = typer.Argument(..., metavar="MODEL.npz [MODEL2.npz ...] IN",
-                                      help="model file(s) written by 'spotfree train', then any supported log "
+    paths: list[str] = typer.Argument(..., metavar="MODEL.npz [MODEL2.npz ...] IN [IN2 ...]",
+                                      help="model file(s) written by 'spotfree train', then any supported log(s) "
                                       "(PATH@K selects experiment K)"),
     output: Path = typer.Option(..., "-o", "--output", help="CSV file to write: time, label (and experiment); "
-                                "with several models one label column per model, named by its file stem"),
+                                "with several models one label column per model, named by its file stem; with "
+                                "several logs an existing folder, one NAME.csv per log (NAME@K.csv for PATH@K)"),
     method: str = typer.Option("kcrc", "--method", help="kcrc | crc | src | bsrc | nearest (kcrc: kernel "
                                "CRC_RLS, amplitude-aware, the default; crc: the paper's CRC_RLS; kcrc and nearest are "
                                "not in the paper)"),
@@ -517,16 +518,14 @@ def classify(
                                  '"channels", "representation", "window", "labelled", "labels": samples '
                                  'per class}), "breaks" ([{"experiment", "stopped", "resumed"}], one '
                                  'model), "mount" ({"line", "warnings"}), "read", "notes", '
-                                 '"warnings"}.'),
+                                 '"warnings"}; with several logs {"logs": [one such document per log]}.'),
 ) -> None:
-    """Label every sample of a log with a trained model, or with several models at once (one feature pass)."""
+    """Label every sample of a log with a trained model, or with several models at once (one feature pass); several
+    logs in one call, each to its own file."""
     from spotfree.classify.multi import model_names
-    from spotfree.model import DictionaryModel
-    from spotfree.votes.options import Votes, edge_levels, model_penalties, stored_votes, voted_labels
+    from spotfree.votes.options import edge_levels, model_penalties
 
-    if len(paths) < 2:
-        raise InputError("classify needs MODEL.npz [MODEL2.npz ...] IN: at least one model file and the log")
-    *model_paths, source = paths
+    model_paths, sources = _models_and_logs(paths)
     names = model_names(model_paths)
     if offline and (segments or keep or events or edges):
         raise InputError("--offline takes the votes stored in the model files; give either --offline or the vote "
@@ -534,26 +533,85 @@ def classify(
     penalties = model_penalties(segments, names)
     vote = {"segments": penalties if len(names) > 1 else penalties[names[0]], "keep": tuple(keep),
             "events": tuple(events), "edges": edge_levels(edges)}
-    if len(model_paths) > 1:
-        summary = _classify_several(dict(zip(names, model_paths)), source, output, method, centred, smooth,
-                                    None if offline else vote, mount)
-        if as_json:
-            _print_json(summary)
-        return
-    dictionary = DictionaryModel.load(model_paths[0])
-    votes = stored_votes(dictionary) if offline else Votes(**vote)
+    targets = _log_outputs(sources, output)
+    if len(model_paths) == 1:  # the model read and its classifier fitted once for every log
+        from spotfree.classify.batch import dictionary_classifier
+        from spotfree.model import DictionaryModel
+        from spotfree.votes.options import Votes, stored_votes
+
+        dictionary = DictionaryModel.load(model_paths[0])
+        votes = stored_votes(dictionary) if offline else Votes(**vote)
+        classifier = dictionary_classifier(dictionary, method, causal=not centred)
+    summaries = []
+    for source, target in targets.items():
+        if len(model_paths) > 1:
+            summaries.append(_classify_several(dict(zip(names, model_paths)), source, target, method, centred,
+                                               smooth, None if offline else vote, mount))
+        else:
+            note = _stored_note({names[0]: votes}) if offline else _vote_note(vote)
+            summaries.append(_classify_one(dictionary, classifier, names[0], source, target, method, centred,
+                                           smooth, votes, note, mount))
+    if as_json:
+        _print_json(summaries[0] if len(summaries) == 1 else {"logs": summaries})
+
+
+def _models_and_logs(paths: list[str]) -> tuple[list[str], list[str]]:
+    """``classify``'s paths split into the model files (the leading ``.npz`` files; with none, all but the last
+    path) and the logs after them."""
+    if len(paths) < 2:
+        raise InputError("classify needs MODEL.npz [MODEL2.npz ...] IN: at least one model file and the log")
+    models = 0
+    while models < len(paths) and paths[models].lower().endswith(".npz"):
+        models += 1
+    if models == 0:
+        models = len(paths) - 1
+    if models == len(paths):
+        raise InputError(f"classify: {paths[-1]} is a model file; give the log to label after the model files")
+    stray = [p for p in paths[models:] if p.lower().endswith(".npz")]
+    if stray:
+        raise InputError(f"classify: {stray[0]} is a model file among the logs; give the model files first")
+    return paths[:models], paths[models:]
+
+
+def _log_outputs(sources: list[str], output: Path) -> dict[str, Path]:
+    """The CSV file of each log: ``output`` for one log; for several, ``output / NAME.csv`` (the log's file name
+    without its extension, ``NAME@K.csv`` for ``PATH@K``) in the existing folder ``output``."""
+    if len(sources) == 1:
+        return {sources[0]: output}
+    if not output.is_dir():
+        raise InputError(f"-o {output}: with {len(sources)} logs give an existing folder (one CSV per log is "
+                         "written into it)")
+    targets: dict[str, Path] = {}
+    for source in sources:
+        path, at, experiment = source.rpartition("@") if "@" in Path(source).name else (source, "", "")
+        target = output / f"{Path(path).stem}{at}{experiment}.csv"
+        if source in targets:
+            raise InputError(f"classify: {source} is given twice; give each log once")
+        if target in targets.values():
+            raise InputError(f"classify: two logs would write {target}; give logs of different names")
+        targets[source] = target
+    return targets
+
+
+def _classify_one(dictionary, classifier, name: str, source: str, output: Path, method: str, centred: bool,
+                  smooth: int, votes, note: str, mount: str) -> dict:
+    """``classify`` with one model (``dictionary``, named ``name``; ``classifier`` fitted on its columns for this
+    alignment) on the log ``source`` with its ``votes`` (described by ``note``): writes ``output`` and prints the
+    summary; returns the ``--json`` document."""
+    from spotfree.votes.options import voted_labels
+
     rec = _read_log(source, dictionary.rate)
     if dictionary.features == "ride" and not rec.has_imu and not set(dictionary.channels) <= set(rec.channels):
         rec.require_imu("the model's ride features")
     estimate = _mount_choice(rec, mount) if dictionary.features == "ride" else None
-    labels = voted_labels(dictionary, rec, votes, method=method, centred=centred, smoothing=smooth)
+    labels = voted_labels(dictionary, rec, votes, method=method, centred=centred, smoothing=smooth,
+                          classifier=classifier)
     labels.write_csv(output)
     said = _report_repairs_and_gaps(rec)
     if estimate is not None:
         _report_mount(estimate.describe(), estimate.warnings)
     window = f"{dictionary.window} samples = {dictionary.window / dictionary.rate:.2f} s"
     where = f"centred on it (offset {labels.meta['offset']} samples)" if centred else "ending at it"
-    note = _stored_note({names[0]: votes}) if offline else _vote_note(vote)
     out.print(f"model: {dictionary.features} channels {','.join(dictionary.channels)}, {dictionary.representation} "
               "windows")
     out.print(f"wrote {output}: {int(labels.labelled().sum())} of {len(labels)} samples labelled by {method}; "
@@ -561,10 +619,9 @@ def classify(
               + (f"; majority vote over {smooth} samples" if smooth else "") + note)
     for gap in labels.breaks():
         out.print(f"{gap} (gap in {rec.source}; no label across it)")
-    if as_json:
-        _print_json({**_classify_summary(output, {names[0]: (dictionary, labels.label)}, method, centred, smooth,
-                                         note, estimate, said),
-                     "breaks": [vars(gap) for gap in labels.breaks()]})
+    return {**_classify_summary(output, {name: (dictionary, labels.label)}, method, centred, smooth, note,
+                                estimate, said),
+            "breaks": [vars(gap) for gap in labels.breaks()]}
 
 
 def _classify_summary(output: Path, labelled: dict, method: str, centred: bool, smooth: int, note: str, estimate,
