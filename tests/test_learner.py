@@ -296,3 +296,15 @@ def test_classes_declared_together_everywhere_are_warned_about_unless_a_prior_te
 
     learner = SetSupervisedLearner(seed=0, prior=Flat()).fit(both, [{"still", "slow"}] * 2)
     assert not any("declared by the same recordings" in w for w in learner.warnings_)
+
+
+def test_class_names_that_differ_only_in_case_are_warned_about():
+    """`Walking` in one recording and `walking` in another are two classes: the summary says so."""
+    rng = np.random.default_rng(3)
+    recordings = [_alternating("still", "slow", rng, "a"), _recording([("still", 20)], rng, "b"),
+                  _alternating("still", "slow", rng, "c")]
+    learner = SetSupervisedLearner(seed=0, rounds=1).fit(recordings, [{"still", "slow"}, {"still"}, {"Slow ", "still"}])
+    assert any(w.startswith("classes 'Slow ', 'slow' differ only in case or spaces") for w in learner.warnings_), \
+        learner.warnings_
+    learner = SetSupervisedLearner(seed=0, rounds=1).fit(recordings, [{"still", "slow"}, {"still"}, {"slow", "still"}])
+    assert not any("differ only in case" in w for w in learner.warnings_)

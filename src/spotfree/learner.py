@@ -181,6 +181,7 @@ class SetSupervisedLearner(BaseEstimator):
         for r, s in enumerate(sets):
             allowed[r, [self.classes_.index(c) for c in s]] = True
         self.warnings_: list[str] = []
+        self._warn_alike_names()
 
         scaling = ChannelScaling(channels).fit(recordings)
         data = self._windows(recordings, channels, scaling)
@@ -320,6 +321,17 @@ class SetSupervisedLearner(BaseEstimator):
         """``smoothing`` in windows: the switching cost of :func:`decode_runs` and the length of the margins'
         average."""
         return float(self.smoothing * self.rate_ / self.step)
+
+    def _warn_alike_names(self) -> None:
+        """Warn about class names that differ only in case or surrounding spaces (``Walking``, ``walking``): they are
+        different classes, which is seldom what was meant."""
+        spellings: dict[str, list[str]] = {}
+        for name in self.classes_:
+            spellings.setdefault(name.strip().casefold(), []).append(name)
+        for names in spellings.values():
+            if len(names) > 1:
+                self.warnings_.append(f"classes {', '.join(repr(n) for n in names)} differ only in case or spaces, so "
+                                      "they are different classes; spell each class one way")
 
     def _warn_declared_together(self, allowed: np.ndarray) -> None:
         """Warn about classes that every recording declares together (the same recordings declare each of them):
