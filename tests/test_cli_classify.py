@@ -230,3 +230,21 @@ def test_several_logs_misgiven_exit_2_with_one_line(folder, argv, message, monke
     assert result.exit_code == 2
     assert message in " ".join(result.output.split())
     assert sorted(folder.iterdir()) == before
+
+
+def test_several_models_on_several_logs_write_what_one_call_each_writes(folder, tmp_path):
+    import shutil
+
+    shutil.copy(folder / "model.npz", tmp_path / "other.npz")
+    out = tmp_path / "labels"
+    out.mkdir()
+    models = [folder / "model.npz", tmp_path / "other.npz"]
+    logs = [folder / "ride.csv", folder / "normal-braking.csv"]
+    result = invoke("classify", *models, *logs, "-o", out, "--segments", "4")
+    assert result.exit_code == 0, result.output
+    for log in logs:
+        alone = invoke("classify", *models, log, "-o", tmp_path / "alone.csv", "--segments", "4")
+        assert alone.exit_code == 0
+        table = pd.read_csv(out / f"{log.stem}.csv", keep_default_na=False)
+        assert list(table.columns)[-2:] == ["model", "other"] and (table["model"] == table["other"]).all()
+        assert (tmp_path / "alone.csv").read_text() == (out / f"{log.stem}.csv").read_text()

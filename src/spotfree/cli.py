@@ -533,24 +533,26 @@ def classify(
     penalties = model_penalties(segments, names)
     vote = {"segments": penalties if len(names) > 1 else penalties[names[0]], "keep": tuple(keep),
             "events": tuple(events), "edges": edge_levels(edges)}
-    targets = _log_outputs(sources, output)
-    if len(model_paths) == 1:  # the model read and its classifier fitted once for every log
-        from spotfree.classify.batch import dictionary_classifier
-        from spotfree.model import DictionaryModel
-        from spotfree.votes.options import Votes, stored_votes
+    from spotfree.classify.batch import dictionary_classifier
+    from spotfree.model import DictionaryModel
+    from spotfree.votes.options import Votes, stored_votes, votes_per_model
 
-        dictionary = DictionaryModel.load(model_paths[0])
-        votes = stored_votes(dictionary) if offline else Votes(**vote)
-        classifier = dictionary_classifier(dictionary, method, causal=not centred)
+    targets = _log_outputs(sources, output)
+    models = {name: DictionaryModel.load(path) for name, path in zip(names, model_paths)}  # once for every log
+    if offline:
+        votes = {name: stored_votes(model) for name, model in models.items()}
+    else:
+        votes = votes_per_model(models, **vote) if len(models) > 1 else {names[0]: Votes(**vote)}
+    note = _stored_note(votes) if offline else _vote_note(vote)
+    classifiers = {name: dictionary_classifier(model, method, causal=not centred) for name, model in models.items()}
     summaries = []
     for source, target in targets.items():
-        if len(model_paths) > 1:
-            summaries.append(_classify_several(dict(zip(names, model_paths)), source, target, method, centred,
-                                               smooth, None if offline else vote, mount))
+        if len(models) > 1:
+            summaries.append(_classify_several(models, classifiers, source, target, method, centred, smooth, votes,
+                                               note, mount))
         else:
-            note = _stored_note({names[0]: votes}) if offline else _vote_note(vote)
-            summaries.append(_classify_one(dictionary, classifier, names[0], source, target, method, centred,
-                                           smooth, votes, note, mount))
+            summaries.append(_classify_one(models[names[0]], classifiers[names[0]], names[0], source, target, method,
+                                           centred, smooth, votes[names[0]], note, mount))
     if as_json:
         _print_json(summaries[0] if len(summaries) == 1 else {"logs": summaries})
 
@@ -667,30 +669,26 @@ def _vote_note(vote: dict) -> str:
     return "; " + " and ".join(votes) + (f", {', '.join(vote['keep'])} kept" if vote["keep"] else "")
 
 
-def _classify_several(model_paths: dict[str, str], source: str, output: Path, method: str, centred: bool,
-                      smooth: int, vote: dict | None, mount: str = "auto") -> dict:
-    """``classify`` with several models (``model_paths``: file by name): one label column per model, see
-    :mod:`spotfree.classify.multi`; ``vote`` None: each model's stored votes; ``mount`` the ``--mount`` choice.
-    Returns the ``--json`` document."""
+def _classify_several(models: dict, classifiers: dict, source: str, output: Path, method: str, centred: bool,
+                      smooth: int, votes: dict, note: str, mount: str = "auto") -> dict:
+    """``classify`` with several models (by name, each with its ``classifiers`` fitted for this alignment and its
+    ``votes``, described by ``note``) on the log ``source``: one label column per model, see
+    :mod:`spotfree.classify.multi`; ``mount`` the ``--mount`` choice. Returns the ``--json`` document."""
     from spotfree.classify.multi import write_labels
-    from spotfree.model import DictionaryModel
-    from spotfree.votes.options import stored_votes, voted_models, votes_per_model
+    from spotfree.votes.options import voted_models
 
-    models = {name: DictionaryModel.load(path) for name, path in model_paths.items()}
-    stored = None if vote else {name: stored_votes(model) for name, model in models.items()}
-    votes = stored or votes_per_model(models, **vote)
     rec = _read_log(source, next(iter(models.values())).rate)
     if not rec.has_imu and any(m.features == "ride" and not set(m.channels) <= set(rec.channels)
                                for m in models.values()):
         rec.require_imu("the models' ride features")
     estimate = _mount_choice(rec, mount) if any(m.features == "ride" for m in models.values()) else None
-    table = voted_models(models, rec, votes, method=method, centred=centred, smoothing=smooth)
+    table = voted_models(models, rec, votes, method=method, centred=centred, smoothing=smooth,
+                         classifiers=classifiers)
     write_labels(table, output)
     said = _report_repairs_and_gaps(rec)
     if estimate is not None:
         _report_mount(estimate.describe(), estimate.warnings)
     windows = ", ".join(f"{name} {m.window} samples" for name, m in models.items())
-    note = _stored_note(stored) if stored else _vote_note(vote)
     out.print(f"wrote {output}: {len(table)} samples, one label column per model ({', '.join(models)}) by {method}; "
               f"windows {'centred on' if centred else 'ending at'} each sample: {windows}"
               + (f"; majority vote over {smooth} samples" if smooth else "") + note)

@@ -69,11 +69,14 @@ def shared_features(models: Mapping[str, DictionaryModel], rec: Recording) -> Re
 
 
 def model_labels(models: Mapping[str, DictionaryModel], rec: Recording, method: str = DEFAULT_METHOD,
-                 centred: bool = False, smoothing: int | None = None) -> dict[str, Labels]:
+                 centred: bool = False, smoothing: int | None = None,
+                 classifiers: Mapping | None = None) -> dict[str, Labels]:
     """The :func:`~spotfree.classify.batch.classify_recording` labels of every model (by name) on
-    :func:`shared_features` of ``rec``."""
+    :func:`shared_features` of ``rec``; ``classifiers``: each model's classifier already fitted for this method and
+    alignment (by name; fitted here when None)."""
     feats = shared_features(models, rec)
-    return {name: classify_recording(model, feats, method=method, centred=centred, smoothing=smoothing)
+    return {name: classify_recording(model, feats, method=method, centred=centred, smoothing=smoothing,
+                                     classifier=(classifiers or {}).get(name))
             for name, model in models.items()}
 
 
