@@ -27,7 +27,6 @@ from dataclasses import dataclass
 from typing import Mapping
 
 import numpy as np
-from scipy import signal
 
 from spotfree.errors import InputError
 from spotfree.io.recording import GPS_CHANNELS, Gap, Recording
@@ -163,7 +162,12 @@ def _dense_on_grid(
     gaps = [(float(stream.time[i]), float(stream.time[i + 1])) for i in jumps]
     cuts = np.r_[0, jumps + 1, len(stream.time)]
     fs = stream.native_rate
-    sos = signal.butter(ANTI_ALIAS_ORDER, ANTI_ALIAS_FRACTION * rate, fs=fs, output="sos") if fs > rate else None
+    sos = None
+    if fs > rate:
+        # imported here: scipy.signal takes about a second to import, which the command line's start would pay
+        from scipy import signal
+
+        sos = signal.butter(ANTI_ALIAS_ORDER, ANTI_ALIAS_FRACTION * rate, fs=fs, output="sos")
     out = np.full((len(grid), len(stream.names)), np.nan)
     for a, b in zip(cuts[:-1], cuts[1:]):
         t, v = stream.time[a:b], stream.values[a:b]
@@ -185,8 +189,10 @@ def _low_pass(t: np.ndarray, v: np.ndarray, fs: float, sos: np.ndarray) -> tuple
     values = np.column_stack([np.interp(uniform, t, v[:, c]) for c in range(v.shape[1])])
     if len(uniform) < 2:
         return uniform, values
+    from scipy.signal import sosfiltfilt
+
     padlen = min(3 * (2 * sos.shape[0] + 1), len(uniform) - 1)
-    return uniform, signal.sosfiltfilt(sos, values, axis=0, padlen=padlen)
+    return uniform, sosfiltfilt(sos, values, axis=0, padlen=padlen)
 
 
 def _sparse_on_grid(stream: Stream, grid: np.ndarray, rate: float) -> np.ndarray:
