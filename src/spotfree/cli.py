@@ -471,10 +471,10 @@ def _naming_table(recordings: list[dict], title: str):
 
 def _parse_experiment(spec: str):
     """``--experiment PATH=CLASS[,CLASS...]`` as a :class:`~spotfree.io.class_sets.Declared` recording."""
-    from spotfree.io.class_sets import Declared
+    from spotfree.io.class_sets import Declared, class_names
 
     path, sep, classes = spec.rpartition("=")
-    names = tuple(dict.fromkeys(c.strip() for c in classes.split(",") if c.strip()))
+    names = class_names(classes, ",")
     if not sep or not path or not names:
         raise InputError(f"--experiment '{spec}': write PATH=CLASS[,CLASS...], e.g. ride.csv@1=cruising,sudden-braking")
     return Declared(path, names)
@@ -583,10 +583,12 @@ def _log_outputs(sources: list[str], output: Path) -> dict[str, Path]:
     if not output.is_dir():
         raise InputError(f"-o {output}: with {len(sources)} logs give an existing folder (one CSV per log is "
                          "written into it)")
+    from spotfree.io import split_spec
+
     targets: dict[str, Path] = {}
     for source in sources:
-        path, at, experiment = source.rpartition("@") if "@" in Path(source).name else (source, "", "")
-        target = output / f"{Path(path).stem}{at}{experiment}.csv"
+        path, experiment = split_spec(source)
+        target = output / f"{path.stem}{'' if experiment is None else f'@{experiment}'}.csv"
         if source in targets:
             raise InputError(f"classify: {source} is given twice; give each log once")
         if target in targets.values():

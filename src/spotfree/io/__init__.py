@@ -29,7 +29,7 @@ from spotfree.io.sensorlogger import is_sensorlogger_table, read_sensorlogger
 
 __all__ = [
     "Gap", "Recording", "Stream", "describe", "detect_format", "merge_streams", "read_csv", "read_gpx", "read_phyphox",
-    "read_recording", "read_sensorlogger", "write_csv", "write_gpx",
+    "read_recording", "read_sensorlogger", "split_spec", "write_csv", "write_gpx",
 ]
 
 _SNIFF_BYTES = 4096
@@ -38,7 +38,7 @@ _SNIFF_BYTES = 4096
 def read_recording(spec: str | Path, rate: float = 20.0, max_gap: float = 0.5) -> Recording:
     """The log named by ``spec`` (``PATH`` or ``PATH@K``) as a Recording; ``rate`` Hz is the grid for logs
     that are not uniform and ``max_gap`` (s) the longest hole that resampling bridges."""
-    path, experiment = _split_spec(spec)
+    path, experiment = split_spec(spec)
     kind = detect_format(path)
     if kind == "gpx":
         rec = read_gpx(path, rate=rate)
@@ -107,7 +107,7 @@ def detect_format(path: str | Path) -> str:
     return "csv"
 
 
-def _split_spec(spec: str | Path) -> tuple[Path, int | None]:
+def split_spec(spec: str | Path) -> tuple[Path, int | None]:
     """``PATH@K`` -> ``(PATH, K)``; a path that exists as written is never split."""
     text = str(spec)
     if Path(text).exists() or "@" not in text:

@@ -70,6 +70,12 @@ class Declared:
         return replace(rec.take(rows), source=self.name)
 
 
+def class_names(text: str, separators: str = ",;") -> tuple[str, ...]:
+    """The class names of a class list (a sets file's ``classes`` cell; ``--experiment``'s after ``=``, separated by
+    commas alone): split at any of ``separators``, stripped, each once, in order."""
+    return tuple(dict.fromkeys(c.strip() for c in re.split(f"[{re.escape(separators)}]", text) if c.strip()))
+
+
 def read_class_sets(path: str | Path) -> list[Declared]:
     """The rows of the sets file ``path`` (module docstring), in order; a missing column, an empty class set, a
     start or end that is not a number, or a span that ends before it starts is an InputError naming the line."""
@@ -94,7 +100,7 @@ def read_class_sets(path: str | Path) -> list[Declared]:
     for k, (recording, classes) in enumerate(zip(table["recording"], table["classes"])):
         line = k + 2
         recording = str(recording).strip()
-        names = tuple(dict.fromkeys(c.strip() for c in re.split(r"[,;]", str(classes)) if c.strip()))
+        names = class_names(str(classes))
         if not recording:
             raise InputError(f"{source}: line {line}: no recording; give its PATH or PATH@K")
         if not names:
@@ -109,4 +115,4 @@ def read_class_sets(path: str | Path) -> list[Declared]:
     return rows
 
 
-__all__ = ["COLUMNS", "Declared", "read_class_sets"]
+__all__ = ["COLUMNS", "Declared", "class_names", "read_class_sets"]
