@@ -157,6 +157,14 @@ def test_train_writes_a_model_its_summary_and_its_figure(tmp_path):
                                  "summary", "--window", "10"])
     assert "learner: sets (summary of ride channels acc_long,pitch_rate; prior: ride)" in result.output
     assert DictionaryModel.load(tmp_path / "summary.npz").window == 10
+    assert model.parameters["share_power"] == 0.5
+    result = runner.invoke(app, ["train", "-o", str(tmp_path / "rare.npz"), *declared, "--share-power", "1"])
+    assert result.exit_code == 0, result.output
+    assert DictionaryModel.load(tmp_path / "rare.npz").parameters["share_power"] == 1.0
+    for bad in ("-1", "nan"):
+        refused = runner.invoke(app, ["train", "-o", str(tmp_path / "bad.npz"), *declared, "--share-power", bad])
+        assert refused.exit_code == 2 and "share_power=" in refused.output and "give a number >= 0" in refused.output
+        assert not (tmp_path / "bad.npz").exists()
 
 
 def test_train_paper_recipe_is_the_baseline_and_takes_no_learner_option(tmp_path):
@@ -169,9 +177,10 @@ def test_train_paper_recipe_is_the_baseline_and_takes_no_learner_option(tmp_path
     assert result.exit_code == 0, result.output
     assert "learner: the paper's recipe" in result.output
     assert DictionaryModel.load(tmp_path / "p.npz").parameters["learner"] == "paper recipe"
-    refused = runner.invoke(app, ["train", "-o", str(tmp_path / "q.npz"), *declared, "--prior", "ride"])
-    assert refused.exit_code == 2 and "--prior is an option of --recipe sets" in refused.output
-    assert not (tmp_path / "q.npz").exists()
+    for option, value in (("--prior", "ride"), ("--share-power", "1")):
+        refused = runner.invoke(app, ["train", "-o", str(tmp_path / "q.npz"), *declared, option, value])
+        assert refused.exit_code == 2 and f"{option} is an option of --recipe sets" in refused.output
+        assert not (tmp_path / "q.npz").exists()
 
 
 @pytest.mark.parametrize("option, value", [("--window", "0"), ("--step", "0"), ("--max-columns", "0"),

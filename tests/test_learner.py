@@ -112,6 +112,46 @@ def test_a_short_rare_event_is_found():
     assert np.mean(predicted[scored] == "still") >= 0.95
 
 
+def test_a_larger_share_power_lets_a_rare_event_claim_less_of_its_recordings():
+    """After each strike comes a soft level that recordings without strikes also hold, more seldom: from the sets it
+    is background, yet it is far more frequent where strikes are declared. Weighing the names by the class shares
+    (share_power 1) leaves the strike fewer of those windows than the default square root, and still finds it."""
+    rng = np.random.default_rng(0)
+
+    def recording(parts, source):
+        rec = _recording(parts, rng, source)
+        rec.truth["label"] = np.where(rec.truth["label"] == "soft", "still", rec.truth["label"])
+        return rec
+
+    def strikes(source):
+        parts = [part for _ in range(4) for part in (("still", rng.uniform(5, 9)), ("strike", 0.6),
+                                                     ("soft", rng.uniform(2, 4)))]
+        return recording(parts + [("still", 5)], source)
+
+    train = [strikes("s1"), strikes("s2"), recording([("still", 12), ("soft", 2), ("still", 12)], "q1"),
+             recording([("still", 12), ("soft", 2), ("still", 12)], "q2")]
+    sets = [{"still", "strike"}, {"still", "strike"}, {"still"}, {"still"}]
+    named = {}
+    for power in (0.5, 1.0):
+        learner = SetSupervisedLearner(seed=0, share_power=power).fit(train, sets)
+        named[power] = sum(int(np.sum(names == "strike")) for names in learner.window_labels_)
+        assert learner.model_.parameters["share_power"] == power
+    true = sum(int(np.sum(rec.truth["label"][ends - learner.window // 2] == "strike"))
+               for rec, ends in zip(train, learner.window_ends_))
+    assert true < named[1.0] < named[0.5], (true, named)
+    test = strikes("t")
+    predicted, truth = learner.predict(test), test.truth["label"]
+    onsets = np.flatnonzero((truth[1:] == "strike") & (truth[:-1] != "strike")) + 1
+    assert all(np.any(predicted[a:a + 12] == "strike") for a in onsets)
+
+
+@pytest.mark.parametrize("power", [-1.0, float("nan"), float("inf"), "1", True])
+def test_a_share_power_that_is_not_a_number_at_least_0_is_refused(power):
+    rng = np.random.default_rng(8)
+    with pytest.raises(InputError, match="share_power=.*give a number >= 0"):
+        SetSupervisedLearner(share_power=power).fit([_recording([("still", 5)], rng, "a")], [{"still"}])
+
+
 def test_no_class_in_every_recording_and_windows_keep_to_their_sets():
     """Two recordings share no class; a window only ever takes a class its recording declares."""
     rng = np.random.default_rng(4)

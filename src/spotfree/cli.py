@@ -320,6 +320,9 @@ def train(
                                        "their change and band powers of each window) | hankel (the paper's raw "
                                        "windows)"),
     max_columns: int = typer.Option(300, "--max-columns", min=1, help="dictionary columns kept per class"),
+    share_power: float = typer.Option(0.5, "--share-power", help="sets learner: how much a class's share of the "
+                                      "windows weighs in its names, >= 0; 1 for a short rare event (it then claims "
+                                      "less than 0.5 lets it), 0.5 where classes come together (docs/training.md)"),
     seed: int = typer.Option(0, "--seed"),
     figure: Optional[Path] = typer.Option(None, "--figure", help="also draw the training logs (the first 12; the "
                                           "spans of a log on its row) coloured by "
@@ -349,7 +352,8 @@ def train(
             raise InputError(f"{option} {value!r}: use one of {', '.join(c for c in choices if c)}")
     given = [p.opts[0] for p in ctx.command.params
              if p.name and getattr(ctx.get_parameter_source(p.name), "name", "") == "COMMANDLINE"]
-    misplaced = [o for o in given if o in ("--prior", "--representation", "--figure", "--preset") and recipe != "sets"]
+    misplaced = [o for o in given if o in ("--prior", "--representation", "--share-power", "--figure", "--preset")
+                 and recipe != "sets"]
     if misplaced:
         raise InputError(f"{misplaced[0]} is an option of --recipe sets; leave it out with --recipe {recipe}")
     if preset is not None:
@@ -364,14 +368,14 @@ def train(
     if not declared:
         raise InputError("no training recording: give --experiment PATH=CLASS[,CLASS...] or --sets FILE")
     summary = _train(output, declared, channels, window, step, orientation, features, recipe, prior,
-                     representation, max_columns, seed, figure, mount)
+                     representation, max_columns, share_power, seed, figure, mount)
     if as_json:
         _print_json(summary)
 
 
 def _train(output: Path, declared: list, channels: Optional[str], window: int, step: int, orientation: str,
-           features: str, recipe: str, prior: Optional[str], representation: str, max_columns: int, seed: int,
-           figure: Optional[Path], mount: str) -> dict:
+           features: str, recipe: str, prior: Optional[str], representation: str, max_columns: int,
+           share_power: float, seed: int, figure: Optional[Path], mount: str) -> dict:
     """``spotfree train``: :class:`~spotfree.learner.SetSupervisedLearner` (``recipe`` sets) or
     :class:`~spotfree.paper_recipe.PaperRecipe` (``recipe`` paper) on the ``declared`` recordings and their sets
     (:class:`~spotfree.io.class_sets.Declared`: each log read and turned into features once, then cut into its
@@ -398,8 +402,8 @@ def _train(output: Path, declared: list, channels: Optional[str], window: int, s
         learner = PaperRecipe(channels=chosen, window=window, step=step, max_columns=max_columns, seed=seed)
     else:
         learner = SetSupervisedLearner(channels=chosen, window=window, step=step, representation=representation,
-                                       max_columns=max_columns, prior=prior_named(prior),
-                                       seed=seed)
+                                       max_columns=max_columns, share_power=share_power,
+                                       prior=prior_named(prior), seed=seed)
     learner.fit(recordings, sets)
     model = learner.model_
     model.save(output)

@@ -17,7 +17,7 @@ Method (``docs/training.md`` has the derivation and the references):
    gives the new names, restricted to the candidates, sharpened and weighed by the square root of each class's
    share of the names:
 
-       w(c) ∝ p(c | x)^t pr(c)^t pi(c)^(1/2)     for c in S_r, 0 elsewhere   (t = SHARPEN)
+       w(c) ∝ p(c | x)^t pr(c)^t pi(c)^a     for c in S_r, 0 elsewhere   (t = SHARPEN, a = share_power)
 
    (``pr``: the prior, 1 without one; ``pi(c)``: the mean of the names ``w(c)`` over all windows). This is the
    progressive identification of true labels of Lv et al. (ICML 2020), with a forest for the network. A motion that
@@ -26,8 +26,8 @@ Method (``docs/training.md`` has the derivation and the references):
    turning; the sharpening makes the soft names harden over the rounds. Weighing each class alike in the fit keeps a
    class declared in few recordings from being absorbed by one declared in many; but names from the balanced
    posterior alone pull every class towards an equal share of the windows, and names weighed by the shares
-   themselves let a common class absorb, round after round, the windows of a rarer one declared with it. The square
-   root (:data:`SHARE_POWER`) lies between, as square-root class sampling does in long-tailed learning (Kang et al.,
+   themselves let a common class absorb, round after round, the windows of a rarer one declared with it. The default
+   ``share_power`` 1/2 lies between, as square-root class sampling does in long-tailed learning (Kang et al.,
    ICLR 2020). The rounds stop early when the names move by less than :data:`CHANGED` (mean total variation).
    Then the windows of each recording are decoded into runs (:func:`decode_runs`): the class sequence inside
    ``S_r`` that maximises ``sum_i log w_i(z_i)`` minus ``smoothing * rate / step`` per change of class, in which every
@@ -84,10 +84,6 @@ AFFINE = 6.0
 """Constant row appended to a ``hankel`` window and to every column when classifying (``parameters["affine"]``): a
 window is then represented by an affine combination of columns, which CRC_RLS needs once a class holds as many columns
 as a window has values (every class then spans every window); the kernel's distances do not change."""
-SHARE_POWER = 0.5
-"""Exponent of each class's share of the names in the next round's names (module docstring, step 3): 0 names from
-the balanced posterior alone, under which every class tends to an equal share of the windows; 1 weighs the names by
-the shares, under which the common classes grow at the expense of the rarer ones declared with them."""
 LEAF = 8
 """Fewest windows in a leaf of the trees of the rounds: a posterior averages several windows, so that a few wrong
 names among the training windows do not decide a leaf."""
@@ -131,6 +127,11 @@ class SetSupervisedLearner(BaseEstimator):
         :func:`decode_runs`); the dictionary's margins are averaged over as many windows.
     max_columns : int
         Most dictionary columns per class.
+    share_power : float
+        Exponent ``a >= 0`` of each class's share of the names in the next round's names (module docstring, step
+        3): 0 names from the balanced posterior alone, under which every class tends to an equal share of the
+        windows and a short event declared in few recordings claims more than itself; 1 weighs the names by the
+        shares, under which a common class grows at the expense of a rarer one declared with it.
     prior : object or None
         Domain prior with ``log_prior(recording, centres, classes) -> (m, C)`` (module docstring); None: none.
     seed : int
@@ -157,7 +158,7 @@ class SetSupervisedLearner(BaseEstimator):
 
     def __init__(self, channels: tuple[str, ...] | None = None, window: int = 20, step: int = 1,
                  representation: str = "summary", rounds: int = 5, smoothing: float = 0.5,
-                 max_columns: int = 300, prior=None, seed: int = 0):
+                 max_columns: int = 300, share_power: float = 0.5, prior=None, seed: int = 0):
         self.channels = channels
         self.window = window
         self.step = step
@@ -165,6 +166,7 @@ class SetSupervisedLearner(BaseEstimator):
         self.rounds = rounds
         self.smoothing = smoothing
         self.max_columns = max_columns
+        self.share_power = share_power
         self.prior = prior
         self.seed = seed
 
@@ -203,7 +205,7 @@ class SetSupervisedLearner(BaseEstimator):
         for _ in range(self.rounds):
             log_p = self._cross_fitted(X, weights, data, fitted)
             share = np.maximum(weights.mean(axis=0), 1.0 / len(weights))
-            log_q = np.where(mask, SHARPEN * (log_p + prior) + SHARE_POWER * np.log(share), -np.inf)
+            log_q = np.where(mask, SHARPEN * (log_p + prior) + self.share_power * np.log(share), -np.inf)
             new = _normalised(log_q)
             changed = 0.5 * float(np.abs(new - weights).sum(axis=1).mean())
             weights = new
@@ -247,6 +249,11 @@ class SetSupervisedLearner(BaseEstimator):
             raise InputError(f"rounds={self.rounds!r}: give a whole number >= 0")
         if not (np.isfinite(self.smoothing) and self.smoothing >= 0):
             raise InputError(f"smoothing={self.smoothing!r}: give seconds >= 0")
+        power = self.share_power
+        if not isinstance(power, (int, float, np.integer, np.floating)) or isinstance(power, bool) or not (
+                np.isfinite(power) and power >= 0):
+            raise InputError(f"share_power={self.share_power!r}: give a number >= 0 (0.5 by default, 1 for a rare "
+                             "event)")
         recordings = list(recordings)
         sets = [set(s) for s in class_sets]
         if not recordings:
@@ -437,7 +444,8 @@ class SetSupervisedLearner(BaseEstimator):
             orientation=recordings[0].meta.get("orientation", "default"),
             parameters={"affine": AFFINE if self.representation == "hankel" else 0.0,
                         "rounds": self.rounds, "smoothing": self.smoothing,
-                        "max_columns": self.max_columns, "seed": self.seed, "landmarks": LANDMARKS,
+                        "max_columns": self.max_columns, "share_power": self.share_power, "seed": self.seed,
+                        "landmarks": LANDMARKS,
                         "prior": type(self.prior).__name__ if self.prior is not None else None},
             summary=summary,
         )
