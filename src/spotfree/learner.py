@@ -11,6 +11,18 @@ Method (``docs/training.md`` has the derivation and the references):
 2. **Partial labels.** A recording ``r`` is a bag of windows whose classes lie in its declared set ``S_r``: each
    window is a partial-label example (Cour, Sapp and Taskar, JMLR 2011), its candidates ``S_r``. Every window starts
    with soft names ``w(c) = 1 / |S_r|`` over its candidates (times the prior, when there is one).
+   **Absence evidence.** A class's windows occur only in the recordings that declare it. Per class ``c`` declared by
+   some recordings and not by others, a forest tells the windows of the two apart, cross-fitted over two halves of
+   the recordings (a window is scored by a forest that never saw its recording); its probability ``s(x)`` that a
+   window like ``x`` comes from a recording declaring ``c`` gives the ratio of the densities of such windows in the
+   recordings without ``c`` and in those with it (Sugiyama, Suzuki and Kanamori, "Density Ratio Estimation in
+   Machine Learning", 2012):
+
+       r_c(x) = f_without(x) / f_with(x) = (1 - s(x)) / s(x) * b / (1 - b)      (b: the share of windows declaring c)
+
+   ``r_c`` is near 0 for a window of ``c`` and near 1 or above for one of a class that occurs without ``c`` as often
+   as with it: a window that is more frequent around an event than elsewhere, but does occur elsewhere, is not the
+   event. ``exp(-ABSENCE r_c(x))`` multiplies the names as a prior does (:data:`ABSENCE`).
 3. **Rounds.** For ``rounds`` rounds, a classifier (extremely randomised trees) is fitted on the windows with their
    soft names as sample weights, each class's weights summing alike, cross-fitted so that no window is scored by a
    model that saw it (two folds of alternating :data:`BLOCK_SECONDS` blocks). Its balanced posterior ``p(c | x)``
@@ -19,7 +31,7 @@ Method (``docs/training.md`` has the derivation and the references):
 
        w(c) ∝ p(c | x)^t pr(c)^t pi(c)^a     for c in S_r, 0 elsewhere   (t = SHARPEN, a = share_power)
 
-   (``pr``: the prior, 1 without one; ``pi(c)``: the mean of the names ``w(c)`` over all windows). This is the
+   (``pr``: the prior times the absence evidence; ``pi(c)``: the mean of the names ``w(c)`` over all windows). This is the
    progressive identification of true labels of Lv et al. (ICML 2020), with a forest for the network. A motion that
    occurs in bags of two classes goes to the one declared wherever that motion occurs: a window of walking in bags
    declaring walking and turning, and in bags declaring walking but not turning, weighs more on walking than on
@@ -84,6 +96,12 @@ AFFINE = 6.0
 """Constant row appended to a ``hankel`` window and to every column when classifying (``parameters["affine"]``): a
 window is then represented by an affine combination of columns, which CRC_RLS needs once a class holds as many columns
 as a window has values (every class then spans every window); the kernel's distances do not change."""
+ABSENCE = 3.0
+"""Weight ``gamma`` of the absence evidence (module docstring, step 2): the names are multiplied by
+``exp(-gamma r_c(x))``, so that a window as frequent in recordings without ``c`` as in those with it keeps about
+``e^-3`` of its name ``c`` before the sharpening."""
+ABSENCE_CAP = 10.0
+"""Largest density ratio ``r_c(x)`` used: beyond it a window is as good as absent from ``c``."""
 LEAF = 8
 """Fewest windows in a leaf of the trees of the rounds: a posterior averages several windows, so that a few wrong
 names among the training windows do not decide a leaf."""
@@ -194,7 +212,7 @@ class SetSupervisedLearner(BaseEstimator):
         X = (data.X - offset) / scale
         rng = np.random.default_rng(self.seed)
         mask = allowed[data.recording]
-        prior = self._log_prior(recordings, data)
+        prior = self._log_prior(recordings, data) - ABSENCE * self._absence(X, data, allowed, rng)
 
         fitted = np.arange(len(X))
         if len(X) > FIT_WINDOWS * n_classes:  # the same windows in every round, so that the rounds can settle
@@ -296,6 +314,36 @@ class SetSupervisedLearner(BaseEstimator):
         if prior.shape != (n, len(self.classes_)) or np.isnan(prior).any():
             raise InputError(f"the prior {type(self.prior).__name__} must give one finite row per window and class")
         return prior
+
+    def _absence(self, X: np.ndarray, data: _Windows, allowed: np.ndarray,
+                 rng: np.random.Generator) -> np.ndarray:
+        """``r_c(x)`` ``(n, C)`` of every window and class (module docstring, step 2), at most :data:`ABSENCE_CAP`;
+        0 for a class every recording declares, and in a half of the recordings whose other half holds no recording
+        with or none without the class (nothing to tell apart). Per class, the recordings that declare it and those
+        that do not are each dealt alternately, in a random order, to the two halves."""
+        n_recordings, n_classes = allowed.shape
+        ratio = np.zeros((len(X), n_classes))
+        for c in np.flatnonzero(~allowed.all(axis=0)):
+            order = rng.permutation(n_recordings)
+            halves = np.empty(n_recordings, dtype=int)
+            for kind in (True, False):
+                same = order[allowed[order, c] == kind]
+                halves[same] = np.arange(len(same)) % 2
+            half = halves[data.recording]
+            declares = allowed[data.recording, c]
+            for h in (0, 1):
+                train = np.flatnonzero(half != h)
+                if declares[train].all() or not declares[train].any() or not (half == h).any():
+                    continue
+                if len(train) > FIT_WINDOWS * n_classes:
+                    train = np.sort(rng.choice(train, FIT_WINDOWS * n_classes, replace=False))
+                model = ExtraTreesClassifier(n_estimators=100, min_samples_leaf=LEAF, max_features="sqrt",
+                                             n_jobs=-1, random_state=self.seed).fit(X[train], declares[train])
+                model.n_jobs = 1  # predict_proba's threads add the trees up in any order: not reproducible
+                s = np.maximum(model.predict_proba(X[half == h])[:, 1], 1.0 / ABSENCE_CAP ** 2)
+                b = declares[train].mean()
+                ratio[half == h, c] = np.minimum((1.0 - s) / s * b / (1.0 - b), ABSENCE_CAP)
+        return ratio
 
     def _smoothed(self, log_q: np.ndarray, data: _Windows) -> np.ndarray:
         span = int(round(self._span))
