@@ -26,18 +26,18 @@ Method (``docs/training.md`` has the derivation and the references):
 3. **Rounds.** For ``rounds`` rounds, a classifier (extremely randomised trees) is fitted on the windows with their
    soft names as sample weights, each class's weights summing alike, cross-fitted so that no window is scored by a
    model that saw it (two folds of alternating :data:`BLOCK_SECONDS` blocks). Its balanced posterior ``p(c | x)``
-   gives the new names, restricted to the candidates, sharpened and weighed by the square root of each class's
-   share of the names:
+   gives the new names, restricted to the candidates, sharpened and weighed by a power of each class's share of the
+   names:
 
        w(c) ∝ p(c | x)^t pr(c)^t pi(c)^a     for c in S_r, 0 elsewhere   (t = SHARPEN, a = share_power)
 
-   (``pr``: the prior times the absence evidence; ``pi(c)``: the mean of the names ``w(c)`` over all windows). This is the
-   progressive identification of true labels of Lv et al. (ICML 2020), with a forest for the network. A motion that
-   occurs in bags of two classes goes to the one declared wherever that motion occurs: a window of walking in bags
-   declaring walking and turning, and in bags declaring walking but not turning, weighs more on walking than on
-   turning; the sharpening makes the soft names harden over the rounds. Weighing each class alike in the fit keeps a
-   class declared in few recordings from being absorbed by one declared in many; but names from the balanced
-   posterior alone pull every class towards an equal share of the windows, and names weighed by the shares
+   (``pr``: the prior times the absence evidence; ``pi(c)``: the mean of the names ``w(c)`` over all windows). This
+   is the progressive identification of true labels of Lv et al. (ICML 2020), with a forest for the network. A
+   motion that occurs in bags of two classes goes to the one declared wherever that motion occurs: a window of
+   walking in bags declaring walking and turning, and in bags declaring walking but not turning, weighs more on
+   walking than on turning; the sharpening makes the soft names harden over the rounds. Weighing each class alike
+   in the fit keeps a class declared in few recordings from being absorbed by one declared in many; but names from
+   the balanced posterior alone pull every class towards an equal share of the windows, and names weighed by the shares
    themselves let a common class absorb, round after round, the windows of a rarer one declared with it. The default
    ``share_power`` 1/2 lies between, as square-root class sampling does in long-tailed learning (Kang et al.,
    ICLR 2020). The rounds stop early when the names move by less than :data:`CHANGED` (mean total variation).
