@@ -202,8 +202,7 @@ def test_several_logs_in_one_call_write_what_one_call_each_writes(folder, tmp_pa
     a call per log writes; the JSON document holds one document per log."""
     import json
 
-    out = tmp_path / "labels"
-    out.mkdir()
+    out = tmp_path / "new" / "labels"  # a new folder is made
     logs = [folder / "ride.csv", f"{folder / 'ride.csv'}@2", folder / "normal-braking.csv"]
     result = runner.invoke(app, ["classify", str(folder / "model.npz"), *map(str, logs), "-o", str(out), "--json"])
     assert result.exit_code == 0, result.output
@@ -218,7 +217,8 @@ def test_several_logs_in_one_call_write_what_one_call_each_writes(folder, tmp_pa
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["ride.csv", "normal-braking.csv", "-o", "several.csv"], "with 2 logs give an existing folder"),
+    (["ride.csv", "normal-braking.csv", "-o", "several.csv"], "with 2 logs give a folder, existing or a new name"),
+    (["ride.csv", "normal-braking.csv", "-o", "model.npz"], "with 2 logs give a folder, existing or a new name"),
     (["ride.csv", "ride.csv", "-o", "."], "ride.csv is given twice"),
     (["ride.csv", "model.npz", "-o", "."], "model.npz is a model file among the logs; give the model files first"),
     (["-o", "x.csv"], "at least one model file and the log"),

@@ -492,7 +492,7 @@ def classify(
                                       "(PATH@K selects experiment K)"),
     output: Path = typer.Option(..., "-o", "--output", help="CSV file to write: time, label (and experiment); "
                                 "with several models one label column per model, named by its file stem; with "
-                                "several logs an existing folder, one NAME.csv per log (NAME@K.csv for PATH@K)"),
+                                "several logs a folder (made when new), one NAME.csv per log (NAME@K.csv for PATH@K)"),
     method: str = typer.Option("kcrc", "--method", help="kcrc | crc | src | bsrc | nearest (kcrc: kernel "
                                "CRC_RLS, amplitude-aware, the default; crc: the paper's CRC_RLS; kcrc and nearest are "
                                "not in the paper)"),
@@ -550,6 +550,8 @@ def classify(
     note = _stored_note(votes) if offline else _vote_note(vote)
     classifiers = {name: dictionary_classifier(model, method, causal=not centred) for name, model in models.items()}
     summaries = []
+    if len(sources) > 1:
+        output.mkdir(parents=True, exist_ok=True)
     for source, target in targets.items():
         if len(models) > 1:
             summaries.append(_classify_several(models, classifiers, source, target, method, centred, smooth, votes,
@@ -581,12 +583,13 @@ def _models_and_logs(paths: list[str]) -> tuple[list[str], list[str]]:
 
 def _log_outputs(sources: list[str], output: Path) -> dict[str, Path]:
     """The CSV file of each log: ``output`` for one log; for several, ``output / NAME.csv`` (the log's file name
-    without its extension, ``NAME@K.csv`` for ``PATH@K``) in the existing folder ``output``."""
+    without its extension, ``NAME@K.csv`` for ``PATH@K``) in the folder ``output``, an existing one or a new name
+    without an extension (made before the first log is written)."""
     if len(sources) == 1:
         return {sources[0]: output}
-    if not output.is_dir():
-        raise InputError(f"-o {output}: with {len(sources)} logs give an existing folder (one CSV per log is "
-                         "written into it)")
+    if not (output.is_dir() or (not output.exists() and not output.suffix)):
+        raise InputError(f"-o {output}: with {len(sources)} logs give a folder, existing or a new name without an "
+                         "extension (one CSV per log is written into it)")
     from spotfree.io import split_spec
 
     targets: dict[str, Path] = {}
