@@ -138,8 +138,8 @@ class SetSupervisedLearner(BaseEstimator):
     representation : {"summary", "hankel"}
         What the dictionary holds of a window (:mod:`spotfree.representation`).
     rounds : int
-        Most rounds of step 3; 0 decodes the starting names (uniform over each set, or the prior): a model whose
-        names nothing in the data decided.
+        Most rounds of step 3; 0 decodes the starting names (uniform over each set, times the prior and the absence
+        evidence of step 2).
     smoothing : float
         Seconds of windows whose log-posterior a change of class must gain to be made (the switching cost of
         :func:`decode_runs`); the dictionary's margins are averaged over as many windows.
@@ -337,9 +337,8 @@ class SetSupervisedLearner(BaseEstimator):
                     continue
                 if len(train) > FIT_WINDOWS * n_classes:
                     train = np.sort(rng.choice(train, FIT_WINDOWS * n_classes, replace=False))
-                model = ExtraTreesClassifier(n_estimators=100, min_samples_leaf=LEAF, max_features="sqrt",
-                                             n_jobs=-1, random_state=self.seed).fit(X[train], declares[train])
-                model.n_jobs = 1  # predict_proba's threads add the trees up in any order: not reproducible
+                model = self._forest(X[train], declares[train])
+                # s is kept from 0 only so that the odds are finite; the cap bounds the ratio
                 s = np.maximum(model.predict_proba(X[half == h])[:, 1], 1.0 / ABSENCE_CAP ** 2)
                 b = declares[train].mean()
                 ratio[half == h, c] = np.minimum((1.0 - s) / s * b / (1.0 - b), ABSENCE_CAP)
@@ -431,6 +430,15 @@ class SetSupervisedLearner(BaseEstimator):
         position = np.arange(len(data.X)) - data.offsets[data.recording]
         return (data.recording + position // block) % 2
 
+    def _forest(self, X: np.ndarray, y: np.ndarray, sample_weight: np.ndarray | None = None) -> ExtraTreesClassifier:
+        """The extremely randomised trees of the absence evidence and of the rounds, fitted on ``X``, ``y``; they
+        predict on one thread, since the threads of ``predict_proba`` add the trees up in any order (not
+        reproducible)."""
+        model = ExtraTreesClassifier(n_estimators=100, min_samples_leaf=LEAF, max_features="sqrt", n_jobs=-1,
+                                     random_state=self.seed).fit(X, y, sample_weight=sample_weight)
+        model.n_jobs = 1
+        return model
+
     def _cross_fitted(self, X: np.ndarray, weights: np.ndarray, data: _Windows, fitted: np.ndarray) -> np.ndarray:
         """Balanced ``log p(c | x)`` of every window from a forest fitted on the soft names ``weights`` ``(n, C)`` of
         the windows ``fitted`` of the other fold."""
@@ -443,9 +451,7 @@ class SetSupervisedLearner(BaseEstimator):
                 continue
             train = fitted[~held[fitted]] if (~held[fitted]).any() else fitted  # one fold only: no hold-out
             rows, classes, sample_weight = _candidate_rows(weights, train)
-            model = ExtraTreesClassifier(n_estimators=100, min_samples_leaf=LEAF, max_features="sqrt", n_jobs=-1,
-                                         random_state=self.seed).fit(X[rows], classes, sample_weight=sample_weight)
-            model.n_jobs = 1  # the threads of predict_proba add the trees up in any order: not reproducible
+            model = self._forest(X[rows], classes, sample_weight)
             proba = np.full((int(held.sum()), n_classes), 1e-3 / n_classes)
             proba[:, model.classes_] += model.predict_proba(X[held])
             log_p[held] = np.log(proba / proba.sum(axis=1, keepdims=True))
