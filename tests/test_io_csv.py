@@ -118,6 +118,14 @@ def test_jittered_times_are_snapped_to_the_files_rate(tmp_path):
     assert np.array_equal(rec.channels["gx"], columns["gx"])
 
 
+def test_a_short_fast_log_at_a_late_epoch_reads_back_at_its_rate(tmp_path):
+    # 15 samples at 1 kHz some 7 years after the epoch: the float times are 30 ns apart at best, and the written
+    # and read times may each be two of those spacings off, enough to move a rate estimate over 14 ms by 4 ppm
+    rec = Recording(time=229215237.9013299 + np.arange(15) / 1000.0, channels={"roll": np.zeros(15)}, rate=1000.0)
+    write_csv(rec, tmp_path / "fast.csv")
+    assert read_csv(tmp_path / "fast.csv", rate=1000.0).rate == 1000.0
+
+
 def test_a_failed_write_leaves_the_old_file_intact(tmp_path, monkeypatch):
     target = tmp_path / "ride.csv"
     target.write_text("old content\n")

@@ -270,7 +270,9 @@ def _uniform_rate(t: np.ndarray) -> float | None:
     median = float(np.median(steps))
     if median <= 0 or np.any(np.abs(steps - median) > UNIFORM_JITTER * median):
         return None
-    resolution = 2 * max(1e-9, float(np.spacing(np.abs(t).max())))  # times are written to the nanosecond
+    # a time read back lies within a nanosecond (what the writer keeps) or, for large times, within two float64
+    # spacings (the rounding to the nanosecond, then the float) of the sampled one; the span has two ends
+    resolution = 2 * max(1e-9, 2 * float(np.spacing(np.abs(t).max())))
     rate = _nice((len(t) - 1) / (t[-1] - t[0]), max(1e-6, resolution / (t[-1] - t[0])))
     drift = np.abs(t - (t[0] + np.arange(len(t)) / rate))
     return rate if drift.max() <= UNIFORM_JITTER / rate else None
