@@ -113,19 +113,23 @@ def score(predictions: list[np.ndarray], tests: list[Recording], classes: list[s
     return {"away": bal, "strict": strict, "recall": recall, "events": events}
 
 
+def centre_truth(recording: Recording, ends: np.ndarray, window: int) -> np.ndarray:
+    """The true label at the centre sample of each window of ``recording`` whose last samples are ``ends``."""
+    return np.asarray(recording.truth["label"]).astype(str)[ends - window // 2]
+
+
 class TrueNames(SetSupervisedLearner):
     """:class:`SetSupervisedLearner` whose windows are named by the true label at their centre instead of by its
     rounds and decoding (its private step ``_decide``): what its dictionary and classifier reach with perfect names.
     For this benchmark only; it reads the clips' ``truth``, which the learner never does."""
 
     def fit(self, recordings, class_sets):
-        self.truth_ = [np.asarray(r.truth["label"]).astype(str) for r in recordings]
+        self.recordings_ = list(recordings)
         return super().fit(recordings, class_sets)
 
     def _decide(self, log_q, data, allowed):
-        index = {c: k for k, c in enumerate(self.classes_)}
-        return np.concatenate([[index[c] for c in truth[ends - self.window // 2]]
-                               for truth, ends in zip(self.truth_, data.ends)]).astype(int)
+        truth = np.concatenate([centre_truth(rec, ends, self.window) for rec, ends in zip(self.recordings_, data.ends)])
+        return np.searchsorted(self.classes_, truth)
 
 
 def named_right(learner: SetSupervisedLearner, train: list[Recording]) -> float:
@@ -133,8 +137,7 @@ def named_right(learner: SetSupervisedLearner, train: list[Recording]) -> float:
     window's centre sample (never shown to the learner): how well step 3 of the learner named the clips' windows."""
     right = total = 0
     for clip, names, ends in zip(train, learner.window_labels_, learner.window_ends_):
-        truth = np.asarray(clip.truth["label"]).astype(str)[ends - learner.window // 2]
-        right += int(np.sum(truth == names))
+        right += int(np.sum(centre_truth(clip, ends, learner.window) == names))
         total += len(names)
     return right / total
 
@@ -249,8 +252,8 @@ def write(rows: list[dict], command: str, last: bool = False) -> None:
              f"- machine: {describe()}",
              f"- date: {datetime.now(timezone.utc).strftime('%Y-%m-%d %H:%M UTC')}",
              f"- training: the recordings of the {'last' if last else 'first'} training subjects cut into clips, each "
-             "declared with its set of "
-             f"classes; test: {rows[0]['test_recordings']} whole recordings of the other subjects per device",
+             f"declared with its set of classes; test: {rows[0]['test_recordings']} whole recordings of the other "
+             "subjects per device",
              "- balanced accuracy = mean of per-class recalls; away = leaving out samples within 0.5 s of a true "
              "change; centred labels (each window labels its centre, offline), and live: causal labels (each window "
              "labels its last sample, as a phone does live; a peer trained on that alignment, its fit time included); "
