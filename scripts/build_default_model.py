@@ -7,8 +7,9 @@ no model, shipped with the package as ``src/spotfree/ride/models/braking.npz``.
 Training set: the paper's protocol, as ``spotfree evaluate`` uses it: experiment :data:`TRAINING_EXPERIMENT` of the
 simulator's :data:`SCENARIOS` files (:data:`REPEATS` experiments each, seed :data:`SEED`), ride features with the
 derived channels, each recording declaring its scenario's classes (no sample is labelled), learnt by the
-:data:`PRESET` preset (:func:`spotfree.presets.preset_learner`). The learner is deterministic, so the same code
-gives the same model. The recipe and every parameter of the learner are recorded in the model's summary under
+:data:`PRESET` preset (:func:`spotfree.presets.preset_learner`). The learner is deterministic, and the script runs
+with numpy's AVX-512 kernels off (:mod:`spotfree.reproducible`), so the same code gives the same model on every
+machine. The recipe and every parameter of the learner are recorded in the model's summary under
 ``"build"`` (:func:`recipe`).
 
 Rerun it after any change to the learner, the preset, the ride features or the simulator:
@@ -25,6 +26,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "src"))
 
+from spotfree.reproducible import rerun_pinned  # noqa: E402
 from spotfree.ride.default_model import default_model_path  # noqa: E402
 
 PRESET = "braking"
@@ -79,4 +81,5 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
+    rerun_pinned()  # the same file on every machine (spotfree.reproducible)
     main()

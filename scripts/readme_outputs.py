@@ -13,7 +13,8 @@ All blocks run in document order in one temporary folder (a block may use the fi
 ``spotfree`` being this checkout's command-line interface (``python -m spotfree.cli`` on ``src/``) and a terminal
 width of :data:`COLUMNS`. Before the first block, :func:`phone_exports` writes the stand-in phone logs that the
 README's own-log quickstart names (the blocks cannot ship a rider's recordings): Sensor Logger exports of simulated
-rides. A command that fails stops the script with its output and exit status 2.
+rides. A command that fails stops the script with its output and exit status 2. The script and its commands run with
+numpy's AVX-512 kernels off (:mod:`spotfree.reproducible`), so that the outputs are the same on every machine.
 """
 
 from __future__ import annotations
@@ -29,6 +30,10 @@ import zipfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "src"))
+
+from spotfree.reproducible import rerun_pinned  # noqa: E402
+
 README = ROOT / "README.md"
 COLUMNS = 100
 """Terminal width the commands see (tables printed by the CLI wrap to it)."""
@@ -47,7 +52,6 @@ def phone_exports(folder: Path) -> None:
     """Write :data:`PHONE_LOGS` into ``folder`` as Android Sensor Logger zips (``TotalAcceleration.csv`` and
     ``Gyroscope.csv`` with ``time`` in epoch ns, ``seconds_elapsed`` and the axes z, y, x; ``Location.csv`` at the
     GPS fixes), as the app exports a recording."""
-    sys.path.insert(0, str(ROOT / "src"))
     import numpy as np
     import pandas as pd
 
@@ -136,4 +140,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    rerun_pinned()  # the same outputs on every machine (spotfree.reproducible)
     main()

@@ -1,0 +1,34 @@
+"""The same numbers on every x86-64 machine, for the files spotfree ships (its default model, the README's outputs).
+
+numpy computes ``exp``, ``log`` and the trigonometric functions of float64 arrays with kernels of its own on a
+processor with AVX-512 (Intel's SVML on ``AVX512_SKX``: numpy pull request 19478) and with the C library's or its AVX2
+ones elsewhere, and the two round the last bit differently (numpy issue 22904: ``np.log`` differs on Intel servers
+from Skylake on). The learner's forests split at thresholds drawn between feature values, so a last-bit difference in
+one feature can move a window to another leaf, and the rounds carry that on into a different model.
+``NPY_DISABLE_CPU_FEATURES`` (read by numpy when it is imported) switches those kernels off, so a process started with
+:func:`pinned_environment` computes what a machine without AVX-512 does.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+VARIABLE = "NPY_DISABLE_CPU_FEATURES"
+AVX512 = ("AVX512F", "AVX512CD", "AVX512_KNL", "AVX512_KNM", "AVX512_SKX", "AVX512_CLX", "AVX512_CNL", "AVX512_ICL",
+          "AVX512_SPR")
+"""numpy's names of the AVX-512 feature groups it dispatches to (a name the processor lacks is ignored)."""
+
+
+def pinned_environment(env: dict[str, str] | None = None) -> dict[str, str]:
+    """``env`` (default: this process's environment) with numpy's AVX-512 kernels switched off."""
+    out = dict(os.environ if env is None else env)
+    out[VARIABLE] = " ".join(AVX512)
+    return out
+
+
+def rerun_pinned() -> None:
+    """Start this script again in place (``os.execv``, same arguments) in :func:`pinned_environment`, unless it
+    already runs in it; call it first thing in a script's ``main``, before any work."""
+    if os.environ.get(VARIABLE) != " ".join(AVX512):
+        os.execve(sys.executable, [sys.executable, *sys.argv], pinned_environment())
