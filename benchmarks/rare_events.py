@@ -18,7 +18,7 @@ Methods in the same run:
 * ``MiniRocket`` and ``1-NN``: sliding-window peers trained on the same clips and channels (every ride channel) with
   every sample's label, once per alignment.
 
-    python benchmarks/rare_events.py [--seeds 0 1 2] [--clip 10]
+    python benchmarks/rare_events.py [--seeds 0 1 2 3 4] [--clip 10]
 
 Writes ``benchmarks/results/rare_events.md`` (command, machine, date, tables).
 """
@@ -101,7 +101,7 @@ def cell(e: EventScore) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
     parser.add_argument("--clip", type=float, default=10.0, help="clip length, s")
     args = parser.parse_args()
     if args.clip <= 0:
