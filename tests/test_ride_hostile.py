@@ -98,10 +98,11 @@ def test_hostile_push_does_not_slow_the_phones(tmp_path, model, raw):
             stop.set()
             attacker.join(30)
     service.close()
-    # the 90th percentile of the 120 acks: when the push was parsed on the event loop before its token was checked,
-    # every ack waited seconds; a pause of the shared machine delays a few (the 99th percentile reached 0.78 s in one full suite run)
-    quiet_p90, attacked_p90 = np.percentile(quiet, 90), np.percentile(attacked, 90)
+    # the median ack: when the push was parsed on the event loop before its token was checked, every ack waited
+    # seconds; a pause of the shared machine delays the one ack each phone waits for (ten at a time: the 99th
+    # percentile reached 0.78 s in one full suite run)
+    quiet_median, attacked_median = np.median(quiet), np.median(attacked)
     assert len(answers) >= 4 and b"reset" not in answers[:2], answers[:4]
     assert set(answers) <= {b"HTTP/1.1 401 Unauthorized", b"HTTP/1.1 413 Request Entity Too Large", b"reset"}
-    assert attacked_p90 < quiet_p90 + 0.25, (quiet_p90, attacked_p90, len(answers))
+    assert attacked_median < quiet_median + 0.25, (quiet_median, attacked_median, len(answers))
     assert MAX_BODY < HOSTILE_BYTES
