@@ -4,7 +4,7 @@ import os
 import subprocess
 import sys
 
-from spotfree.reproducible import AVX512, VARIABLE, pinned_environment
+from spotfree.reproducible import AVX512, SETTING, VARIABLE, pinned_environment
 
 SCRIPT = """
 import os
@@ -30,4 +30,4 @@ def test_a_script_started_without_the_pin_runs_again_with_it_and_numpy_uses_no_a
     assert proc.returncode == 0, proc.stderr
     lines = proc.stdout.splitlines()
     assert lines[:2] == ["started", "started"]  # the second start is the script again, in the pinned environment
-    assert lines[2] == f"{' '.join(AVX512)} []"
+    assert lines[2] == f"{SETTING} []"

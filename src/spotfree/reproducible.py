@@ -18,17 +18,20 @@ VARIABLE = "NPY_DISABLE_CPU_FEATURES"
 AVX512 = ("AVX512F", "AVX512CD", "AVX512_KNL", "AVX512_KNM", "AVX512_SKX", "AVX512_CLX", "AVX512_CNL", "AVX512_ICL",
           "AVX512_SPR")
 """numpy's names of the AVX-512 feature groups it dispatches to (a name the processor lacks is ignored)."""
+SETTING = " ".join(AVX512)
+"""The value of :data:`VARIABLE` that switches them all off."""
 
 
 def pinned_environment(env: dict[str, str] | None = None) -> dict[str, str]:
     """``env`` (default: this process's environment) with numpy's AVX-512 kernels switched off."""
     out = dict(os.environ if env is None else env)
-    out[VARIABLE] = " ".join(AVX512)
+    out[VARIABLE] = SETTING
     return out
 
 
 def rerun_pinned() -> None:
-    """Start this script again in place (``os.execv``, same arguments) in :func:`pinned_environment`, unless it
-    already runs in it; call it first thing in a script's ``main``, before any work."""
-    if os.environ.get(VARIABLE) != " ".join(AVX512):
+    """Start this script again in place (``os.execve``, same interpreter and arguments) in
+    :func:`pinned_environment`, unless it already runs in it; call it before any work, where the script runs as
+    ``__main__`` (a module that imports the script must not restart)."""
+    if os.environ.get(VARIABLE) != SETTING:
         os.execve(sys.executable, [sys.executable, *sys.argv], pinned_environment())
