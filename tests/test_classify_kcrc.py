@@ -7,6 +7,7 @@ from scipy.spatial.distance import cdist, pdist
 
 from spotfree.classify import UNKNOWN, KernelCRCClassifier, crc
 from spotfree.errors import InputError
+from spotfree.kernels import EXP_FLOOR, exp_nonpositive
 
 from classify_fixtures import amplitude_data
 
@@ -30,6 +31,20 @@ def test_every_atom_a_landmark_is_exact_kernel_crc():
         x = np.linalg.solve(Phi_A.T @ Phi_A + lam * np.eye(12), Phi_A.T @ Phi_Y[:, j])
         expected = [np.linalg.norm(Phi_Y[:, j] - Phi_A[:, labels == c] @ x[labels == c]) for c in "abc"]
         np.testing.assert_allclose(ours[j], expected, atol=1e-7)
+
+
+def test_the_compiled_exp_is_within_an_ulp_of_the_c_library():
+    rng = np.random.default_rng(0)
+    x = np.concatenate([-rng.random(100_000) * 40, -rng.random(10_000) * 708, -rng.random(1_000) * 1e-9,
+                        [0.0, -0.0, EXP_FLOOR, -np.log(2) / 2, -1.5 * np.log(2), -1e-300]])
+    y = x.copy()
+    exp_nonpositive(y)
+    expected = np.exp(x)
+    assert np.all(np.abs(y - expected) <= np.spacing(expected))
+    assert np.mean(y == expected) > 0.9
+    out_of_range = np.array([1.0, np.inf, -800.0, -np.inf])
+    exp_nonpositive(out_of_range)  # kept <= 0, and above the subnormal results
+    np.testing.assert_array_equal(out_of_range, [1.0, 1.0, y[x == EXP_FLOOR][0], y[x == EXP_FLOOR][0]])
 
 
 def test_landmarks_cover_every_class_and_label_like_every_atom():

@@ -33,10 +33,10 @@ MODEL = np.dtype([
 slice of the flat ``picks`` / ``scales``; ``d`` and ``y``: its window length (``channels L`` plus the affine row when
 ``affine != 0``) and offset in the flat ``windows``; ``unit``: l2-normalised columns; ``compiled``: CRC_RLS in the
 kernel, with ``classes``, its operator's offset in the flat ``operators`` and the ``reject`` threshold (inf: off);
-``kernel``: kernel CRC_RLS, its ``m`` landmarks (``m d``) and then its normalisation (``features m``) at offset
-``landmarks`` of the flat ``kernels``, ``gamma``, ``row`` the offset of the window's kernel row (``m``) in ``windows``,
-and at ``operator`` its folded, rotated operator ``(classes features, m)`` whose first ``head`` rows per class bound
-the residuals (:mod:`spotfree.classify.kcrc`).
+``kernel``: kernel CRC_RLS, its ``m`` landmarks as columns (``d m``) and then its normalisation (``features m``) at
+offset ``landmarks`` of the flat ``kernels``, ``gamma``, ``row`` the offset of the window's kernel row (``m``) in
+``windows``, and at ``operator`` its folded, rotated operator ``(classes features, m)`` whose first ``head`` rows per
+class bound the residuals (:mod:`spotfree.classify.kcrc`).
 ``summary``: the window is represented by :func:`summary_features` (``bins`` spectral bins in ``bands`` bands) into
 the ``p`` values at offset ``z`` of ``windows``, with its tables (:func:`spotfree.representation.summary_tables`: taper
 ``L``, cosines and sines ``bins L``, band of each bin ``bins``) and then its standardisation (offset ``p``, scale
@@ -110,30 +110,89 @@ def crc_window(operator, n_classes, y):  # pragma: no cover - compiled
     return best, ratio
 
 
+LOG2E = 1.4426950408889634
+LN2_HI, LN2_LO = 6.93147180369123816490e-01, 1.90821492927058770002e-10
+"""``ln 2`` split so that ``n LN2_HI`` is exact for ``|n| <= 1022`` (fdlibm's ``e_exp.c`` constants)."""
+ROUND = 6755399441055744.0
+"""``1.5 2^52``: ``x + ROUND - ROUND`` rounds ``x`` to an integer, which then sits in the low bits of ``x + ROUND``."""
+EXP_FLOOR = -708.0
+"""Exponents are clamped here, above the subnormal results (``exp(-708)`` is about ``3e-308``)."""
+
+
+@numba.njit(cache=True, nogil=True, fastmath={"contract"})
+def exp_nonpositive(x):  # pragma: no cover - compiled
+    """``x`` ``(n,)`` replaced by ``exp(min(max(x, EXP_FLOOR), 0))``, in place, in loops the compiler vectorises
+    (numba's ``np.exp`` calls the C library once per value; numpy's has vector code only for AVX-512).
+
+    ``x = n ln 2 + r``, ``n = round(x / ln 2)``, ``|r| <= ln 2 / 2`` (Cody-Waite: ``r`` from the two parts of ``ln 2``);
+    ``exp(r)`` by its Taylor polynomial of degree 13 in Horner form (truncation below ``2^-53`` relative on that
+    interval); ``2^n`` by writing ``n + 1023`` into the exponent bits. Within an ulp or so of the C library's
+    ``exp``: a few values in a thousand differ in the last bit."""
+    n = x.shape[0]
+    shifted = np.empty(n)
+    for i in range(n):
+        v = min(max(x[i], EXP_FLOOR), 0.0)
+        s = v * LOG2E + ROUND
+        k = s - ROUND
+        r = (v - k * LN2_HI) - k * LN2_LO
+        p = 1.0 / 6227020800.0
+        p = p * r + 1.0 / 479001600.0
+        p = p * r + 1.0 / 39916800.0
+        p = p * r + 1.0 / 3628800.0
+        p = p * r + 1.0 / 362880.0
+        p = p * r + 1.0 / 40320.0
+        p = p * r + 1.0 / 5040.0
+        p = p * r + 1.0 / 720.0
+        p = p * r + 1.0 / 120.0
+        p = p * r + 1.0 / 24.0
+        p = p * r + 1.0 / 6.0
+        p = p * r + 0.5
+        p = p * r + 1.0
+        x[i] = p * r + 1.0
+        shifted[i] = s
+    bits = shifted.view(np.int64)  # the low bits hold n; 2^n has the bits (n + 1023) << 52
+    for i in range(n):
+        bits[i] = (bits[i] - (0x4338000000000000 - 1023)) << 52
+    for i in range(n):
+        x[i] *= shifted[i]
+
+
 @numba.njit(cache=True, nogil=True, fastmath=_FAST)
-def kernel_window(landmarks, gamma, operator, head, normalisation, n_classes, y, k, outside):  # pragma: no cover
-    """Kernel CRC_RLS of one window ``y`` (:mod:`spotfree.classify.kcrc`): the kernel row
-    ``k_a = exp(-gamma ||y - l_a||^2)`` of the landmarks ``(m, d)`` into ``k`` ``(m,)``, then the best class under the
-    folded, rotated operator ``F`` ``(C f, m)`` (:func:`nearest_block` with ``head`` bounding rows) and, when
-    ``outside``, ``min_i r_i = sqrt(||F_best k||^2 + 1 -
-    ||N k||^2)`` with the normalisation ``N`` ``(f, m)`` (else NaN). ``(-1, NaN)`` if ``y`` is not finite."""
-    m, d = landmarks.shape
+def kernel_row(landmarks_t, gamma, y, k):  # pragma: no cover - compiled
+    """``k_a = exp(-gamma ||y - l_a||^2)`` (:func:`exp_nonpositive`) for the landmarks ``l_a``, the columns of
+    ``landmarks_t`` ``(d, m)``, into ``k`` ``(m,)``: sums over ``d`` with the landmarks side by side, so that the
+    compiler vectorises across them."""
+    d, m = landmarks_t.shape
+    for a in range(m):
+        k[a] = 0.0
     for j in range(d):
+        v = y[j]
+        for a in range(m):
+            e = v - landmarks_t[j, a]
+            k[a] += e * e
+    for a in range(m):
+        k[a] *= -gamma
+    exp_nonpositive(k)
+
+
+@numba.njit(cache=True, nogil=True, fastmath=_FAST)
+def kernel_window(landmarks_t, gamma, operator, head, normalisation, n_classes, y, k, outside):  # pragma: no cover
+    """Kernel CRC_RLS of one window ``y`` (:mod:`spotfree.classify.kcrc`): the kernel row (:func:`kernel_row`) of
+    the landmarks ``landmarks_t`` ``(d, m)`` into ``k`` ``(m,)``, then the best class under the folded, rotated
+    operator ``F`` ``(C f, m)`` (:func:`nearest_block` with ``head`` bounding rows) and, when ``outside``,
+    ``min_i r_i = sqrt(||F_best k||^2 + 1 - ||N k||^2)`` with the normalisation ``N`` ``(f, m)`` (else NaN).
+    ``(-1, NaN)`` if ``y`` is not finite."""
+    for j in range(y.shape[0]):
         if not np.isfinite(y[j]):
             return -1, np.nan
-    for a in range(m):
-        s = 0.0
-        for j in range(d):
-            e = y[j] - landmarks[a, j]
-            s += e * e
-        k[a] = np.exp(-gamma * s)
+    kernel_row(landmarks_t, gamma, y, k)
     best, best_r2 = nearest_block(operator, n_classes, head, k)
     if not outside:
         return best, np.nan
     norm2 = 0.0
     for r in range(normalisation.shape[0]):
         s = 0.0
-        for a in range(m):
+        for a in range(k.shape[0]):
             s += normalisation[r, a] * k[a]
         norm2 += s * s
     return best, np.sqrt(max(best_r2 + 1.0 - norm2, 0.0))
@@ -250,10 +309,10 @@ def ring_step(ring, cursor, models, picks, scales, operators, kernels, windows, 
             y, d = z, q
         if model.kernel:
             size = model.m * d
-            landmarks = kernels[model.landmarks:model.landmarks + size].reshape(model.m, d)
+            landmarks_t = kernels[model.landmarks:model.landmarks + size].reshape(d, model.m)
             normalisation = kernels[model.landmarks + size:model.landmarks + size + model.features * model.m]
             operator = operators[model.operator:model.operator + model.classes * model.features * model.m]
-            best, ratio = kernel_window(landmarks, model.gamma, operator.reshape(-1, model.m), model.head,
+            best, ratio = kernel_window(landmarks_t, model.gamma, operator.reshape(-1, model.m), model.head,
                                         normalisation.reshape(model.features, model.m), model.classes, y,
                                         windows[model.row:model.row + model.m], model.reject < np.inf)
         else:

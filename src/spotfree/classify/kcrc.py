@@ -27,15 +27,16 @@ the atoms, so that the first rows of ``F_i`` carry most of a residual. The first
 class bound its squared residual from below; the class of the least bound is completed, then only the classes whose
 bound does not exceed its residual (a sum of squares only grows, so the argmin is exact).
 
-In batch a chunk of windows takes matrix products (BLAS): the kernel rows' exponents ``-gamma ||y - l||^2`` from
-``[y, ||y||^2, 1]`` times ``[2 gamma l, -gamma, -gamma ||l||^2]``; those rows times the head rows of every class, with
-the rows of ``K_LL^{-1/2}`` appended when the part outside is needed (rejection); then, per class, the windows that
-need its remaining rows times those rows (``decision_function`` completes every class). Chunks go to threads as in
-CRC_RLS. A window costs ``m (d + 2)`` multiply-adds for the kernel row, ``C h m`` for the bounds, ``(f - h) m`` per
-completed class and ``f m`` for the part outside, against ``C f m`` without the bounds. Streaming
-(:meth:`KernelCRCClassifier.predict_one`, the ring step) does the same in one compiled call
-(:func:`~spotfree.kernels.kernel_window`), abandoning a class as soon as its sum exceeds the best. Float32 is
-not offered: ``K_LL^{-1/2}`` amplifies rounding by its largest singular value, large when landmarks lie close together
+In batch a chunk of windows takes matrix products (BLAS): the kernel rows' exponents ``-gamma ||y - l||^2`` from ``[y,
+||y||^2, 1]`` times ``[2 gamma l, -gamma, -gamma ||l||^2]``; those rows times the head rows of every class, with the
+rows of ``K_LL^{-1/2}`` appended when the part outside is needed (rejection); then, per class, the windows that need its
+remaining rows times those rows (``decision_function`` completes every class). Chunks go to threads as in CRC_RLS. The
+exponential is compiled (:func:`~spotfree.kernels.exp_nonpositive`, vectorised; numpy's calls the C library once per
+value on processors without AVX-512). A window costs ``m (d + 2)`` multiply-adds for the kernel row, ``C h m`` for the
+bounds, ``(f - h) m`` per completed class and ``f m`` for the part outside, against ``C f m`` without the bounds.
+Streaming (:meth:`KernelCRCClassifier.predict_one`, the ring step) does the same in one compiled call
+(:func:`~spotfree.kernels.kernel_window`), abandoning a class as soon as its sum exceeds the best. Float32 is not
+offered: ``K_LL^{-1/2}`` amplifies rounding by its largest singular value, large when landmarks lie close together
 (``K_LL`` near singular), enough to change labels.
 
 Landmarks are taken per class, in proportion to its atoms (at least one): the class's atoms fall into as many k-means
@@ -63,7 +64,7 @@ from threadpoolctl import threadpool_limits
 
 from spotfree.classify.base import UNKNOWN, ResidualClassifier
 from spotfree.classify.crc import CRCClassifier, check_n_jobs, in_chunks
-from spotfree.kernels import kernel_window
+from spotfree.kernels import exp_nonpositive, kernel_window
 from spotfree.errors import InputError
 
 HEAD = 8
@@ -107,6 +108,7 @@ class KernelCRCClassifier(ResidualClassifier):
         spread = float(np.median(pdist(atoms, "sqeuclidean"))) if len(atoms) > 1 else 0.0
         self.gamma_ = self.gamma_scale / (spread if spread > 0 else 1.0)
         self.landmarks_ = self._place_landmarks(atoms, atom_class)
+        self._landmarks_t = np.ascontiguousarray(self.landmarks_.T)  # (d, m), as predict_one reads them
         values, vectors = np.linalg.eigh(_kernel(self.landmarks_, self.landmarks_, self.gamma_))
         keep = values > values.max() * 1e-10
         self.normalisation_ = np.ascontiguousarray((vectors[:, keep] / np.sqrt(values[keep])).T)  # K_LL^-1/2 rows
@@ -186,13 +188,13 @@ class KernelCRCClassifier(ResidualClassifier):
     def predict_one(self, y):
         """Class of one window ``y`` ``(d,)`` (one compiled call); for streaming."""
         try:
-            landmarks = self.landmarks_
+            landmarks_t = self._landmarks_t
         except AttributeError:
             check_is_fitted(self, "operator_")
             raise
-        best, residual = kernel_window(landmarks, self.gamma_, self.operator_, self.head_, self.normalisation_,
-                                       len(self.classes_), self._one_window(y, landmarks.shape[1]),
-                                       np.empty(len(landmarks)), self.reject is not None)
+        best, residual = kernel_window(landmarks_t, self.gamma_, self.operator_, self.head_, self.normalisation_,
+                                       len(self.classes_), self._one_window(y, len(landmarks_t)),
+                                       np.empty(landmarks_t.shape[1]), self.reject is not None)
         if best < 0:
             raise self._not_finite()
         if self.reject is not None and residual > self.reject:
@@ -202,7 +204,8 @@ class KernelCRCClassifier(ResidualClassifier):
 
 def _kernel(X: np.ndarray, landmarks: np.ndarray, gamma: float) -> np.ndarray:
     """``exp(-gamma ||x - l||^2)`` for every row ``x`` of ``X`` and row ``l`` of ``landmarks``: the exponents of all
-    pairs from one matrix product, ``[x, ||x||^2, 1] . [2 gamma l, -gamma, -gamma ||l||^2]``, kept <= 0, then exp in place."""
+    pairs from one matrix product, ``[x, ||x||^2, 1] . [2 gamma l, -gamma, -gamma ||l||^2]``, then exp in place
+    (:func:`~spotfree.kernels.exp_nonpositive`, which keeps the exponents <= 0, as the live path does)."""
     left = np.empty((len(X), X.shape[1] + 2))
     left[:, :-2] = X
     left[:, -2] = np.einsum("ij,ij->i", X, X)
@@ -212,8 +215,8 @@ def _kernel(X: np.ndarray, landmarks: np.ndarray, gamma: float) -> np.ndarray:
     right[:, -2] = -gamma
     right[:, -1] = -gamma * np.einsum("ij,ij->i", landmarks, landmarks)
     k = left @ right.T
-    np.minimum(k, 0.0, out=k)
-    return np.exp(k, out=k)
+    exp_nonpositive(k.reshape(-1))
+    return k
 
 
 def _rotation(images: np.ndarray) -> np.ndarray:

@@ -76,7 +76,7 @@ class ModelRing:
                 row["kernel"], row["gamma"], row["landmarks"] = True, clf.gamma_, sum(k.size for k in kernels)
                 row["m"], row["features"], row["row"] = len(clf.landmarks_), len(clf.normalisation_), y
                 row["head"] = clf.head_
-                kernels += [clf.landmarks_.reshape(-1), clf.normalisation_.reshape(-1)]
+                kernels += [clf.landmarks_.T.reshape(-1), clf.normalisation_.reshape(-1)]
                 y += len(clf.landmarks_)
             if compiled:
                 row["classes"], row["operator"] = len(clf.classes_), sum(o.size for o in operators)
