@@ -25,7 +25,7 @@ _FAST = {"reassoc", "contract", "nsz", "arcp"}
 MODEL = np.dtype([
     ("window", "i8"), ("step", "i8"), ("first", "i8"), ("channels", "i8"), ("d", "i8"), ("y", "i8"),
     ("affine", "f8"), ("unit", "?"), ("compiled", "?"), ("classes", "i8"), ("operator", "i8"), ("reject", "f8"),
-    ("kernel", "?"), ("landmarks", "i8"), ("m", "i8"), ("features", "i8"), ("row", "i8"), ("head", "i8"),
+    ("kernel", "?"), ("fitted", "i8"), ("m", "i8"), ("features", "i8"), ("head", "i8"),
     ("gamma", "f8"), ("code", "i8"), ("summary", "?"), ("bins", "i8"), ("bands", "i8"), ("tables", "i8"), ("z", "i8"),
     ("p", "i8"),
 ])
@@ -33,10 +33,8 @@ MODEL = np.dtype([
 slice of the flat ``picks`` / ``scales``; ``d`` and ``y``: its window length (``channels L`` plus the affine row when
 ``affine != 0``) and offset in the flat ``windows``; ``unit``: l2-normalised columns; ``compiled``: CRC_RLS in the
 kernel, with ``classes``, its operator's offset in the flat ``operators`` and the ``reject`` threshold (inf: off);
-``kernel``: kernel CRC_RLS, its ``m`` landmarks as columns (``d m``) and then its normalisation (``features m``) at
-offset ``landmarks`` of the flat ``kernels``, ``gamma``, ``row`` the offset of the window's kernel row (``m``) in
-``windows``, and at ``operator`` its folded, rotated operator ``(classes features, m)`` whose first ``head`` rows per
-class bound the residuals (:mod:`spotfree.classify.kcrc`).
+``kernel``: kernel CRC_RLS, with ``classes``, ``gamma``, ``head``, its ``m`` landmarks and ``features`` rows per
+class, whose fitted arrays (:func:`kernel_window`'s ``fitted``) start at offset ``fitted`` of the flat ``kernels``.
 ``summary``: the window is represented by :func:`summary_features` (``bins`` spectral bins in ``bands`` bands) into
 the ``p`` values at offset ``z`` of ``windows``, with its tables (:func:`spotfree.representation.summary_tables`: taper
 ``L``, cosines and sines ``bins L``, band of each bin ``bins``) and then its standardisation (offset ``p``, scale
@@ -176,23 +174,26 @@ def kernel_row(landmarks_t, gamma, y, k):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True, fastmath=_FAST)
-def kernel_window(landmarks_t, gamma, operator, head, normalisation, n_classes, y, k, outside):  # pragma: no cover
-    """Kernel CRC_RLS of one window ``y`` (:mod:`spotfree.classify.kcrc`): the kernel row (:func:`kernel_row`) of
-    the landmarks ``landmarks_t`` ``(d, m)`` into ``k`` ``(m,)``, then the best class under the folded, rotated
-    operator ``F`` ``(C f, m)`` (:func:`nearest_block` with ``head`` bounding rows) and, when ``outside``,
-    ``min_i r_i = sqrt(||F_best k||^2 + 1 - ||N k||^2)`` with the normalisation ``N`` ``(f, m)`` (else NaN).
-    ``(-1, NaN)`` if ``y`` is not finite."""
-    for j in range(y.shape[0]):
+def kernel_window(fitted, d, m, f, n_classes, head, gamma, y, outside):  # pragma: no cover - compiled
+    """Kernel CRC_RLS of one window ``y`` ``(d,)`` (:mod:`spotfree.classify.kcrc`). ``fitted`` holds, flat and in this
+    order, the ``m`` landmarks as columns ``(d, m)``, the folded, rotated operator ``F`` ``(C f, m)`` and the
+    normalisation ``N`` ``(f, m)`` (one array, so that a call unboxes few). The kernel row ``k`` (:func:`kernel_row`),
+    then the best class under ``F`` (:func:`nearest_block` with ``head`` bounding rows) and, when ``outside``,
+    ``min_i r_i = sqrt(||F_best k||^2 + 1 - ||N k||^2)`` (else NaN). ``(-1, NaN)`` if ``y`` is not finite."""
+    for j in range(d):
         if not np.isfinite(y[j]):
             return -1, np.nan
-    kernel_row(landmarks_t, gamma, y, k)
-    best, best_r2 = nearest_block(operator, n_classes, head, k)
+    k = np.empty(m)
+    kernel_row(fitted[:d * m].reshape(d, m), gamma, y, k)
+    end = d * m + n_classes * f * m
+    best, best_r2 = nearest_block(fitted[d * m:end].reshape(n_classes * f, m), n_classes, head, k)
     if not outside:
         return best, np.nan
+    normalisation = fitted[end:end + f * m].reshape(f, m)
     norm2 = 0.0
-    for r in range(normalisation.shape[0]):
+    for r in range(f):
         s = 0.0
-        for a in range(k.shape[0]):
+        for a in range(m):
             s += normalisation[r, a] * k[a]
         norm2 += s * s
     return best, np.sqrt(max(best_r2 + 1.0 - norm2, 0.0))
@@ -308,13 +309,8 @@ def ring_step(ring, cursor, models, picks, scales, operators, kernels, windows, 
                 z[i] = (z[i] - kernels[t + i]) / kernels[t + q + i]
             y, d = z, q
         if model.kernel:
-            size = model.m * d
-            landmarks_t = kernels[model.landmarks:model.landmarks + size].reshape(d, model.m)
-            normalisation = kernels[model.landmarks + size:model.landmarks + size + model.features * model.m]
-            operator = operators[model.operator:model.operator + model.classes * model.features * model.m]
-            best, ratio = kernel_window(landmarks_t, model.gamma, operator.reshape(-1, model.m), model.head,
-                                        normalisation.reshape(model.features, model.m), model.classes, y,
-                                        windows[model.row:model.row + model.m], model.reject < np.inf)
+            best, ratio = kernel_window(kernels[model.fitted:], d, model.m, model.features, model.classes, model.head,
+                                        model.gamma, y, model.reject < np.inf)
         else:
             operator = operators[model.operator:model.operator + model.classes * d * d].reshape(model.classes * d, d)
             best, ratio = crc_window(operator, model.classes, y)

@@ -87,6 +87,20 @@ class KernelCRCClassifier(ResidualClassifier):
         Rejection threshold on ``min_i r_i`` (in [0, 1]: the feature vector's norm is 1).
     n_jobs : int
         Threads of the batch path (``-1``: one per core).
+
+    Attributes
+    ----------
+    landmarks_ : ndarray (m, d)
+        The Nystroem landmarks.
+    gamma_ : float
+        Kernel width ``gamma``.
+    normalisation_ : ndarray (f, m)
+        The rows of ``K_LL^{-1/2}`` of the eigenvalues kept.
+    operator_ : ndarray (C f, m)
+        The folded, rotated operators ``F_i`` stacked by class; their first ``head_`` rows bound the residuals.
+    live_ : ndarray
+        ``landmarks_`` as columns ``(d, m)``, ``operator_`` and ``normalisation_``, flat, as the compiled live call
+        reads them (:func:`~spotfree.kernels.kernel_window`).
     """
 
     def __init__(self, gamma_scale: float = 0.25, landmarks: int | None = 32, alpha: float = 1e-3,
@@ -108,7 +122,6 @@ class KernelCRCClassifier(ResidualClassifier):
         spread = float(np.median(pdist(atoms, "sqeuclidean"))) if len(atoms) > 1 else 0.0
         self.gamma_ = self.gamma_scale / (spread if spread > 0 else 1.0)
         self.landmarks_ = self._place_landmarks(atoms, atom_class)
-        self._landmarks_t = np.ascontiguousarray(self.landmarks_.T)  # (d, m), as predict_one reads them
         values, vectors = np.linalg.eigh(_kernel(self.landmarks_, self.landmarks_, self.gamma_))
         keep = values > values.max() * 1e-10
         self.normalisation_ = np.ascontiguousarray((vectors[:, keep] / np.sqrt(values[keep])).T)  # K_LL^-1/2 rows
@@ -121,6 +134,8 @@ class KernelCRCClassifier(ResidualClassifier):
         heads = rotated[:, :self.head_].reshape(-1, m)
         self._heads_t = np.ascontiguousarray(np.vstack([heads, self.normalisation_]).T)  # (m, C h + f)
         self._tails_t = np.ascontiguousarray(rotated[:, self.head_:].reshape(-1, m).T)  # (m, C (f - h))
+        self.live_ = np.concatenate([self.landmarks_.T.ravel(), self.operator_.ravel(), self.normalisation_.ravel()])
+        self._live_call = (self.live_, self.landmarks_.shape[1], m, f, n_classes, self.head_, self.gamma_)
 
     def _place_landmarks(self, atoms: np.ndarray, atom_class: np.ndarray) -> np.ndarray:
         if self.landmarks is None or self.landmarks >= len(atoms):
@@ -188,13 +203,11 @@ class KernelCRCClassifier(ResidualClassifier):
     def predict_one(self, y):
         """Class of one window ``y`` ``(d,)`` (one compiled call); for streaming."""
         try:
-            landmarks_t = self._landmarks_t
+            call = self._live_call
         except AttributeError:
-            check_is_fitted(self, "operator_")
+            check_is_fitted(self, "live_")
             raise
-        best, residual = kernel_window(landmarks_t, self.gamma_, self.operator_, self.head_, self.normalisation_,
-                                       len(self.classes_), self._one_window(y, len(landmarks_t)),
-                                       np.empty(landmarks_t.shape[1]), self.reject is not None)
+        best, residual = kernel_window(*call, self._one_window(y, call[1]), self.reject is not None)
         if best < 0:
             raise self._not_finite()
         if self.reject is not None and residual > self.reject:

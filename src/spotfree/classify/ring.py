@@ -73,14 +73,14 @@ class ModelRing:
                             model.feature_scale]
                 y += row["p"]
             if kernel:
-                row["kernel"], row["gamma"], row["landmarks"] = True, clf.gamma_, sum(k.size for k in kernels)
-                row["m"], row["features"], row["row"] = len(clf.landmarks_), len(clf.normalisation_), y
-                row["head"] = clf.head_
-                kernels += [clf.landmarks_.T.reshape(-1), clf.normalisation_.reshape(-1)]
-                y += len(clf.landmarks_)
+                row["kernel"], row["gamma"], row["fitted"] = True, clf.gamma_, sum(k.size for k in kernels)
+                row["m"], row["features"], row["head"] = len(clf.landmarks_), len(clf.normalisation_), clf.head_
+                kernels.append(clf.live_)
             if compiled:
-                row["classes"], row["operator"] = len(clf.classes_), sum(o.size for o in operators)
-                operators.append((clf.operator_ if kernel else clf.residual_operators_).astype(float).reshape(-1))
+                row["classes"] = len(clf.classes_)
+            if compiled and not kernel:
+                row["operator"] = sum(o.size for o in operators)
+                operators.append(clf.residual_operators_.astype(float).reshape(-1))
         self.models_["first"] = np.cumsum([0] + [len(p) for p in picks])[:-1]
         self._picks = np.concatenate([np.asarray(p, dtype=np.int64) for p in picks])
         self._scales = np.concatenate([np.asarray(m.scale, dtype=float) for m in models])
