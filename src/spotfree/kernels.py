@@ -124,8 +124,8 @@ def exp_nonpositive(x):  # pragma: no cover - compiled
 
     ``x = n ln 2 + r``, ``n = round(x / ln 2)``, ``|r| <= ln 2 / 2`` (Cody-Waite: ``r`` from the two parts of ``ln 2``);
     ``exp(r)`` by its Taylor polynomial of degree 13 in Horner form (truncation below ``2^-53`` relative on that
-    interval); ``2^n`` by writing ``n + 1023`` into the exponent bits. Within an ulp or so of the C library's
-    ``exp``: a few values in a thousand differ in the last bit."""
+    interval); ``2^n`` by writing ``n + 1023`` into the exponent bits. Within one ulp of the C library's ``exp``, not
+    always bit-equal to it."""
     n = x.shape[0]
     shifted = np.empty(n)
     for i in range(n):
