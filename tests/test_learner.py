@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from spotfree.errors import InputError
 from spotfree.evaluation.metrics import near_transitions
 from spotfree.io.recording import Recording
-from spotfree.learner import SetSupervisedLearner, decode_runs
+from spotfree.learner import SetSupervisedLearner, _Windows, decode_runs
 from spotfree.model import DictionaryModel
 from spotfree.ride_prior import RidePrior
 from spotfree.windows import ChannelScaling
@@ -244,6 +244,20 @@ def test_decode_runs_every_class_appears_and_runs_are_kept():
     assert np.count_nonzero(np.diff(labels)) <= 4
     free = decode_runs(q[:, :2], 0.0)
     np.testing.assert_array_equal(free, q[:, :2].argmax(axis=1))
+
+
+@pytest.mark.parametrize("smoothing", [0.05, 0.1, 0.15, 0.2, 0.5])
+def test_the_margins_are_averaged_over_windows_centred_on_each(smoothing):
+    learner = SetSupervisedLearner(smoothing=smoothing)
+    learner.rate_ = 20.0
+    runs = _Windows(X=np.zeros((41, 1)), recording=np.zeros(41, dtype=int), ends=[np.arange(41)], runs=[(0, 41)],
+                    offsets=np.array([0, 41]))
+    impulse = np.zeros((41, 2))
+    impulse[20, 0] = 1.0
+    averaged = learner._smoothed(impulse, runs)[:, 0]
+    np.testing.assert_allclose(averaged, averaged[::-1], atol=1e-15)  # no shift towards the past or the future
+    assert averaged.sum() == pytest.approx(1.0)
+    assert np.count_nonzero(averaged) == int(round(smoothing * 20)) + 1 - int(round(smoothing * 20)) % 2
 
 
 @pytest.mark.parametrize("case, message", [

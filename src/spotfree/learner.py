@@ -64,7 +64,7 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
-from scipy.ndimage import uniform_filter1d
+from scipy.ndimage import correlate1d
 from sklearn.base import BaseEstimator
 from sklearn.ensemble import ExtraTreesClassifier
 
@@ -345,13 +345,21 @@ class SetSupervisedLearner(BaseEstimator):
         return ratio
 
     def _smoothed(self, log_q: np.ndarray, data: _Windows) -> np.ndarray:
+        """``log_q`` averaged over ``span`` windows (``smoothing`` in windows, rounded) centred on each window,
+        within each run of contiguous windows (edges repeated). An even span ``2h`` weighs the windows ``h`` before
+        and after by one half, ``[1/2, 1, ..., 1, 1/2] / 2h`` (the centred moving average of time-series
+        decomposition), so that the average is not shifted by half a window towards the past: a shift moves the
+        margins of a class's onsets and ends, which the dictionary keeps or drops by them."""
         span = int(round(self._span))
         if span < 2:
             return log_q
+        weights = np.ones(span + 1 - span % 2)
+        if span % 2 == 0:
+            weights[[0, -1]] = 0.5
         finite = np.where(np.isfinite(log_q), log_q, 0.0)
         out = np.full_like(log_q, -np.inf)
         for a, b in data.runs:
-            out[a:b] = uniform_filter1d(finite[a:b], span, axis=0, mode="nearest")
+            out[a:b] = correlate1d(finite[a:b], weights / span, axis=0, mode="nearest")
         return np.where(np.isfinite(log_q), out, -np.inf)
 
     def _decide(self, log_q: np.ndarray, data: _Windows, allowed: np.ndarray) -> np.ndarray:
