@@ -23,7 +23,7 @@ from spotfree.sim.scenarios import CLASSES
 
 GRID = {
     "lateral": ([("yaw_rate", "roll_rate"), ("yaw_rate", "roll"), ("yaw_rate",), ("yaw_rate", "roll", "acc_y")],
-                (10, 20)),
+                (10, 20, 40)),
     "road": ([("rough_y", "rough_z"), ("vib_y", "vib_z"), ("rough_x", "rough_y", "rough_z"), ("rough_z",)], (6, 10, 20)),
 }
 """Channel sets and windows (samples at 20 Hz) tried per model."""
