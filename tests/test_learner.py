@@ -95,21 +95,6 @@ def test_levels_a_hard_stop_against_a_soft_one():
     assert min(accuracy.values()) >= 0.9, accuracy
 
 
-def test_the_live_dictionary_keeps_the_windows_that_end_just_after_a_change():
-    rng = np.random.default_rng(2)
-    train = [_alternating("still", "soft", rng, "soft", other_seconds=(2.0, 4.0)),
-             _recording([("still", 6), ("soft", 2), ("hard", 2), ("still", 6), ("soft", 2), ("hard", 2),
-                         ("still", 6)], rng, "hard"),
-             _recording([("still", 20)], rng, "still")]
-    sets = [{"still", "soft"}, {"still", "soft", "hard"}, {"still"}]
-    learner = SetSupervisedLearner(seed=0, max_columns=100_000).fit(train, sets)
-    half = learner.window // 2
-    named_at_end = np.concatenate([names[half:] for names in learner.window_labels_])
-    live = np.asarray(learner.classes_)[learner.model_.causal_column_class]
-    for c in learner.classes_:  # every window named by its last sample, none dropped for a low margin
-        assert np.sum(live == c) == np.sum(named_at_end == c)
-
-
 def test_a_short_rare_event_is_found():
     rng = np.random.default_rng(3)
     parts = []

@@ -47,10 +47,7 @@ Method (``docs/training.md`` has the derivation and the references):
 4. **Dictionary.** Per class, the windows whose posterior margin is at or above the class's median, at most
    ``max_columns`` of them spread evenly over time, become the dictionary's columns: windows that straddle a change
    stay eligible, so that the dictionary also holds a class's onsets and ends, which the test windows show as
-   often. The causal columns (live labels, which a window gives its last sample) are chosen among the windows named
-   by the class at their last sample, at most ``max_columns`` spread evenly, with no margin filter: a margin is low
-   where the window's last sample lies near a change of class, and a live window just past a change is the one a live
-   label most often gets wrong, so the causal dictionary keeps those windows.
+   often. The causal columns are chosen alike among the windows named by the class at their last sample.
    Classification is kernel CRC_RLS on the dictionary (:class:`~spotfree.classify.kcrc.KernelCRCClassifier`).
 
 Domain knowledge enters only through ``prior``: an object whose ``log_prior(recording, centres, classes)`` returns an
@@ -472,11 +469,13 @@ class SetSupervisedLearner(BaseEstimator):
         half = max(1, self.window // 2 // self.step)
         names = np.asarray(self.classes_)
         causal = np.full(len(labels), -1)
+        causal_margin = np.full(len(labels), -np.inf)
         for a, b in data.runs:
             if b - a > half:
                 causal[a:b - half] = labels[a + half:b]
+                causal_margin[a:b - half] = margin[a + half:b]
         columns, column_class = _pick(labels, margin, len(names), self.max_columns)
-        causal_columns, causal_class = _pick(causal, None, len(names), self.max_columns)
+        causal_columns, causal_class = _pick(causal, causal_margin, len(names), self.max_columns)
         found = np.bincount(column_class, minlength=len(names))
         for c in np.flatnonzero(found == 0):
             self.warnings_.append(f"class {names[c]} names no window; declare it in recordings where it lasts longer "
@@ -538,14 +537,13 @@ def _candidate_rows(weights: np.ndarray, windows: np.ndarray) -> tuple[np.ndarra
     return rows, classes, sample_weight / totals[classes]
 
 
-def _pick(labels: np.ndarray, margin: np.ndarray | None, n_classes: int,
-          max_columns: int) -> tuple[np.ndarray, np.ndarray]:
+def _pick(labels: np.ndarray, margin: np.ndarray, n_classes: int, max_columns: int) -> tuple[np.ndarray, np.ndarray]:
     """Per class ``c``, the windows labelled ``c`` (``labels`` ``-1``: none) with a margin at or above the class's
-    median (every one of them when ``margin`` is None), at most ``max_columns`` spread evenly over their order."""
+    median, at most ``max_columns`` spread evenly over their order."""
     picked, owner = [], []
     for c in range(n_classes):
         idx = np.flatnonzero(labels == c)
-        if margin is not None and len(idx) > 1:
+        if len(idx) > 1:
             idx = idx[margin[idx] >= np.median(margin[idx])]
         if len(idx) > max_columns:
             idx = idx[np.linspace(0, len(idx) - 1, max_columns).round().astype(int)]
