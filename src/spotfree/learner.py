@@ -353,9 +353,10 @@ class SetSupervisedLearner(BaseEstimator):
         span = int(round(self._span))
         if span < 2:
             return log_q
-        weights = np.ones(span + 1 - span % 2)
-        if span % 2 == 0:
-            weights[[0, -1]] = 0.5
+        if span % 2:
+            weights = np.ones(span)
+        else:
+            weights = np.r_[0.5, np.ones(span - 1), 0.5]
         finite = np.where(np.isfinite(log_q), log_q, 0.0)
         out = np.full_like(log_q, -np.inf)
         for a, b in data.runs:

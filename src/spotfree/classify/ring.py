@@ -78,9 +78,9 @@ class ModelRing:
                 kernels.append(clf.live_)
             if compiled:
                 row["classes"] = len(clf.classes_)
-            if compiled and not kernel:
-                row["operator"] = sum(o.size for o in operators)
-                operators.append(clf.residual_operators_.astype(float).reshape(-1))
+                if not kernel:
+                    row["operator"] = sum(o.size for o in operators)
+                    operators.append(clf.residual_operators_.astype(float).reshape(-1))
         self.models_["first"] = np.cumsum([0] + [len(p) for p in picks])[:-1]
         self._picks = np.concatenate([np.asarray(p, dtype=np.int64) for p in picks])
         self._scales = np.concatenate([np.asarray(m.scale, dtype=float) for m in models])
