@@ -42,9 +42,6 @@ the ``p`` values at offset ``z`` of ``windows``, with its tables (:func:`spotfre
 ``code`` is the result of the last sample (:data:`NOT_DUE`, :data:`IN_PYTHON`, :data:`NOT_FINITE`, or the class index,
 ``classes`` meaning rejected)."""
 NOT_DUE, IN_PYTHON, NOT_FINITE = -1, -2, -3
-SEGMENTS = 4
-"""Consecutive segments of a window whose means (less the window's) the ``summary`` representation keeps per channel
-(:func:`summary_features`)."""
 
 
 @numba.njit(cache=True, nogil=True, fastmath=_FAST)
@@ -205,33 +202,24 @@ def kernel_window(fitted, d, m, f, n_classes, head, gamma, y, outside):  # pragm
 @numba.njit(cache=True, nogil=True)  # no reassociation: the same bits in batch and in the ring step
 def summary_features(x, channels, taper, cos, sin, band, bands, out):  # pragma: no cover - compiled
     """The ``summary`` representation of one window ``x`` ``(channels L,)`` (channels stacked, each in time order)
-    into ``out`` ``(channels (5 + SEGMENTS + bands),)``: per channel its mean, standard deviation, minimum, maximum,
-    the mean of each of :data:`SEGMENTS` consecutive segments less the window's mean (sample ``t`` in segment
-    ``t SEGMENTS // L``; 0 for a segment without samples), the change of standard deviation from the older to the
-    newer ``L // 2`` samples (0 when ``L < 2``) and ``log(1 + sum_{k in band b} |X_k|^2 / L)`` per band, ``X_k`` the
-    spectral bin ``k`` of the tapered, mean-removed channel from the rows ``cos``, ``sin`` ``(bins, L)`` of the
-    tables, ``band`` ``(bins,)`` each bin's band (:func:`spotfree.representation.summary_tables`)."""
+    into ``out`` ``(channels (6 + bands),)``: per channel its mean, standard deviation, minimum, maximum, the change
+    of mean and of standard deviation from the older to the newer ``L // 2`` samples (0 when ``L < 2``) and
+    ``log(1 + sum_{k in band b} |X_k|^2 / L)`` per band, ``X_k`` the spectral bin ``k`` of the tapered, mean-removed
+    channel from the rows ``cos``, ``sin`` ``(bins, L)`` of the tables, ``band`` ``(bins,)`` each bin's band
+    (:func:`spotfree.representation.summary_tables`)."""
     length = x.shape[0] // channels
     half = length // 2
     n_half = max(half, 1)
-    width = 5 + SEGMENTS + bands
-    spectrum = 5 + SEGMENTS
+    width = 6 + bands
     v = np.empty(length)
-    segment_sum = np.empty(SEGMENTS)
-    segment_count = np.empty(SEGMENTS)
     for c in range(channels):
         first = c * length
         total, low, high, older, newer = 0.0, np.inf, -np.inf, 0.0, 0.0
-        segment_sum[:] = 0.0
-        segment_count[:] = 0.0
         for t in range(length):
             s = x[first + t]
             total += s
             low = min(low, s)
             high = max(high, s)
-            j = t * SEGMENTS // length
-            segment_sum[j] += s
-            segment_count[j] += 1.0
             if t < half:
                 older += s
             if t >= length - half:
@@ -251,19 +239,18 @@ def summary_features(x, channels, taper, cos, sin, band, bands, out):  # pragma:
                 newer_var += (s - newer) * (s - newer)
         o = c * width
         out[o], out[o + 1], out[o + 2], out[o + 3] = mean, np.sqrt(var / length), low, high
-        for j in range(SEGMENTS):
-            out[o + 4 + j] = segment_sum[j] / segment_count[j] - mean if segment_count[j] > 0 else 0.0
-        out[o + 4 + SEGMENTS] = np.sqrt(newer_var / n_half) - np.sqrt(older_var / n_half)
+        out[o + 4] = newer - older
+        out[o + 5] = np.sqrt(newer_var / n_half) - np.sqrt(older_var / n_half)
         for b in range(bands):
-            out[o + spectrum + b] = 0.0
+            out[o + 6 + b] = 0.0
         for k in range(cos.shape[0]):
             re, im = 0.0, 0.0
             for t in range(length):
                 re += cos[k, t] * v[t]
                 im += sin[k, t] * v[t]
-            out[o + spectrum + int(band[k])] += (re * re + im * im) / length
+            out[o + 6 + int(band[k])] += (re * re + im * im) / length
         for b in range(bands):
-            out[o + spectrum + b] = np.log1p(out[o + spectrum + b])
+            out[o + 6 + b] = np.log1p(out[o + 6 + b])
 
 
 @numba.njit(cache=True, nogil=True)

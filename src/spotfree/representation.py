@@ -10,22 +10,18 @@ the vector the dictionary holds and the classifier compares:
     two cycles of one periodic motion taken at different phases are far apart.
 
 ``summary``
-    Per channel ``x`` (``L`` samples), ``5 + S + B`` numbers: the level and spread ``mean(x)``, ``std(x)``, ``min(x)``,
-    ``max(x)``; the window's coarse shape, ``mean(x_j) - mean(x)`` for ``S`` (:data:`SEGMENTS`) consecutive segments
-    ``x_j`` (the piecewise aggregate approximation of Keogh, Chakrabarti, Pazzani and Mehrotra, "Dimensionality
-    reduction for fast similarity search in large time series databases", KAIS 3(3), 2001, less its mean); the
-    change of spread across the window, ``std(x'') - std(x')`` with ``x'`` the older and ``x''`` the newer ``L // 2``
-    samples; and the log power of the Hann-tapered, mean-removed window in ``B`` frequency bands,
+    Per channel ``x`` (``L`` samples), ``6 + B`` numbers: the level and spread ``mean(x)``, ``std(x)``, ``min(x)``,
+    ``max(x)``; their change across the window, ``mean(x'') - mean(x')`` and ``std(x'') - std(x')`` with ``x'`` the
+    older and ``x''`` the newer ``L // 2`` samples; and the log power of the Hann-tapered, mean-removed window in
+    ``B`` frequency bands,
 
         P_b = log(1 + sum_{k in band b} |X_k|^2 / L)     X = rfft(hann * (x - mean(x)))
 
-    the bins ``1 .. L // 2`` split into ``B`` bands of (about) equal width on a log scale. The level, spread and
-    band powers do not change when a periodic motion is shifted in phase, and keep a level (a hard stop against a
-    soft one) and a short peak (a kerb strike's ``max``). The segments and the change of spread are the only numbers
-    that see the order of the samples: without them a window that leaves one class for another is the same as one
-    that enters it, and a live label, which a window gives its newest sample, could not tell which of the two
-    classes that sample belongs to; the segments also say where in the window a change lies, which a live label
-    needs most, since its window ends at the sample it labels.
+    the bins ``1 .. L // 2`` split into ``B`` bands of (about) equal width on a log scale. These do not change when a
+    periodic motion is shifted in phase, and keep a level (a hard stop against a soft one) and a short peak (a
+    kerb strike's ``max``). The two changes are the only ones that see the order of the samples: without them a
+    window that leaves one class for another is the same as one that enters it, and a live label, which a window
+    gives its newest sample, could not tell which of the two classes that sample belongs to.
 
 Both are computed for a whole matrix at once and for one window (streaming) by the same compiled kernel
 (:func:`~spotfree.kernels.summary_features`, with the tables of :func:`summary_tables`).
@@ -37,7 +33,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from spotfree.kernels import SEGMENTS, summary_matrix
+from spotfree.kernels import summary_matrix
 from spotfree.errors import InputError
 
 REPRESENTATIONS = ("summary", "hankel")
@@ -76,7 +72,7 @@ def summary_tables(length: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.
 def represent(windows: np.ndarray, channels: int, representation: str) -> np.ndarray:
     """Representation of every column of ``windows`` ``(channels * L, m)``, as rows: ``(m, p)``.
 
-    ``p = channels * L`` for ``hankel`` and ``channels * (5 + S + B')`` for ``summary`` (module docstring).
+    ``p = channels * L`` for ``hankel`` and ``channels * (6 + B')`` for ``summary`` (module docstring).
     """
     windows = np.asarray(windows, dtype=float)
     if windows.ndim == 1:
@@ -90,7 +86,7 @@ def represent(windows: np.ndarray, channels: int, representation: str) -> np.nda
         raise InputError(f"windows of {d} values do not split into {channels} channels")
     length = d // channels
     taper, cos, sin, band, bands = summary_tables(length)
-    out = np.empty((m, channels * (5 + SEGMENTS + bands)))
+    out = np.empty((m, channels * (6 + bands)))
     summary_matrix(np.ascontiguousarray(windows.T), channels, taper, cos, sin, band, bands, out)
     return out
 
@@ -99,4 +95,4 @@ def representation_size(channels: int, length: int, representation: str) -> int:
     """Length ``p`` of one represented window."""
     if representation == "hankel":
         return channels * length
-    return channels * (5 + SEGMENTS + len(band_edges(length)) - 1)
+    return channels * (6 + len(band_edges(length)) - 1)

@@ -92,10 +92,10 @@ gesture alternates with postures of a few seconds, and a longer cost merges it i
 
 Representations: the ``live-state`` stage (the state stage of live labels, learnt from the same sessions and class
 sets as ``state``) and the gesture stage keep their windows whole (``hankel``), because the ``summary`` of a window
-keeps of the order of its samples only a few segment means and the change of spread, while a movement and its
-reverse pass through the same orientations in the opposite order. And a live window labels its newest sample: with
-summaries that kept only the change of level and spread between a window's halves, the live windows just after a
-gesture, which still hold its end, were called gesture. Offline, a window
+keeps of the order of its samples only the change of level and spread between its halves. A movement and its
+reverse pass through the same orientations in the opposite order. And a live window labels its newest sample, while
+the summary of a window in which the hand comes to rest is much like that of one in which it starts to move: with
+summaries, the live windows just after a gesture, which still hold its end, were called gesture. Offline, a window
 labels its middle sample, which its summary does not misplace, and the ``summary`` state finds a gesture's first
 samples more often than ``hankel`` windows do; it also cuts the training sessions into the posture and gesture
 stages' stretches.

@@ -33,7 +33,7 @@ from spotfree.classify.kcrc import KernelCRCClassifier
 from spotfree.classify.stream import MAX_GAP, RideClassifier, segment_runs, starts_segment
 from spotfree.errors import InputError
 from spotfree.model import DictionaryModel
-from spotfree.representation import SEGMENTS, summary_tables
+from spotfree.representation import summary_tables
 from spotfree.ride.records import FEATURE_COLUMNS, SAMPLE_COLUMNS, Event
 from spotfree.signal.butterworth import butter_lowpass
 from spotfree.signal.complementary import pi_complementary_design
@@ -187,8 +187,7 @@ def pipeline_spec(model: DictionaryModel, classifier=None) -> dict:
     CRC_RLS; for kernel CRC_RLS ``gamma``, the ``m`` ``landmarks`` ``(m, d)`` and the ``normalisation``
     ``(f, m)``, flat, row-major, and then ``operator`` acts on the ``f`` features), ``summary`` (None for a
     ``hankel`` model; for a ``summary`` one the tables of :func:`~spotfree.representation.summary_tables`: ``taper``,
-    ``cos`` and ``sin`` ``(bins, L)`` flat, ``band``, ``bands``, the number of ``segments``
-    (:data:`~spotfree.representation.SEGMENTS`) and the standardisation ``offset``, ``scale``; the
+    ``cos`` and ``sin`` ``(bins, L)`` flat, ``band``, ``bands``, and the standardisation ``offset``, ``scale``; the
     classifier then acts on the represented window).
     """
     if model.features != "ride":
@@ -219,8 +218,7 @@ def pipeline_spec(model: DictionaryModel, classifier=None) -> dict:
     if model.representation == "summary":
         taper, cos, sin, band, bands = summary_tables(model.window)
         summary = {"taper": taper.tolist(), "cos": cos.reshape(-1).tolist(), "sin": sin.reshape(-1).tolist(),
-                   "band": band.tolist(), "bands": int(bands), "segments": SEGMENTS,
-                   "offset": model.feature_offset.tolist(),
+                   "band": band.tolist(), "bands": int(bands), "offset": model.feature_offset.tolist(),
                    "scale": model.feature_scale.tolist()}
     b, a, c = lean_coefficients(model.rate)
     return {

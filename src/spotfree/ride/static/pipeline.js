@@ -448,25 +448,18 @@
       return this.label;
     }
     summarise(y) {
-      // summary representation (spotfree.representation): per channel mean, std, min, max, the mean of each of
-      // S.segments consecutive segments less the window's (sample t in segment floor(t segments / L)), the change of
-      // std from the older to the newer L/2 samples, and the log power of the tapered, mean-removed window in each
+      // summary representation (spotfree.representation): per channel mean, std, min, max, the change of mean and
+      // of std from the older to the newer L/2 samples, and the log power of the tapered, mean-removed window in each
       // band, log(1 + sum_{k in band} |X_k|^2 / L); then standardised
       const S = this.spec.summary, c = this.spec.channels.length, L = this.spec.window, bins = S.band.length;
-      const G = S.segments, spectrum = 5 + G, half = Math.floor(L / 2), width = spectrum + S.bands;
-      const z = new Float64Array(c * width), v = new Float64Array(L);
-      const segmentSum = new Float64Array(G), segmentCount = new Float64Array(G);
+      const half = Math.floor(L / 2), width = 6 + S.bands, z = new Float64Array(c * width), v = new Float64Array(L);
       for (let i = 0; i < c; i++) {
         let total = 0.0, low = Infinity, high = -Infinity, older = 0.0, newer = 0.0;
-        segmentSum.fill(0.0);
-        segmentCount.fill(0.0);
         for (let t = 0; t < L; t++) {
-          const x = y[i * L + t], j = Math.floor(t * G / L);
+          const x = y[i * L + t];
           total += x;
           low = Math.min(low, x);
           high = Math.max(high, x);
-          segmentSum[j] += x;
-          segmentCount[j] += 1.0;
           if (t < half) older += x;
           if (t >= L - half) newer += x;
         }
@@ -483,14 +476,14 @@
         }
         const o = i * width;
         z[o] = mean; z[o + 1] = Math.sqrt(variance / L); z[o + 2] = low; z[o + 3] = high;
-        for (let j = 0; j < G; j++) z[o + 4 + j] = segmentCount[j] > 0 ? segmentSum[j] / segmentCount[j] - mean : 0.0;
-        z[o + 4 + G] = Math.sqrt(newerVar / n) - Math.sqrt(olderVar / n);
+        z[o + 4] = newer - older;
+        z[o + 5] = Math.sqrt(newerVar / n) - Math.sqrt(olderVar / n);
         for (let k = 0; k < bins; k++) {
           let re = 0.0, im = 0.0;
           for (let t = 0; t < L; t++) { re += S.cos[k * L + t] * v[t]; im += S.sin[k * L + t] * v[t]; }
-          z[o + spectrum + S.band[k]] += (re * re + im * im) / L;
+          z[o + 6 + S.band[k]] += (re * re + im * im) / L;
         }
-        for (let b = 0; b < S.bands; b++) z[o + spectrum + b] = Math.log1p(z[o + spectrum + b]);
+        for (let b = 0; b < S.bands; b++) z[o + 6 + b] = Math.log1p(z[o + 6 + b]);
       }
       for (let j = 0; j < z.length; j++) z[j] = (z[j] - S.offset[j]) / S.scale[j];
       return z;
