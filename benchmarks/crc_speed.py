@@ -22,11 +22,14 @@ Checks: the kernel CRC_RLS labels of ``predict`` equal those of ``predict_one`` 
 equal the batch table (``spotfree.evaluation.ride_models.stream_cost``). Goals: at least 1,000,000 windows per second
 in batch and under 10 us median per window live for kernel CRC_RLS, and under 50 us median per raw sample for the
 three models together. ``--baseline REV`` first runs the batch and live rows on spotfree as it was at git revision
-``REV`` (:mod:`baseline`), for the speed-up. The machine is shared: the load average is printed at the start.
+``REV`` (:mod:`baseline`), for the speed-up, on the same model files or on those of ``--baseline-models DIR`` (models
+trained by that revision, when it trained them differently). The machine is shared: the load average is printed at
+the start.
 
 Writes ``benchmarks/results/crc_speed.md`` (command, machine, date, output).
 
-Run: ``python benchmarks/crc_speed.py [--windows 200000] [--repeats 5] [--passes 3] [--models DIR] [--baseline REV]``.
+Run: ``python benchmarks/crc_speed.py [--windows 200000] [--repeats 5] [--passes 3] [--models DIR] [--baseline REV]
+[--baseline-models DIR]``.
 """
 
 from __future__ import annotations
@@ -176,6 +179,9 @@ def main() -> None:
     parser.add_argument("--passes", type=int, default=3, help="passes over the rides for the live and per-sample rows")
     parser.add_argument("--models", type=Path, help="folder of braking.npz, lateral.npz, road.npz (written if missing)")
     parser.add_argument("--baseline", help="git revision whose spotfree runs the batch and live rows first")
+    parser.add_argument("--baseline-models", type=Path,
+                        help="folder of the models the --baseline run loads (default: those of --models), e.g. "
+                             "models trained by that revision")
     parser.add_argument("--json", action="store_true", help="print only the batch and live figures, as JSON")
     args = parser.parse_args()
     if args.windows < 1 or args.repeats < 1 or args.passes < 1:
@@ -193,7 +199,7 @@ def main() -> None:
 
             old = run_at_revision(args.baseline, __file__, ["--json", "--windows", str(args.windows), "--repeats",
                                                             str(args.repeats), "--passes", str(args.passes),
-                                                            "--models", str(folder)])
+                                                            "--models", str(args.baseline_models or folder)])
         lines = [f"machine: {describe(('numpy', 'scipy', 'scikit-learn', 'numba'))}",
                  "BLAS: " + ", ".join(f"{i['internal_api']} {i.get('version')} ({i.get('architecture')})"
                                       for i in threadpool_info() if i["user_api"] == "blas")
