@@ -89,11 +89,9 @@ SEPARABLE = 0.5
 """Ratio, from which the summary warns, of a class's mean cross-fitted posterior on the windows of recordings without
 it that it is given most (as large a part of them as it names of its own recordings' windows) to that on the windows
 it names."""
-LANDMARKS = 64
+LANDMARKS = 128
 """Nystroem landmarks of the kernel CRC_RLS that labels with the dictionary
-(:class:`~spotfree.classify.kcrc.KernelCRCClassifier`): a window costs about ``m (d + m)`` multiply-adds (its kernel
-row and the operator rows of the class it is given), so the batch rate falls with ``m^2``; more landmarks did not
-label the real recordings of ``benchmarks/real_har.py`` better (``docs/training.md``)."""
+(:class:`~spotfree.classify.kcrc.KernelCRCClassifier`; a window costs about ``m d + 2 C m^2`` operations)."""
 AFFINE = 6.0
 """Constant row appended to a ``hankel`` window and to every column when classifying (``parameters["affine"]``): a
 window is then represented by an affine combination of columns, which CRC_RLS needs once a class holds as many columns
