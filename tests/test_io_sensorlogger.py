@@ -247,3 +247,14 @@ def test_json_that_is_not_an_export_is_refused(tmp_path):
     path.write_text("[{\"sensor\": ")
     with pytest.raises(InputError, match=r"other\.json: not valid JSON"):
         read_recording(path)
+
+
+def test_recordings_at_times_beyond_the_calendar_are_refused_with_their_seconds(tmp_path):
+    """Two sensors of equal weight from different recordings, one stamped past the year 2262 (the last date of
+    pandas' nanosecond times): the refusal names both start times instead of failing to format one."""
+    records = [{"sensor": "Gyroscope", "time": 1_700_000_000_000_000_000, "x": 0.0, "y": 0.0, "z": 0.0},
+               {"sensor": "TotalAcceleration", "time": 9_300_000_000_500_000_000, "x": 0.0, "y": 0.0, "z": 9.8}]
+    path = tmp_path / "export.json"
+    path.write_text(json.dumps(records))
+    with pytest.raises(InputError, match="2 recordings .Gyroscope at 2023-11-14 22:13 UTC; TotalAcceleration at 2264-09-14 21:20 UTC"):
+        read_recording(path)

@@ -29,6 +29,7 @@ declared ``sampleRateMs`` (factor 2) is reported in ``meta['warnings']``.
 from __future__ import annotations
 
 import json
+from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
@@ -229,8 +230,12 @@ def _one_recording(sensors: dict[str, _Sensor], metadata: dict[str, str], source
 
 
 def _utc(seconds: float) -> str:
-    """UNIX seconds as ``YYYY-MM-DD HH:MM UTC``."""
-    return pd.Timestamp(seconds, unit="s").strftime("%Y-%m-%d %H:%M UTC")
+    """UNIX seconds as ``YYYY-MM-DD HH:MM UTC``; as ``S s after 1970`` outside the years 1-9999 (a junk time
+    stamp)."""
+    try:
+        return datetime.fromtimestamp(seconds, timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    except (OverflowError, ValueError, OSError):  # outside the years 1-9999, or not a number
+        return f"{seconds:.12g} s after 1970"
 
 
 def _from_elsewhere(elsewhere: dict[str, str], names: tuple[str, ...]) -> str:
