@@ -1,6 +1,7 @@
 """Sensor Logger exports: folder, zip and JSON; Android and iOS conventions; bad exports."""
 
 import json
+import re
 import shutil
 
 import numpy as np
@@ -249,12 +250,17 @@ def test_json_that_is_not_an_export_is_refused(tmp_path):
         read_recording(path)
 
 
-def test_recordings_at_times_beyond_the_calendar_are_refused_with_their_seconds(tmp_path):
-    """Two sensors of equal weight from different recordings, one stamped past the year 2262 (the last date of
-    pandas' nanosecond times): the refusal names both start times instead of failing to format one."""
+@pytest.mark.parametrize("second_start_ns, written", [
+    (9_300_000_000_500_000_000, "2264-09-14 21:20 UTC"),  # past pandas' nanosecond dates (2262)
+    (10**21, "1e+12 s after 1970"),  # past the year 9999
+])
+def test_recordings_far_in_the_future_are_refused_with_both_start_times(tmp_path, second_start_ns, written):
+    """Two sensors of equal weight from different recordings, one stamped far in the future: the refusal names both
+    start times (as seconds beyond the calendar) instead of failing to format one."""
     records = [{"sensor": "Gyroscope", "time": 1_700_000_000_000_000_000, "x": 0.0, "y": 0.0, "z": 0.0},
-               {"sensor": "TotalAcceleration", "time": 9_300_000_000_500_000_000, "x": 0.0, "y": 0.0, "z": 9.8}]
+               {"sensor": "TotalAcceleration", "time": second_start_ns, "x": 0.0, "y": 0.0, "z": 9.8}]
     path = tmp_path / "export.json"
     path.write_text(json.dumps(records))
-    with pytest.raises(InputError, match="2 recordings .Gyroscope at 2023-11-14 22:13 UTC; TotalAcceleration at 2264-09-14 21:20 UTC"):
+    expected = f"2 recordings .Gyroscope at 2023-11-14 22:13 UTC; TotalAcceleration at {re.escape(written)}"
+    with pytest.raises(InputError, match=expected):
         read_recording(path)

@@ -28,8 +28,8 @@ declared ``sampleRateMs`` (factor 2) is reported in ``meta['warnings']``.
 
 from __future__ import annotations
 
+import datetime as dt
 import json
-from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
@@ -233,7 +233,7 @@ def _utc(seconds: float) -> str:
     """UNIX seconds as ``YYYY-MM-DD HH:MM UTC``; as ``S s after 1970`` outside the years 1-9999 (a junk time
     stamp)."""
     try:
-        return datetime.fromtimestamp(seconds, timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+        return dt.datetime.fromtimestamp(seconds, tz=dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     except (OverflowError, ValueError, OSError):  # outside the years 1-9999, or not a number
         return f"{seconds:.12g} s after 1970"
 
