@@ -1,0 +1,63 @@
+"""Body channels of a raw IMU log: the rotation rate about the vertical whatever the device's orientation, to
+either side, zero for a rotation about a horizontal axis, never above the rotation rate's norm, causal and restarted
+after a gap."""
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.spatial.transform import Rotation
+
+from spotfree.io.recording import Recording
+from spotfree.signal.body import BODY_CHANNELS, body_features, vertical_rotation
+
+RATE = 20.0
+
+
+def _log(acc: np.ndarray, gyro: np.ndarray) -> Recording:
+    names = ("ax", "ay", "az", "gx", "gy", "gz")
+    values = np.hstack([acc, gyro])
+    return Recording(time=np.arange(len(values)) / RATE, channels=dict(zip(names, values.T)), rate=RATE,
+                     source="test")
+
+
+def _held(orientation: Rotation, n: int, about_vertical: float, about_horizontal: float) -> Recording:
+    """A device held still in ``orientation`` (world to device) on a body that turns at ``about_vertical`` rad/s
+    and sways at ``about_horizontal`` rad/s about a horizontal axis."""
+    gravity = orientation.apply([0.0, 0.0, 9.81])
+    rate = orientation.apply([about_horizontal, 0.0, about_vertical])
+    return _log(np.tile(gravity, (n, 1)), np.tile(rate, (n, 1)))
+
+
+def test_the_turning_rate_is_the_same_in_every_orientation_and_to_either_side():
+    for seed in range(5):
+        orientation = Rotation.random(random_state=seed)
+        for turn in (1.5, -1.5):
+            rec = _held(orientation, 60, turn, 2.0)
+            np.testing.assert_allclose(vertical_rotation(rec), 1.5, atol=1e-9)
+        np.testing.assert_allclose(vertical_rotation(_held(orientation, 60, 0.0, 2.0)), 0.0, atol=1e-9)
+
+
+def test_body_features_hold_every_body_channel():
+    rec = body_features(_held(Rotation.random(random_state=0), 40, 1.0, 0.5))
+    assert rec.names == list(BODY_CHANNELS) and rec.meta["features"] == "body"
+
+
+def test_causal_and_restarted_after_a_gap():
+    rng = np.random.default_rng(0)
+    acc, gyro = rng.normal(0, 3, (200, 3)) + [0, 0, 9.81], rng.normal(0, 1, (200, 3))
+    whole = vertical_rotation(_log(acc, gyro))
+    np.testing.assert_array_equal(vertical_rotation(_log(acc[:120], gyro[:120])), whole[:120])  # causal
+    acc[100:110] = np.nan
+    gapped = vertical_rotation(_log(acc, gyro))
+    assert np.isnan(gapped[100:110]).all()
+    np.testing.assert_array_equal(gapped[:100], whole[:100])
+    np.testing.assert_allclose(gapped[110:], vertical_rotation(_log(acc[110:], gyro[110:])), rtol=1e-12)
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.lists(st.tuples(*[st.floats(-50, 50)] * 6), min_size=1, max_size=60))
+def test_never_above_the_norm_of_the_rotation_rate(rows):
+    values = np.array(rows)
+    rec = _log(values[:, :3], values[:, 3:])
+    turning = vertical_rotation(rec)
+    assert np.all(turning >= 0) and np.all(turning <= np.linalg.norm(values[:, 3:], axis=1) * (1 + 1e-9) + 1e-12)
