@@ -1,12 +1,14 @@
 """Body channels of a raw IMU log: the rotation rate about the vertical whatever the device's orientation, to
-either side, zero for a rotation about a horizontal axis, never above the rotation rate's norm, causal and restarted
-after a gap."""
+either side, zero for a rotation about a horizontal axis, never above the rotation rate's norm, causal, restarted
+after a gap, and a log too slow for the gravity low-pass refused."""
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
+from spotfree.errors import InputError
 from spotfree.io.recording import Recording
 from spotfree.signal.body import BODY_CHANNELS, body_features, vertical_rotation
 
@@ -61,3 +63,10 @@ def test_never_above_the_norm_of_the_rotation_rate(rows):
     rec = _log(values[:, :3], values[:, 3:])
     turning = vertical_rotation(rec)
     assert np.all(turning >= 0) and np.all(turning <= np.linalg.norm(values[:, 3:], axis=1) * (1 + 1e-9) + 1e-12)
+
+
+def test_a_log_too_slow_for_the_gravity_low_pass_is_a_clear_error():
+    slow = Recording(time=np.arange(5) * 5.0, channels={c: np.ones(5) for c in ("ax", "ay", "az", "gx", "gy", "gz")},
+                     rate=0.2, source="slow.csv")
+    with pytest.raises(InputError, match="needs a sampling rate above .* resample"):
+        body_features(slow)
