@@ -45,6 +45,10 @@ def test_the_compiled_exp_is_within_an_ulp_of_the_c_library():
     out_of_range = np.array([1.0, np.inf, -800.0, -np.inf])
     exp_nonpositive(out_of_range)  # kept <= 0, and above the subnormal results
     np.testing.assert_array_equal(out_of_range, [1.0, 1.0, y[x == EXP_FLOOR][0], y[x == EXP_FLOOR][0]])
+    not_a_number = np.array([np.nan, -1.0])
+    exp_nonpositive(not_a_number)  # a NaN stays NaN, so that a window that is not finite is refused, not labelled
+    assert np.isnan(not_a_number[0])
+    assert abs(not_a_number[1] - np.exp(-1.0)) <= np.spacing(np.exp(-1.0))
 
 
 def test_landmarks_cover_every_class_and_label_like_every_atom():
