@@ -1,8 +1,9 @@
 """Training cost of the general learner against the amount of data: time and peak memory at four sizes, and the
 fitted exponent ``b`` of ``cost ~ size^b`` (1: linear).
 
-Data: generated recordings of 2 minutes at 20 Hz with the eight body channels' worth of signal (three periodic
-motions, a level and rest; each recording declares the two or three classes it holds), 7.5 to 60 minutes in all.
+Data: generated recordings of 2 minutes at 20 Hz with as many channels as a body-worn log has
+(:data:`spotfree.signal.body.BODY_CHANNELS`), each carrying three periodic motions, a level and rest (each recording
+declares the two or three classes it holds), 7.5 to 60 minutes in all.
 Each size is fitted in a fresh process, so its peak resident memory (``ru_maxrss``) is its own.
 
     python benchmarks/learner_scale.py [--minutes 7.5 15 30 60]
@@ -33,7 +34,9 @@ KINDS = {"rest": (0.0, 0.0), "walk": (2.0, 1.0), "run": (3.0, 2.5), "cycle": (1.
 
 def recordings(minutes: float, seed: int = 0):
     from spotfree.io.recording import Recording
+    from spotfree.signal.body import BODY_CHANNELS
 
+    width = len(BODY_CHANNELS)
     rng = np.random.default_rng(seed)
     names = list(KINDS)
     out, sets = [], []
@@ -46,9 +49,9 @@ def recordings(minutes: float, seed: int = 0):
             f, a = KINDS[kind]
             t = np.arange(n) / RATE
             base = a * np.sin(2 * np.pi * f * t + rng.uniform(0, 6)) if f else np.full(n, a)
-            parts.append(base[:, None] * rng.uniform(0.5, 1.5, 8) + rng.normal(0, 0.2, (n, 8)))
+            parts.append(base[:, None] * rng.uniform(0.5, 1.5, width) + rng.normal(0, 0.2, (n, width)))
         x = np.vstack(parts)[: int(2 * 60 * RATE)]
-        out.append(Recording(time=np.arange(len(x)) / RATE, channels={f"c{i}": x[:, i] for i in range(8)},
+        out.append(Recording(time=np.arange(len(x)) / RATE, channels={f"c{i}": x[:, i] for i in range(width)},
                              rate=RATE, source=f"r{k}"))
         sets.append(sorted(set(chosen)))
     return out, sets
