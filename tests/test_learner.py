@@ -159,6 +159,30 @@ def test_a_pattern_that_also_occurs_without_the_event_is_not_named_the_event(mon
     assert without >= 5 * true, (without, true)
 
 
+def test_the_absence_evidence_reaches_a_class_declared_in_a_single_recording(monkeypatch):
+    """One recording declares the strikes and one does not: no two halves of the recordings each hold both kinds, so
+    the evidence is cross-fitted over time blocks, and the soft level after each strike, which the quiet recording
+    holds too, is still kept from the strike (without the evidence the strike claims it)."""
+    import spotfree.learner as learner_module
+
+    train, sets, test = _strikes_with_aftermath(np.random.default_rng(4))
+    train, sets = [train[0], train[2]], [sets[0], sets[2]]
+    learner = SetSupervisedLearner(seed=0).fit(train, sets)
+    allowed = np.array([[c in s for c in learner.classes_] for s in sets])
+    data = learner._windows(train, ("u", "v"), ChannelScaling(("u", "v")).fit(train))
+    ratio = learner._absence(data.X, data, allowed, np.random.default_rng(0))
+    truth = np.concatenate([rec.truth["label"][ends - learner.window // 2] for rec, ends in zip(train, data.ends)])
+    strike, declares = learner.classes_.index("strike"), data.recording == 0
+    assert np.median(ratio[declares & (truth == "strike"), strike]) < 0.2
+    assert np.median(ratio[declares & (truth == "still"), strike]) > 0.5
+    named, true = _strike_windows(learner, train)
+    assert named <= 3 * true, (named, true)
+
+    monkeypatch.setattr(learner_module, "ABSENCE", 0.0)
+    without, _ = _strike_windows(SetSupervisedLearner(seed=0).fit(train, sets), train)
+    assert without >= 5 * true, (without, true)
+
+
 def test_the_absence_evidence_is_none_for_a_class_every_recording_declares():
     rng = np.random.default_rng(9)
     train = [_alternating("still", "slow", rng, "a"), _alternating("still", "fast", rng, "b"),

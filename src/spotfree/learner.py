@@ -13,7 +13,10 @@ Method (``docs/training.md`` has the derivation and the references):
    with soft names ``w(c) = 1 / |S_r|`` over its candidates (times the prior, when there is one).
    **Absence evidence.** A class's windows occur only in the recordings that declare it. Per class ``c`` declared by
    some recordings and not by others, a forest tells the windows of the two apart, cross-fitted over two halves of
-   the recordings (a window is scored by a forest that never saw its recording); its probability ``s(x)`` that a
+   the recordings (a window is scored by a forest that never saw its recording), or, when a single recording
+   declares ``c`` or a single one does not (no two halves each hold both kinds), over the rounds' alternating time
+   blocks (a window is scored by a forest that saw other stretches of its recording, not its own); its probability
+   ``s(x)`` that a
    window like ``x`` comes from a recording declaring ``c`` gives the ratio of the densities of such windows in the
    recordings without ``c`` and in those with it (Sugiyama, Suzuki and Kanamori, "Density Ratio Estimation in
    Machine Learning", 2012):
@@ -318,19 +321,23 @@ class SetSupervisedLearner(BaseEstimator):
     def _absence(self, X: np.ndarray, data: _Windows, allowed: np.ndarray,
                  rng: np.random.Generator) -> np.ndarray:
         """``r_c(x)`` ``(n, C)`` of every window and class (module docstring, step 2), at most :data:`ABSENCE_CAP`;
-        0 for a class every recording declares, and in a half of the recordings whose other half holds no recording
-        with or none without the class (nothing to tell apart). Per class, the recordings that declare it and those
-        that do not are each dealt alternately, in a random order, to the two halves."""
+        0 for a class every recording declares, and in a half whose other half holds no window with or none without
+        the class (nothing to tell apart). Per class, the recordings that declare it and those that do not are each
+        dealt alternately, in a random order, to the two halves; when either kind is a single recording, the halves
+        are the cross-fitting folds of the rounds (:meth:`_folds`) instead, since one recording cannot be on both
+        sides and its windows would otherwise go without the evidence."""
         n_recordings, n_classes = allowed.shape
         ratio = np.zeros((len(X), n_classes))
+        blocks = self._folds(data)
         for c in np.flatnonzero(~allowed.all(axis=0)):
             order = rng.permutation(n_recordings)
             halves = np.empty(n_recordings, dtype=int)
             for kind in (True, False):
                 same = order[allowed[order, c] == kind]
                 halves[same] = np.arange(len(same)) % 2
-            half = halves[data.recording]
             declares = allowed[data.recording, c]
+            by_recording = min(allowed[:, c].sum(), (~allowed[:, c]).sum()) >= 2
+            half = halves[data.recording] if by_recording else blocks
             for h in (0, 1):
                 train = np.flatnonzero(half != h)
                 if declares[train].all() or not declares[train].any() or not (half == h).any():
