@@ -15,11 +15,10 @@ Method (``docs/training.md`` has the derivation and the references):
    some recordings and not by others, a forest tells the windows of the two apart, cross-fitted over two halves of
    the recordings (a window is scored by a forest that never saw its recording), or, when a single recording
    declares ``c`` or a single one does not (no two halves each hold both kinds), over the rounds' alternating time
-   blocks (a window is scored by a forest that saw other stretches of its recording, not its own); its probability
-   ``s(x)`` that a
-   window like ``x`` comes from a recording declaring ``c`` gives the ratio of the densities of such windows in the
-   recordings without ``c`` and in those with it (Sugiyama, Suzuki and Kanamori, "Density Ratio Estimation in
-   Machine Learning", 2012):
+   blocks (a window is scored by a forest that saw other stretches of its recording, never the window itself); its
+   probability ``s(x)`` that a window like ``x`` comes from a recording declaring ``c`` gives the ratio of the
+   densities of such windows in the recordings without ``c`` and in those with it (Sugiyama, Suzuki and Kanamori,
+   "Density Ratio Estimation in Machine Learning", 2012):
 
        r_c(x) = f_without(x) / f_with(x) = (1 - s(x)) / s(x) * b / (1 - b)      (b: the share of windows declaring c)
 
