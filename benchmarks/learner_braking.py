@@ -5,9 +5,9 @@ Protocol (issue 31): per seed, experiment 1 of the normal-braking, sudden-brakin
 scenario, each declared with its scenario's classes: :data:`spotfree.sim.scenarios.CLASSES`) trains; experiments
 2-7 of each file are the test. Per-sample accuracy of centred labels per scenario, leaving out the samples within
 0.5 s of a true change ("away"), the strict figure beside; and per seed the lowest per-class accuracy away from true
-changes over all tests, as the goals table of ``spotfree evaluate`` reads one seed. One row trains as ``spotfree evaluate`` and the shipped
-default model do: on the normal-braking and sudden-braking rides only (no cruising ride), so that a single ride
-declares sudden braking and a single one does not.
+changes over all tests, as the goals table of ``spotfree evaluate`` reads one seed. One row trains as ``spotfree
+evaluate`` and the shipped default model do: on the normal-braking and sudden-braking rides only (no cruising ride),
+so that a single ride declares sudden braking and a single one does not.
 
     python benchmarks/learner_braking.py [--seeds 0 1 2 3 4]
 
@@ -44,7 +44,8 @@ def methods():
     return {
         "spotfree, hankel, ride prior": (hankel, SCENARIOS),
         "spotfree, hankel, ride prior, two rides (as spotfree evaluate)": (hankel, SCENARIOS[:2]),
-        "spotfree, summary, ride prior": (lambda: SetSupervisedLearner(channels=CHANNELS, prior=RidePrior()), SCENARIOS),
+        "spotfree, summary, ride prior": (lambda: SetSupervisedLearner(channels=CHANNELS, prior=RidePrior()),
+                                          SCENARIOS),
         "spotfree, hankel, no prior": (lambda: SetSupervisedLearner(channels=CHANNELS, representation="hankel"),
                                        SCENARIOS),
         "MiniRocket (every label)": (lambda: MiniRocketPeer(channels=CHANNELS, alignment="centred"), SCENARIOS),

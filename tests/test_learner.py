@@ -159,6 +159,16 @@ def test_a_pattern_that_also_occurs_without_the_event_is_not_named_the_event(mon
     assert without >= 5 * true, (without, true)
 
 
+def _absence_ratios(learner, train, sets) -> tuple[np.ndarray, np.ndarray, _Windows]:
+    """The absence evidence ``r_c`` of every training window of the fitted ``learner`` (module docstring, step 2),
+    the true label at each window's centre, and the windows."""
+    allowed = np.array([[c in s for c in learner.classes_] for s in sets])
+    data = learner._windows(train, ("u", "v"), ChannelScaling(("u", "v")).fit(train))
+    ratio = learner._absence(data.X, data, allowed, np.random.default_rng(0))
+    truth = np.concatenate([rec.truth["label"][ends - learner.window // 2] for rec, ends in zip(train, data.ends)])
+    return ratio, truth, data
+
+
 def test_the_absence_evidence_reaches_a_class_declared_in_a_single_recording(monkeypatch):
     """One recording declares the strikes and one does not: no two halves of the recordings each hold both kinds, so
     the evidence is cross-fitted over time blocks, and the soft level after each strike, which the quiet recording
@@ -168,10 +178,7 @@ def test_the_absence_evidence_reaches_a_class_declared_in_a_single_recording(mon
     train, sets, test = _strikes_with_aftermath(np.random.default_rng(4))
     train, sets = [train[0], train[2]], [sets[0], sets[2]]
     learner = SetSupervisedLearner(seed=0).fit(train, sets)
-    allowed = np.array([[c in s for c in learner.classes_] for s in sets])
-    data = learner._windows(train, ("u", "v"), ChannelScaling(("u", "v")).fit(train))
-    ratio = learner._absence(data.X, data, allowed, np.random.default_rng(0))
-    truth = np.concatenate([rec.truth["label"][ends - learner.window // 2] for rec, ends in zip(train, data.ends)])
+    ratio, truth, data = _absence_ratios(learner, train, sets)
     strike, declares = learner.classes_.index("strike"), data.recording == 0
     assert np.median(ratio[declares & (truth == "strike"), strike]) < 0.2
     assert np.median(ratio[declares & (truth == "still"), strike]) > 0.5
@@ -187,15 +194,10 @@ def test_the_absence_evidence_is_none_for_a_class_every_recording_declares():
     rng = np.random.default_rng(9)
     train = [_alternating("still", "slow", rng, "a"), _alternating("still", "fast", rng, "b"),
              _alternating("still", "slow", rng, "c"), _alternating("still", "fast", rng, "d")]
-    learner = SetSupervisedLearner(seed=0)
-    learner.fit(train, [{"still", "slow"}, {"still", "fast"}, {"still", "slow"}, {"still", "fast"}])
-    allowed = np.array([[c in s for c in learner.classes_] for s in
-                        ({"still", "slow"}, {"still", "fast"}, {"still", "slow"}, {"still", "fast"})])
-    data = learner._windows(train, ("u", "v"), ChannelScaling(("u", "v")).fit(train))
-    ratio = learner._absence(data.X, data, allowed, np.random.default_rng(0))
+    sets = [{"still", "slow"}, {"still", "fast"}, {"still", "slow"}, {"still", "fast"}]
+    learner = SetSupervisedLearner(seed=0).fit(train, sets)
+    ratio, truth, _ = _absence_ratios(learner, train, sets)
     assert np.all(ratio[:, learner.classes_.index("still")] == 0)
-    truth = np.concatenate([rec.truth["label"][ends - learner.window // 2] for rec, ends in
-                            zip(train, data.ends)])
     slow = learner.classes_.index("slow")
     # windows of slow motion are absent where slow is not declared; still windows occur everywhere
     assert np.median(ratio[truth == "slow", slow]) < 0.2 < np.median(ratio[truth == "still", slow])
