@@ -210,16 +210,50 @@ def _met(*checks: bool) -> str:
     return "yes" if all(checks) else "no"
 
 
-def _goals(ev: Evaluation) -> str:
+@dataclass(frozen=True)
+class Goal:
+    """One of issue 35's goals as one run measured it: ``offline``, ``live`` and ``peer`` (MiniRocket, live; None
+    when it did not run) are the figures the goal reads, fractions in [0, 1] (a per-class row: the lowest class's
+    accuracy; an events row: F1); ``cells`` print them with their detail, ``met`` and ``above_peer`` are None where the
+    row has no goal or no peer."""
+
+    name: str
+    events: bool
+    offline: float
+    live: float
+    peer: float | None
+    cells: tuple[str, str, str]
+    target: str
+    met: bool | None
+    above_peer: bool | None
+
+
+def goals(ev: Evaluation) -> list[Goal]:
+    """Every goal of issue 35 as ``ev`` measured it: the per-sample rows (braking, lateral, road, hand), then the
+    events (sudden stops, kerb strikes, hand gestures)."""
     rows = []
     streams = braking_streams(ev)
     live, offline = (_worst(braking_classes(ev, streams[k])) for k in ("live", "offline (centred)"))
     peer = _worst(braking_classes(ev, streams[MINIROCKET])) if MINIROCKET in streams else None
-    rows.append(_goal_row("braking (kernel CRC_RLS)", offline, live, peer))
+    rows.append(_class_goal("braking (kernel CRC_RLS)", offline, live, peer))
     for name, result in ev.ride_models.scores.items():
         peer = result.worst(MINIROCKET) if MINIROCKET in result.labels else None
-        rows.append(_goal_row(f"{name} (offline: the votes)", result.worst("offline vote"), result.worst("live"),
-                              peer))
+        rows.append(_class_goal(f"{name} (offline: the votes)", result.worst("offline vote"), result.worst("live"),
+                                peer))
+    hand, peer = hand_goals(ev.hand), hand_peer_goals(ev.hand)
+    for key, name, target, off_goal, live_goal in (
+            ("postures", "hand postures (per frame)", f"{100 * GOALS['postures']:g} %", GOALS["postures"],
+             GOALS["postures"]),
+            ("gestures", f"hand gestures (from {100 * EVENT_ONSET:.0f} % of peak speed, {_hand_collar(ev.hand):g} s "
+                         "collar)",
+             f">= {100 * GOALS['gestures offline']:g} % offline, >= {100 * GOALS['gestures live']:g} % live",
+             GOALS["gestures offline"], GOALS["gestures live"])):
+        off, on = hand["offline"][key], hand["live"][key]
+        theirs = None if peer is None else peer["live"][key]
+        rows.append(Goal(name, False, off, on, theirs,
+                         (f"{100 * off:.2f}", f"{100 * on:.2f}", "-" if theirs is None else f"{100 * theirs:.2f}"),
+                         target, off >= off_goal and on >= live_goal,
+                         None if theirs is None else min(off, on) >= theirs))
     events = [(name, score(ev, streams["offline (centred)"]), score(ev, streams["live"]),
                score(ev, streams[MINIROCKET]) if MINIROCKET in streams else None)
               for name, score in (("sudden stops", sudden_stops),
@@ -228,36 +262,32 @@ def _goals(ev: Evaluation) -> str:
         for c in MODELS[name].detections:
             events.append((f"{c} strikes", result.events(c, "offline vote"), result.events(c, "live"),
                            result.events(c, MINIROCKET) if MINIROCKET in result.labels else None))
-    event_rows = []
-    for name, off, on, peer in events:
-        meets = [e.f1 >= GOALS["event_f1"] and e.false_alarms_per_hour <= GOALS["alarms_per_hour"] for e in (off, on)]
-        event_rows.append([name, _event_cell(off), _event_cell(on), "-" if peer is None else _event_cell(peer),
-                           f"F1 >= {GOALS['event_f1']:g}, <= {GOALS['alarms_per_hour']:g} false alarms per hour",
-                           _met(*meets), "-" if peer is None else _met(min(off.f1, on.f1) >= peer.f1)])
-    hand, peer = hand_goals(ev.hand), hand_peer_goals(ev.hand)
-    posture_ok = [hand[m]["postures"] >= GOALS["postures"] for m in ("offline", "live")]
-    gesture_ok = [hand["offline"]["gestures"] >= GOALS["gestures offline"],
-                  hand["live"]["gestures"] >= GOALS["gestures live"]]
-
-    def above(key: str) -> str:
-        return "-" if peer is None else _met(min(hand[m][key] for m in HAND_MODES) >= peer["live"][key])
-
-    def peer_cell(key: str) -> str:
-        return "-" if peer is None else f"{100 * peer['live'][key]:.2f}"
-
-    rows.append(["hand postures (per frame)", f"{100 * hand['offline']['postures']:.2f}",
-                 f"{100 * hand['live']['postures']:.2f}", peer_cell("postures"), f"{100 * GOALS['postures']:g} %",
-                 _met(*posture_ok), above("postures")])
-    rows.append([f"hand gestures (from {100 * EVENT_ONSET:.0f} % of peak speed, {_hand_collar(ev.hand):g} s collar)",
-                 f"{100 * hand['offline']['gestures']:.2f}", f"{100 * hand['live']['gestures']:.2f}",
-                 peer_cell("gestures"),
-                 f">= {100 * GOALS['gestures offline']:g} % offline, >= {100 * GOALS['gestures live']:g} % live",
-                 _met(*gesture_ok), above("gestures")])
+    for name, off, on, theirs in events:
+        meets = all(e.f1 >= GOALS["event_f1"] and e.false_alarms_per_hour <= GOALS["alarms_per_hour"]
+                    for e in (off, on))
+        rows.append(Goal(name, True, off.f1, on.f1, None if theirs is None else theirs.f1,
+                         (_event_cell(off), _event_cell(on), "-" if theirs is None else _event_cell(theirs)),
+                         f"F1 >= {GOALS['event_f1']:g}, <= {GOALS['alarms_per_hour']:g} false alarms per hour", meets,
+                         None if theirs is None else min(off.f1, on.f1) >= theirs.f1))
     e = ev.hand.events
-    peer_events = "-" if peer is None else f"F1 {_fraction(peer['live']['f1'])}"
-    event_rows.append(["hand gestures", *[f"F1 {_fraction(e[m]['f1'])}, {e[m]['matched']} / {e[m]['events']}, "
-                                          f"{e[m]['detections'] - e[m]['matched']} false detections"
-                                          for m in HAND_MODES], peer_events, "-", "-", above("f1")])
+    theirs = None if peer is None else peer["live"]["f1"]
+    rows.append(Goal("hand gestures", True, e["offline"]["f1"], e["live"]["f1"], theirs,
+                     tuple(f"F1 {_fraction(e[m]['f1'])}, {e[m]['matched']} / {e[m]['events']}, "
+                           f"{e[m]['detections'] - e[m]['matched']} false detections" for m in HAND_MODES)
+                     + ("-" if theirs is None else f"F1 {_fraction(theirs)}",),
+                     "-", None, None if theirs is None else min(e[m]["f1"] for m in HAND_MODES) >= theirs))
+    return rows
+
+
+def _goals(ev: Evaluation) -> str:
+    measured = goals(ev)
+    header = ["offline", "live", "MiniRocket peer (live)", "goal", "goal met", "at or above the peer"]
+
+    def table(first: str, events: bool) -> str:
+        return _table([first, *header], [[g.name, *g.cells, g.target, *("-" if check is None else _met(check)
+                                                                         for check in (g.met, g.above_peer))]
+                                         for g in measured if g.events == events])
+
     return f"""## Goals at a glance
 
 Issue 35's goals on held-out simulated riders, every figure measured in this run. Per-sample cells: the lowest
@@ -266,19 +296,20 @@ for braking, the offline votes for lateral and road (they see the whole ride), t
 MiniRocket trained with every label on the same rides (live, causal windows); "at or above the peer": the model's
 lowest class, offline and live, is at least the peer's. Road surface is not scored below {STANDING_SPEED:g} m/s.
 
-{_table(["model", "offline", "live", "MiniRocket peer (live)", "goal", "goal met", "at or above the peer"], rows)}
+{table("model", False)}
 
 Events (detected within {EVENT_TOLERANCE:g} s of the true onset; false alarms per hour of riding without the event):
 
-{_table(["events", "offline", "live", "MiniRocket peer (live)", "goal", "goal met", "at or above the peer"],
-        event_rows)}"""
+{table("events", True)}"""
 
 
-def _goal_row(name: str, offline, live, peer) -> list[str]:
-    met = _met(offline[1].rate >= GOALS["offline"], live[1].rate >= GOALS["live"])
-    above = "-" if peer is None else _met(min(offline[1].rate, live[1].rate) >= peer[1].rate)
-    return [name, _cell(offline), _cell(live), _cell(peer),
-            f">= {100 * GOALS['offline']:g} % offline, >= {100 * GOALS['live']:g} % live", met, above]
+def _class_goal(name: str, offline: tuple[str, Score], live: tuple[str, Score],
+                peer: tuple[str, Score] | None) -> Goal:
+    return Goal(name, False, offline[1].rate, live[1].rate, None if peer is None else peer[1].rate,
+                (_cell(offline), _cell(live), _cell(peer)),
+                f">= {100 * GOALS['offline']:g} % offline, >= {100 * GOALS['live']:g} % live",
+                offline[1].rate >= GOALS["offline"] and live[1].rate >= GOALS["live"],
+                None if peer is None else min(offline[1].rate, live[1].rate) >= peer[1].rate)
 
 
 def _event_cell(e: EventScore) -> str:
@@ -630,14 +661,14 @@ Offline vote: the segment vote at penalty {spec.segments:g}{kept}.{peer}{short}
 
 
 def _hand(ev: Evaluation) -> str:
-    goals = hand_goals(ev.hand)
+    ours = hand_goals(ev.hand)
     peers = {name: hand_figures(p.accuracy, p.onsets, p.events) for name, p in ev.hand.peers.items()}
     peer_header = [f"{name}, {mode}" for name in peers for mode in HAND_MODES]
 
     def cells(key: str, percent: bool = True) -> list[str]:
         return [f"{100 * figures[m][key]:.2f}" if percent else
                 f"{_fraction(figures[m]['precision'])} / {_fraction(figures[m]['recall'])} / "
-                f"{_fraction(figures[m]['f1'])}" for figures in (goals, *peers.values()) for m in HAND_MODES]
+                f"{_fraction(figures[m]['f1'])}" for figures in (ours, *peers.values()) for m in HAND_MODES]
 
     rows = [["postures per frame (%)", *cells("postures"), f"{100 * GOALS['postures']:g} %"],
             [f"gestures from {100 * EVENT_ONSET:.0f} % of peak speed, {_hand_collar(ev.hand):g} s collar (%)",

@@ -1,0 +1,81 @@
+"""Issue 35's goals over several seeds: ``spotfree evaluate`` run once per seed, its goals table gathered.
+
+The goals table of ``spotfree evaluate`` reads one seed; the simulated riders, the training rides and the learner's
+random choices all follow the seed, and a model's lowest class can move by ten points from one seed to the next. This
+runs the whole evaluation (:func:`spotfree.evaluation.run.evaluate`, the paper's protocol) for every seed, each into
+a temporary folder, and prints per goal the figure it reads (per-sample rows: the lowest class's accuracy away from
+true changes; events: F1), offline / live, for every seed; their mean and lowest; and on how many seeds the goal
+was met and the model was at or above its supervised MiniRocket peer.
+
+    python benchmarks/evaluate_seeds.py [--seeds 0 1 2 3 4] [--quick]
+
+Writes ``benchmarks/results/evaluate_seeds.md`` (command, machine, date, tables).
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+
+import numpy as np
+
+from machine import results_file
+from spotfree.evaluation.report import GOALS, goals
+from spotfree.evaluation.run import evaluate
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
+    parser.add_argument("--quick", action="store_true", help="spotfree evaluate --quick (for a smoke run)")
+    args = parser.parse_args()
+    runs = {}
+    with tempfile.TemporaryDirectory() as folder:
+        for seed in args.seeds:
+            print(f"seed {seed}: spotfree evaluate", flush=True, end="")
+            ev = evaluate(f"{folder}/seed-{seed}", seed=seed, quick=args.quick)
+            runs[seed] = goals(ev)
+            print(f" ({ev.seconds:.0f} s)", flush=True)
+    with results_file("evaluate_seeds", "Issue 35's goals over seeds (spotfree evaluate once per seed)"):
+        print(report(runs, args.quick))
+
+
+def report(runs: dict[int, list], quick: bool) -> str:
+    """Markdown: per goal, offline / live per seed, their mean and lowest, the seeds meeting it."""
+    seeds = list(runs)
+    header = ["goal", *[f"seed {s}" for s in seeds], "mean", "lowest", "goal met", "at or above the peer",
+              "peer (live) mean"]
+    rows = []
+    for i, first in enumerate(runs[seeds[0]]):
+        row = [g[i] for g in runs.values()]
+        off, live = np.array([g.offline for g in row]), np.array([g.live for g in row])
+        scale, digits = (1, 3) if first.events else (100, 1)
+        peers = [g.peer for g in row if g.peer is not None]
+
+        def pair(a: float, b: float) -> str:
+            return f"{scale * a:.{digits}f} / {scale * b:.{digits}f}"
+
+        def seeds_with(checks: list) -> str:
+            known = [c for c in checks if c is not None]
+            return f"{sum(known)} of {len(known)}" if known else "-"
+
+        rows.append([first.name, *[pair(a, b) for a, b in zip(off, live)], pair(off.mean(), live.mean()),
+                     pair(off.min(), live.min()), seeds_with([g.met for g in row]),
+                     seeds_with([g.above_peer for g in row]),
+                     f"{scale * np.mean(peers):.{digits}f}" if peers else "-"])
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    protocol = "spotfree evaluate --quick (two experiments per scenario: a smoke run)" if quick else \
+        "spotfree evaluate (the paper's protocol)"
+    return f"""Protocol: {protocol}, once per seed; every figure is the one its goals table reads.
+Per-sample rows: the lowest per-class accuracy (%) away from true changes, offline / live (goal: >=
+{100 * GOALS['offline']:g} / >= {100 * GOALS['live']:g}; hand postures {100 * GOALS['postures']:g}, gestures >=
+{100 * GOALS['gestures offline']:g} / >= {100 * GOALS['gestures live']:g}). Events: F1 offline / live (goal: >=
+{GOALS['event_f1']:g} with at most {GOALS['alarms_per_hour']:g} false alarms per hour). The peer is MiniRocket trained
+with every label on the same rides (live).
+
+""" + "\n".join(lines)
+
+
+if __name__ == "__main__":
+    main()
