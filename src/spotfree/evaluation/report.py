@@ -295,6 +295,9 @@ per-class accuracy (%) away from true label changes (+-{TRANSITION_BAND:g} s) an
 for braking, the offline votes for lateral and road (they see the whole ride), the hand's offline mode. The peer is
 MiniRocket trained with every label on the same rides (live, causal windows); "at or above the peer": the model's
 lowest class, offline and live, is at least the peer's. Road surface is not scored below {STANDING_SPEED:g} m/s.
+These are the riders of one seed, and a model's lowest class can move by several points from one seed to the next:
+`python benchmarks/evaluate_seeds.py` (in spotfree's repository) runs this evaluation once per seed and tabulates
+every goal per seed, its mean and its lowest.
 
 {table("model", False)}
 
