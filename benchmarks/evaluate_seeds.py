@@ -20,7 +20,7 @@ import tempfile
 import numpy as np
 
 from machine import results_file
-from spotfree.evaluation.report import GOALS, goals
+from spotfree.evaluation.report import GOALS, Goal, goals, markdown_table
 from spotfree.evaluation.run import evaluate
 
 
@@ -40,31 +40,23 @@ def main() -> None:
         print(report(runs, args.quick))
 
 
-def report(runs: dict[int, list], quick: bool) -> str:
+def report(runs: dict[int, list[Goal]], quick: bool) -> str:
     """Markdown: per goal, offline / live per seed, their mean and lowest, the seeds meeting it."""
-    seeds = list(runs)
-    header = ["goal", *[f"seed {s}" for s in seeds], "mean", "lowest", "goal met", "at or above the peer",
+    header = ["goal", *[f"seed {s}" for s in runs], "mean", "lowest", "goal met", "at or above the peer",
               "peer (live) mean"]
     rows = []
-    for i, first in enumerate(runs[seeds[0]]):
-        row = [g[i] for g in runs.values()]
+    for row in zip(*runs.values()):  # one goal, every seed
+        first = row[0]
         off, live = np.array([g.offline for g in row]), np.array([g.live for g in row])
-        scale, digits = (1, 3) if first.events else (100, 1)
         peers = [g.peer for g in row if g.peer is not None]
 
-        def pair(a: float, b: float) -> str:
-            return f"{scale * a:.{digits}f} / {scale * b:.{digits}f}"
+        def figure(value: float) -> str:
+            return f"{value:.3f}" if first.events else f"{100 * value:.1f}"
 
-        def seeds_with(checks: list) -> str:
-            known = [c for c in checks if c is not None]
-            return f"{sum(known)} of {len(known)}" if known else "-"
-
-        rows.append([first.name, *[pair(a, b) for a, b in zip(off, live)], pair(off.mean(), live.mean()),
-                     pair(off.min(), live.min()), seeds_with([g.met for g in row]),
-                     seeds_with([g.above_peer for g in row]),
-                     f"{scale * np.mean(peers):.{digits}f}" if peers else "-"])
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(r) + " |" for r in rows]
+        rows.append([first.name, *[f"{figure(a)} / {figure(b)}" for a, b in zip(off, live)],
+                     f"{figure(off.mean())} / {figure(live.mean())}", f"{figure(off.min())} / {figure(live.min())}",
+                     _seeds_with([g.met for g in row]), _seeds_with([g.above_peer for g in row]),
+                     figure(float(np.mean(peers))) if peers else "-"])
     protocol = "spotfree evaluate --quick (two experiments per scenario: a smoke run)" if quick else \
         "spotfree evaluate (the paper's protocol)"
     return f"""Protocol: {protocol}, once per seed; every figure is the one its goals table reads.
@@ -74,7 +66,13 @@ Per-sample rows: the lowest per-class accuracy (%) away from true changes, offli
 {GOALS['event_f1']:g} with at most {GOALS['alarms_per_hour']:g} false alarms per hour). The peer is MiniRocket trained
 with every label on the same rides (live).
 
-""" + "\n".join(lines)
+""" + markdown_table(header, rows)
+
+
+def _seeds_with(checks: list[bool | None]) -> str:
+    """``k of n``: the seeds where a check held, of those where it applies (``-`` where it applies to none)."""
+    known = [c for c in checks if c is not None]
+    return f"{sum(known)} of {len(known)}" if known else "-"
 
 
 if __name__ == "__main__":

@@ -284,7 +284,7 @@ def _goals(ev: Evaluation) -> str:
     header = ["offline", "live", "MiniRocket peer (live)", "goal", "goal met", "at or above the peer"]
 
     def table(first: str, events: bool) -> str:
-        return _table([first, *header], [[g.name, *g.cells, g.target, *("-" if check is None else _met(check)
+        return markdown_table([first, *header], [[g.name, *g.cells, g.target, *("-" if check is None else _met(check)
                                                                          for check in (g.met, g.above_peer))]
                                          for g in measured if g.events == events])
 
@@ -393,7 +393,7 @@ def _protocol(ev: Evaluation) -> str:
                      f"{np.mean(lengths):.0f}", ", ".join(CLASSES[name])])
     model = ev.trained.learner.model_
     offset = model.window // 2
-    table = _table(["scenario", "experiments", "trained on", "tested", "test samples", "mean ride (samples)",
+    table = markdown_table(["scenario", "experiments", "trained on", "tested", "test samples", "mean ride (samples)",
                     "classes in the truth"], rows)
     return f"""## Protocol
 
@@ -433,7 +433,7 @@ The `braking` preset (`spotfree train --preset braking`: the general learner on 
 training windows against the hidden ground truth at each window's centre (precision: the windows it named the class
 that are that class; recall: the class's windows it named so). Training never reads the truth.
 
-{_table(["class", "columns", "naming precision %", "naming recall %"], rows)}{warnings}
+{markdown_table(["class", "columns", "naming precision %", "naming recall %"], rows)}{warnings}
 
 ![training](training.png)
 
@@ -455,7 +455,7 @@ def _accuracy(ev: Evaluation) -> str:
 
 Per cent of labelled test samples whose label is the true class; the headline is causal windows.
 
-{_table(["scenario", "paper", "causal: all", "causal: away from transitions", "centred: all",
+{markdown_table(["scenario", "paper", "causal: all", "causal: away from transitions", "centred: all",
          "centred: away from transitions"], rows)}"""
 
 
@@ -469,7 +469,7 @@ Out of all labels of the normal-braking tests (a normal-braking ride holds no su
 of the ride assistant). Causal and centred windows give the same count: the same windows, each labelling one sample,
 shifted by half a window.
 
-{_table(["paper (sec. V)", "ours"], [cells])}"""
+{markdown_table(["paper (sec. V)", "ours"], [cells])}"""
 
 
 def _per_class(ev: Evaluation) -> str:
@@ -487,7 +487,7 @@ def _per_class(ev: Evaluation) -> str:
 
 Per cent of the labelled samples of a true class labelled as that class (its recall).
 
-{_table(["scenario", "true class", "samples", "causal: all", "causal: away from transitions", "centred: all",
+{markdown_table(["scenario", "true class", "samples", "causal: all", "causal: away from transitions", "centred: all",
          "centred: away from transitions"], rows)}"""
 
 
@@ -500,7 +500,7 @@ def _confusions(ev: Evaluation) -> str:
         classes = rows_classes + [c for c in model_classes if c not in rows_classes]
         counts = confusion_matrix(ev.crc[HEADLINE].runs[name].labels.label, truth, classes)
         rows = [[c, *map(str, counts[i])] for i, c in enumerate(classes) if c in rows_classes]
-        parts.append(f"**{name}**\n\n" + _table(["true \\ label", *classes], rows))
+        parts.append(f"**{name}**\n\n" + markdown_table(["true \\ label", *classes], rows))
     parts.append("All tests together, the default classifier (kernel CRC_RLS) live and offline (centred windows) and "
                  f"the MiniRocket peer:\n\n![braking confusion matrices]({CONFUSION_FIGURES['braking']})")
     return "\n\n".join(parts)
@@ -526,7 +526,7 @@ From each true onset of a class (a change of the ground truth to it inside a lab
 run of labels that names it, found up to 1 s after the true run ends (`spotfree.classify.latency`): positive = late.
 Median over the detected onsets; the paper quotes none.
 
-{_table(["scenario", "class", "true onsets", "causal: detected", "causal: median delay",
+{markdown_table(["scenario", "class", "true onsets", "causal: detected", "causal: median delay",
          "centred: detected", "centred: median delay"], rows)}"""
 
 
@@ -555,7 +555,7 @@ scored. Time: wall clock of the classification (windowing included), the classif
 `(A^T A + lambda I)^-1 A^T`) apart. Paper: 1000 time samples in {paper_crc:g} s by CRC_RLS and {paper_bsrc:g} s by
 B_SRC, in Matlab (sec. IV-A).
 
-{_table(["method", "windows", "accuracy: all", "away from transitions", "fit (s)", "classify (s)",
+{markdown_table(["method", "windows", "accuracy: all", "away from transitions", "fit (s)", "classify (s)",
          "s per 1000 windows", "paper: s per 1000"], rows)}{noted}"""
 
 
@@ -585,7 +585,7 @@ segment by the nearest training class centroid. Fit: training wall time (spotfre
 CRC_RLS operator; first calls include numba compilation where a method uses it); predict: labelling all tests.
 Accuracy cells: all / away from transitions.
 
-{_table(["method", "fit (s)", "predict (s)", "s per 1000 labels", *[f"{s}" for s in SCENARIOS], "all tests"],
+{markdown_table(["method", "fit (s)", "predict (s)", "s per 1000 labels", *[f"{s}" for s in SCENARIOS], "all tests"],
         rows)}{noted}
 
 The paper compares with no other method."""
@@ -646,7 +646,7 @@ def _ride_model(name: str, result: ModelScore) -> str:
         + "".join(f"; then the event edges at {c} {level:g}" for c, level in spec.edges)
     events = "".join(
         f"\n\n{c.capitalize()} strikes as events (each run of true {c} samples one event):\n\n"
-        + _table(EVENT_HEADER, [[s, *_event_cells(result.events(c, s))] for s in streams])
+        + markdown_table(EVENT_HEADER, [[s, *_event_cells(result.events(c, s))] for s in streams])
         + f"\n\n![{c} strikes along time]({TIMELINES[c]})" for c in spec.detections)
     short = "".join(f" {c.capitalize()} samples all lie within {TRANSITION_BAND:g} s of a change: they are scored "
                     "as events." for c in spec.detections)
@@ -658,7 +658,7 @@ Channels {', '.join(model.channels)}; window {model.window} samples ({model.wind
 {model.dictionary.shape[1]} dictionary columns; classes named by the training: {', '.join(map(str, model.classes))}.
 Offline vote: the segment vote at penalty {spec.segments:g}{kept}.{peer}{short}
 
-{_table(["true class", "scored samples (live)", *[f"{s}: strict / away (%)" for s in streams], "goal met"], rows)}
+{markdown_table(["true class", "scored samples (live)", *[f"{s}: strict / away (%)" for s in streams], "goal met"], rows)}
 
 ![{name} confusion matrices]({CONFUSION_FIGURES[name]}){events}{warned}"""
 
@@ -688,7 +688,7 @@ def _hand(ev: Evaluation) -> str:
 training protocol of simulated people and tested on held-out people. Offline: centred windows and one gesture per
 gesture stretch; live: causal windows (`HandRecognizer`, sample by sample). {peer_text}
 
-{_table(["", "offline", "live", *peer_header, "goal"], rows)}
+{markdown_table(["", "offline", "live", *peer_header, "goal"], rows)}
 
 ![hand confusion matrices]({CONFUSION_FIGURES["hand"]})
 
@@ -716,7 +716,7 @@ stops; the last column counts the false alarms per hour of labelled riding witho
 same labels through the ride assistant (`spotfree.ride.assistant.RideAssistant`, its defaults: a `sudden-braking`
 label held 0.1 s warns, and label runs within 3 s of the last are one stop), which is what the rider sees live.
 
-{_table(EVENT_HEADER, rows)}
+{markdown_table(EVENT_HEADER, rows)}
 
 ![sudden stops along time]({TIMELINES["sudden-braking"]})"""
 
@@ -781,7 +781,8 @@ def _seconds(value: float) -> str:
     return "-" if not np.isfinite(value) else f"{value:+.2f} s"
 
 
-def _table(header: list[str], rows: list[list[str]]) -> str:
+def markdown_table(header: list[str], rows: list[list[str]]) -> str:
+    """A Markdown table of ``header`` and ``rows`` (cells already formatted)."""
     lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
     lines += ["| " + " | ".join(row) + " |" for row in rows]
     return "\n".join(lines)
