@@ -1,16 +1,19 @@
 """Body channels of a raw IMU log: the rotation rate about the vertical whatever the device's orientation, to
-either side, zero for a rotation about a horizontal axis, never above the rotation rate's norm, causal, restarted
-after a gap, and a log too slow for the gravity low-pass refused."""
+either side, zero for a rotation about a horizontal axis, the to-and-fro rotation of a stride filtered out and a turn
+kept, never above the rotation rate's norm times the low-pass's gain, causal, restarted after a gap, and a log too
+slow for the gravity low-pass refused."""
 
 import numpy as np
 import pytest
+import scipy.signal
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from spotfree.errors import InputError
 from spotfree.io.recording import Recording
-from spotfree.signal.body import BODY_CHANNELS, body_features, vertical_rotation
+from spotfree.signal.body import BODY_CHANNELS, TURN_CUTOFF, body_features, vertical_rotation
+from spotfree.signal.butterworth import butter_lowpass
 
 RATE = 20.0
 
@@ -39,6 +42,22 @@ def test_the_turning_rate_is_the_same_in_every_orientation_and_to_either_side():
         np.testing.assert_allclose(vertical_rotation(_held(orientation, 60, 0.0, 2.0)), 0.0, atol=1e-9)
 
 
+def test_a_stride_to_and_fro_is_filtered_out_and_a_turn_kept():
+    """A device on a body that rotates to and fro about the vertical once a second (a stride), at 2 rad/s peak, and
+    then also turns one way at 1 rad/s: the stride leaves less than a third of its peak, the turn comes through (the
+    stride's rotation rectified unfiltered would average 4 / pi rad/s, more than the turn)."""
+    orientation = Rotation.random(random_state=3)
+    t = np.arange(400) / RATE
+    about_vertical = 2.0 * np.sin(2 * np.pi * 1.0 * t) + np.where(t >= 10.0, 1.0, 0.0)
+    gravity = np.tile(orientation.apply([0.0, 0.0, 9.81]), (len(t), 1))
+    rate = orientation.apply(np.column_stack([np.zeros_like(t), np.zeros_like(t), about_vertical]))
+    turning = vertical_rotation(_log(gravity, rate))
+    settled = (t > 5.0) & (t < 10.0)
+    assert turning[settled].max() < 0.3 * 2.0
+    assert abs(turning[t > 15.0].mean() - 1.0) < 0.05
+    assert turning[settled].mean() < 0.4
+
+
 def test_body_features_hold_every_body_channel():
     rec = body_features(_held(Rotation.random(random_state=0), 40, 1.0, 0.5))
     assert rec.names == list(BODY_CHANNELS) and rec.meta["features"] == "body"
@@ -58,11 +77,14 @@ def test_causal_and_restarted_after_a_gap():
 
 @settings(max_examples=50, deadline=None)
 @given(st.lists(st.tuples(*[st.floats(-50, 50)] * 6), min_size=1, max_size=60))
-def test_never_above_the_norm_of_the_rotation_rate(rows):
+def test_never_above_the_norm_of_the_rotation_rate_times_the_gain_of_the_low_pass(rows):
     values = np.array(rows)
     rec = _log(values[:, :3], values[:, 3:])
     turning = vertical_rotation(rec)
-    assert np.all(turning >= 0) and np.all(turning <= np.linalg.norm(values[:, 3:], axis=1) * (1 + 1e-9) + 1e-12)
+    impulse_response = scipy.signal.sosfilt(butter_lowpass(RATE, cutoff=TURN_CUTOFF, order=2), np.r_[1.0, np.zeros(4000)])
+    gain = np.abs(impulse_response).sum()
+    largest = np.maximum.accumulate(np.linalg.norm(values[:, 3:], axis=1))
+    assert np.all(turning >= 0) and np.all(turning <= gain * largest * (1 + 1e-9) + 1e-12)
 
 
 def test_a_log_too_slow_for_the_gravity_low_pass_is_a_clear_error():
