@@ -284,9 +284,10 @@ def _goals(ev: Evaluation) -> str:
     header = ["offline", "live", "MiniRocket peer (live)", "goal", "goal met", "at or above the peer"]
 
     def table(first: str, events: bool) -> str:
-        return markdown_table([first, *header], [[g.name, *g.cells, g.target, *("-" if check is None else _met(check)
-                                                                         for check in (g.met, g.above_peer))]
-                                         for g in measured if g.events == events])
+        rows = [[g.name, *g.cells, g.target, *("-" if check is None else _met(check)
+                                               for check in (g.met, g.above_peer))]
+                for g in measured if g.events == events]
+        return markdown_table([first, *header], rows)
 
     return f"""## Goals at a glance
 
@@ -393,8 +394,8 @@ def _protocol(ev: Evaluation) -> str:
                      f"{np.mean(lengths):.0f}", ", ".join(CLASSES[name])])
     model = ev.trained.learner.model_
     offset = model.window // 2
-    table = markdown_table(["scenario", "experiments", "trained on", "tested", "test samples", "mean ride (samples)",
-                    "classes in the truth"], rows)
+    table = markdown_table(["scenario", "experiments", "trained on", "tested", "test samples",
+                            "mean ride (samples)", "classes in the truth"], rows)
     return f"""## Protocol
 
 Simulated with `spotfree.sim` (seed {p.seed}, {p.rate:g} Hz): {p.repeats} experiments (rides) per scenario.
@@ -456,7 +457,7 @@ def _accuracy(ev: Evaluation) -> str:
 Per cent of labelled test samples whose label is the true class; the headline is causal windows.
 
 {markdown_table(["scenario", "paper", "causal: all", "causal: away from transitions", "centred: all",
-         "centred: away from transitions"], rows)}"""
+                 "centred: away from transitions"], rows)}"""
 
 
 def _count(ev: Evaluation) -> str:
@@ -487,8 +488,8 @@ def _per_class(ev: Evaluation) -> str:
 
 Per cent of the labelled samples of a true class labelled as that class (its recall).
 
-{markdown_table(["scenario", "true class", "samples", "causal: all", "causal: away from transitions", "centred: all",
-         "centred: away from transitions"], rows)}"""
+{markdown_table(["scenario", "true class", "samples", "causal: all", "causal: away from transitions",
+                 "centred: all", "centred: away from transitions"], rows)}"""
 
 
 def _confusions(ev: Evaluation) -> str:
@@ -527,7 +528,7 @@ run of labels that names it, found up to 1 s after the true run ends (`spotfree.
 Median over the detected onsets; the paper quotes none.
 
 {markdown_table(["scenario", "class", "true onsets", "causal: detected", "causal: median delay",
-         "centred: detected", "centred: median delay"], rows)}"""
+                 "centred: detected", "centred: median delay"], rows)}"""
 
 
 def _methods(ev: Evaluation) -> str:
@@ -556,7 +557,7 @@ scored. Time: wall clock of the classification (windowing included), the classif
 B_SRC, in Matlab (sec. IV-A).
 
 {markdown_table(["method", "windows", "accuracy: all", "away from transitions", "fit (s)", "classify (s)",
-         "s per 1000 windows", "paper: s per 1000"], rows)}{noted}"""
+                 "s per 1000 windows", "paper: s per 1000"], rows)}{noted}"""
 
 
 def _peers(ev: Evaluation) -> str:
@@ -585,8 +586,8 @@ segment by the nearest training class centroid. Fit: training wall time (spotfre
 CRC_RLS operator; first calls include numba compilation where a method uses it); predict: labelling all tests.
 Accuracy cells: all / away from transitions.
 
-{markdown_table(["method", "fit (s)", "predict (s)", "s per 1000 labels", *[f"{s}" for s in SCENARIOS], "all tests"],
-        rows)}{noted}
+{markdown_table(["method", "fit (s)", "predict (s)", "s per 1000 labels", *[f"{s}" for s in SCENARIOS],
+                 "all tests"], rows)}{noted}
 
 The paper compares with no other method."""
 
@@ -658,7 +659,8 @@ Channels {', '.join(model.channels)}; window {model.window} samples ({model.wind
 {model.dictionary.shape[1]} dictionary columns; classes named by the training: {', '.join(map(str, model.classes))}.
 Offline vote: the segment vote at penalty {spec.segments:g}{kept}.{peer}{short}
 
-{markdown_table(["true class", "scored samples (live)", *[f"{s}: strict / away (%)" for s in streams], "goal met"], rows)}
+{markdown_table(["true class", "scored samples (live)", *[f"{s}: strict / away (%)" for s in streams],
+                 "goal met"], rows)}
 
 ![{name} confusion matrices]({CONFUSION_FIGURES[name]}){events}{warned}"""
 
