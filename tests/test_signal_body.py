@@ -1,7 +1,7 @@
 """Body channels of a raw IMU log: the rotation rate about the vertical whatever the device's orientation, to
 either side, zero for a rotation about a horizontal axis, the to-and-fro rotation of a stride filtered out and a turn
 kept, never above the rotation rate's norm times the low-pass's gain, causal, restarted after a gap, and a log too
-slow for the gravity low-pass refused."""
+slow for the low-passes refused."""
 
 import numpy as np
 import pytest
@@ -88,8 +88,9 @@ def test_never_above_the_norm_of_the_rotation_rate_times_the_gain_of_the_low_pas
     assert np.all(turning >= 0) and np.all(turning <= TURN_GAIN * largest * (1 + 1e-9) + 1e-12)
 
 
-def test_a_log_too_slow_for_the_gravity_low_pass_is_a_clear_error():
-    slow = Recording(time=np.arange(5) * 5.0, channels={c: np.ones(5) for c in ("ax", "ay", "az", "gx", "gy", "gz")},
-                     rate=0.2, source="slow.csv")
+@pytest.mark.parametrize("rate", [0.2, 0.8])  # too slow for the gravity low-pass; for the turning low-pass only
+def test_a_log_too_slow_for_the_low_passes_is_a_clear_error(rate):
+    slow = Recording(time=np.arange(5) / rate, channels={c: np.ones(5) for c in ("ax", "ay", "az", "gx", "gy", "gz")},
+                     rate=rate, source="slow.csv")
     with pytest.raises(InputError, match="needs a sampling rate above .* resample"):
         body_features(slow)
