@@ -93,10 +93,9 @@ def test_a_summary_model_of_an_older_schema_is_refused_and_a_hankel_one_still_lo
                                  "column_class": [0, 1, 1], "feature_offset": None, "feature_scale": None})
     summary.save(tmp_path / "summary.npz")
     assert DictionaryModel.load(tmp_path / "summary.npz").representation == "summary"
-    for old in (2, 3):
-        _rewrite_metadata(tmp_path / "summary.npz", schema_version=old)
-        with pytest.raises(InputError, match=f"summary model of schema {old}.*course of the level.*retrain"):
-            DictionaryModel.load(tmp_path / "summary.npz")
+    _rewrite_metadata(tmp_path / "summary.npz", schema_version=2)
+    with pytest.raises(InputError, match="summary model of schema 2.*retrain"):
+        DictionaryModel.load(tmp_path / "summary.npz")
     _model().save(tmp_path / "hankel.npz")
     _rewrite_metadata(tmp_path / "hankel.npz", schema_version=2)
     assert DictionaryModel.load(tmp_path / "hankel.npz").representation == "hankel"

@@ -317,7 +317,7 @@ def train(
                                "paper's recipe, literally: a baseline)"),
     prior: Optional[str] = typer.Option(None, "--prior", help="ride: braking loses GPS speed (sets learner only)"),
     representation: str = typer.Option("summary", "--representation", help="sets learner: summary (level, spread, "
-                                       "their course and band powers of each window) | hankel (the paper's raw "
+                                       "their change and band powers of each window) | hankel (the paper's raw "
                                        "windows)"),
     max_columns: int = typer.Option(300, "--max-columns", min=1, help="dictionary columns kept per class"),
     share_power: float = typer.Option(0.5, "--share-power", help="sets learner: how much a class's share of the "

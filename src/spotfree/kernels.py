@@ -27,7 +27,7 @@ MODEL = np.dtype([
     ("affine", "f8"), ("unit", "?"), ("compiled", "?"), ("classes", "i8"), ("operator", "i8"), ("reject", "f8"),
     ("kernel", "?"), ("fitted", "i8"), ("m", "i8"), ("features", "i8"), ("head", "i8"),
     ("gamma", "f8"), ("code", "i8"), ("summary", "?"), ("bins", "i8"), ("bands", "i8"), ("tables", "i8"), ("z", "i8"),
-    ("p", "i8"), ("blocks", "i8"),
+    ("p", "i8"),
 ])
 """One row per model of :func:`ring_step`'s table: window ``L`` and ``step`` (samples); ``first``, ``channels``: its
 slice of the flat ``picks`` / ``scales``; ``d`` and ``y``: its window length (``channels L`` plus the affine row when
@@ -35,11 +35,10 @@ slice of the flat ``picks`` / ``scales``; ``d`` and ``y``: its window length (``
 kernel, with ``classes``, its operator's offset in the flat ``operators`` and the ``reject`` threshold (inf: off);
 ``kernel``: kernel CRC_RLS, with ``classes``, ``gamma``, ``head``, its ``m`` landmarks and ``features`` rows per
 class, whose fitted arrays (:func:`kernel_window`'s ``fitted``) start at offset ``fitted`` of the flat ``kernels``.
-``summary``: the window is represented by :func:`summary_features` (``blocks`` blocks, ``bins`` spectral bins in
-``bands`` bands) into the ``p`` values at offset ``z`` of ``windows``, with its tables
-(:func:`spotfree.representation.summary_tables`: taper ``L``, cosines and sines ``bins L``, band of each bin ``bins``)
-and then its standardisation (offset ``p``, scale ``p``) at offset ``tables`` of ``kernels``; the classifier then
-reads those ``p`` values.
+``summary``: the window is represented by :func:`summary_features` (``bins`` spectral bins in ``bands`` bands) into
+the ``p`` values at offset ``z`` of ``windows``, with its tables (:func:`spotfree.representation.summary_tables`: taper
+``L``, cosines and sines ``bins L``, band of each bin ``bins``) and then its standardisation (offset ``p``, scale
+``p``) at offset ``tables`` of ``kernels``; the classifier then reads those ``p`` values.
 ``code`` is the result of the last sample (:data:`NOT_DUE`, :data:`IN_PYTHON`, :data:`NOT_FINITE`, or the class index,
 ``classes`` meaning rejected)."""
 NOT_DUE, IN_PYTHON, NOT_FINITE = -1, -2, -3
@@ -201,33 +200,26 @@ def kernel_window(fitted, d, m, f, n_classes, head, gamma, y, outside):  # pragm
 
 
 @numba.njit(cache=True, nogil=True)  # no reassociation: the same bits in batch and in the ring step
-def summary_features(x, channels, taper, cos, sin, band, bands, blocks, out):  # pragma: no cover - compiled
+def summary_features(x, channels, taper, cos, sin, band, bands, out):  # pragma: no cover - compiled
     """The ``summary`` representation of one window ``x`` ``(channels L,)`` (channels stacked, each in time order)
-    into ``out`` ``(channels (5 + blocks + bands),)``: per channel its mean, standard deviation, minimum, maximum;
-    the mean of each of ``blocks`` consecutive blocks minus the window's mean (sample ``t`` in block
-    ``floor(t blocks / L)``, ``blocks <= L``); the change of standard deviation from the older to the newer ``L // 2``
-    samples (0 when ``L < 2``); and ``log(1 + sum_{k in band b} |X_k|^2 / L)`` per band, ``X_k`` the spectral bin
-    ``k`` of the tapered, mean-removed channel from the rows ``cos``, ``sin`` ``(bins, L)`` of the tables, ``band``
-    ``(bins,)`` each bin's band (:func:`spotfree.representation.summary_tables`)."""
+    into ``out`` ``(channels (6 + bands),)``: per channel its mean, standard deviation, minimum, maximum, the change
+    of mean and of standard deviation from the older to the newer ``L // 2`` samples (0 when ``L < 2``) and
+    ``log(1 + sum_{k in band b} |X_k|^2 / L)`` per band, ``X_k`` the spectral bin ``k`` of the tapered, mean-removed
+    channel from the rows ``cos``, ``sin`` ``(bins, L)`` of the tables, ``band`` ``(bins,)`` each bin's band
+    (:func:`spotfree.representation.summary_tables`)."""
     length = x.shape[0] // channels
     half = length // 2
     n_half = max(half, 1)
-    width = 5 + blocks + bands
+    width = 6 + bands
     v = np.empty(length)
-    block_sum = np.empty(blocks)
-    block_size = np.zeros(blocks)
-    for t in range(length):
-        block_size[t * blocks // length] += 1.0
     for c in range(channels):
         first = c * length
         total, low, high, older, newer = 0.0, np.inf, -np.inf, 0.0, 0.0
-        block_sum[:] = 0.0
         for t in range(length):
             s = x[first + t]
             total += s
             low = min(low, s)
             high = max(high, s)
-            block_sum[t * blocks // length] += s
             if t < half:
                 older += s
             if t >= length - half:
@@ -247,27 +239,25 @@ def summary_features(x, channels, taper, cos, sin, band, bands, blocks, out):  #
                 newer_var += (s - newer) * (s - newer)
         o = c * width
         out[o], out[o + 1], out[o + 2], out[o + 3] = mean, np.sqrt(var / length), low, high
-        for k in range(blocks):
-            out[o + 4 + k] = block_sum[k] / block_size[k] - mean
-        o += 4 + blocks
-        out[o] = np.sqrt(newer_var / n_half) - np.sqrt(older_var / n_half)
+        out[o + 4] = newer - older
+        out[o + 5] = np.sqrt(newer_var / n_half) - np.sqrt(older_var / n_half)
         for b in range(bands):
-            out[o + 1 + b] = 0.0
+            out[o + 6 + b] = 0.0
         for k in range(cos.shape[0]):
             re, im = 0.0, 0.0
             for t in range(length):
                 re += cos[k, t] * v[t]
                 im += sin[k, t] * v[t]
-            out[o + 1 + int(band[k])] += (re * re + im * im) / length
+            out[o + 6 + int(band[k])] += (re * re + im * im) / length
         for b in range(bands):
-            out[o + 1 + b] = np.log1p(out[o + 1 + b])
+            out[o + 6 + b] = np.log1p(out[o + 6 + b])
 
 
 @numba.njit(cache=True, nogil=True)
-def summary_matrix(windows, channels, taper, cos, sin, band, bands, blocks, out):  # pragma: no cover - compiled
+def summary_matrix(windows, channels, taper, cos, sin, band, bands, out):  # pragma: no cover - compiled
     """:func:`summary_features` of every row of ``windows`` ``(m, channels L)`` into the rows of ``out``."""
     for i in range(windows.shape[0]):
-        summary_features(windows[i], channels, taper, cos, sin, band, bands, blocks, out[i])
+        summary_features(windows[i], channels, taper, cos, sin, band, bands, out[i])
 
 
 @numba.njit(cache=True, nogil=True)
@@ -313,8 +303,7 @@ def ring_step(ring, cursor, models, picks, scales, operators, kernels, windows, 
             sin = kernels[t + window + bins * window:t + window + 2 * bins * window].reshape(bins, window)
             t += window + 2 * bins * window
             z = windows[model.z:model.z + q]
-            summary_features(y, model.channels, taper, cos, sin, kernels[t:t + bins], model.bands, model.blocks,
-                             z)
+            summary_features(y, model.channels, taper, cos, sin, kernels[t:t + bins], model.bands, z)
             t += bins
             for i in range(q):
                 z[i] = (z[i] - kernels[t + i]) / kernels[t + q + i]

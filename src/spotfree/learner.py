@@ -5,7 +5,7 @@ Method (``docs/training.md`` has the derivation and the references):
 
 1. **Windows.** Every recording is cut into sliding windows of ``window`` samples every ``step`` samples (none
    spans a gap), each channel divided by its training scale, and represented (:mod:`spotfree.representation`,
-   default ``summary``: level, spread, their course across the window and band powers per channel); a ``summary``
+   default ``summary``: level, spread, their change across the window and band powers per channel); a ``summary``
    is standardised over all training windows, a ``hankel`` window kept as the channel scales leave it (so that the
    streaming classifiers run it in compiled code, as they run the paper's).
 2. **Partial labels.** A recording ``r`` is a bag of windows whose classes lie in its declared set ``S_r``: each

@@ -34,8 +34,8 @@ from spotfree.io.checks import replacing
 from spotfree.representation import REPRESENTATIONS, represent, representation_size
 from spotfree.signal.features import CHANNEL_CHANGED, FEATURE_CHANGES, FEATURE_VERSION
 
-SCHEMA_VERSION = 4
-READABLE_SCHEMAS = (1, 2, 3, 4)
+SCHEMA_VERSION = 3
+READABLE_SCHEMAS = (1, 2, 3)
 MAX_MODEL_BYTES = 1 << 30
 """Bytes the arrays of a model file may declare in all (uncompressed); a trained model is a few MB."""
 _METADATA_TYPES = {"classes": list, "channels": list, "rate": (int, float), "window": int, "step": int,
@@ -180,9 +180,9 @@ class DictionaryModel:
                 f"{path}: model schema version {meta.get('schema_version')} is not one of "
                 f"{', '.join(map(str, READABLE_SCHEMAS))}; retrain it"
             )
-        if meta.get("representation") == "summary" and meta["schema_version"] < 4:
+        if meta.get("representation") == "summary" and meta["schema_version"] < 3:
             raise InputError(f"{path}: a summary model of schema {meta['schema_version']}, whose windows lack the "
-                             "course of the level across them; retrain it with 'spotfree train'")
+                             "change of level and spread across them; retrain it with 'spotfree train'")
         version = meta.get("feature_version", 1)
         stale = [c for c in meta["channels"] if meta["features"] == "ride" and CHANNEL_CHANGED.get(c, 0) > version]
         if stale:

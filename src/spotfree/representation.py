@@ -10,21 +10,18 @@ the vector the dictionary holds and the classifier compares:
     two cycles of one periodic motion taken at different phases are far apart.
 
 ``summary``
-    Per channel ``x`` (``L`` samples), ``5 + K + B`` numbers: the level and spread ``mean(x)``, ``std(x)``,
-    ``min(x)``, ``max(x)``; the course of the level across the window, ``mean(x_k) - mean(x)`` for ``K``
-    consecutive blocks ``x_k`` of (nearly) equal length (sample ``t`` in block ``floor(t K / L)``); the change of
-    spread, ``std(x'') - std(x')`` with ``x'`` the older and ``x''`` the newer ``L // 2`` samples; and the log power
-    of the Hann-tapered, mean-removed window in ``B`` frequency bands,
+    Per channel ``x`` (``L`` samples), ``6 + B`` numbers: the level and spread ``mean(x)``, ``std(x)``, ``min(x)``,
+    ``max(x)``; their change across the window, ``mean(x'') - mean(x')`` and ``std(x'') - std(x')`` with ``x'`` the
+    older and ``x''`` the newer ``L // 2`` samples; and the log power of the Hann-tapered, mean-removed window in
+    ``B`` frequency bands,
 
         P_b = log(1 + sum_{k in band b} |X_k|^2 / L)     X = rfft(hann * (x - mean(x)))
 
     the bins ``1 .. L // 2`` split into ``B`` bands of (about) equal width on a log scale. These do not change when a
     periodic motion is shifted in phase, and keep a level (a hard stop against a soft one) and a short peak (a
-    kerb strike's ``max``). The course of the level and the change of spread are the only ones that see the order of
-    the samples: without them a window that leaves one class for another is the same as one that enters it, and a
-    live label, which a window gives its newest sample, could not tell which of the two classes that sample belongs
-    to. The course places a short movement (standing up, a turn) inside the window, which the
-    halves alone tell only as earlier or later.
+    kerb strike's ``max``). The two changes are the only ones that see the order of the samples: without them a
+    window that leaves one class for another is the same as one that enters it, and a live label, which a window
+    gives its newest sample, could not tell which of the two classes that sample belongs to.
 
 Both are computed for a whole matrix at once and for one window (streaming) by the same compiled kernel
 (:func:`~spotfree.kernels.summary_features`, with the tables of :func:`summary_tables`).
@@ -42,8 +39,6 @@ from spotfree.errors import InputError
 REPRESENTATIONS = ("summary", "hankel")
 BANDS = 4
 """Frequency bands of the ``summary`` representation (fewer when the window has fewer spectral bins)."""
-BLOCKS = 4
-"""Blocks of the ``summary`` representation's course of the level (fewer when the window has fewer samples)."""
 
 
 def band_edges(length: int, bands: int = BANDS) -> np.ndarray:
@@ -59,17 +54,16 @@ def band_edges(length: int, bands: int = BANDS) -> np.ndarray:
 
 
 @lru_cache(maxsize=64)
-def summary_tables(length: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, int]:
+def summary_tables(length: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
     """The tables of the ``summary`` representation of windows of ``length`` samples: the Hann taper ``(L,)``, the
     cosines and sines ``(bins, L)`` of the spectral bins ``k = 1 .. L // 2`` (``cos(2 pi k t / L)``,
-    ``-sin(2 pi k t / L)``), the band of each bin ``(bins,)`` (:func:`band_edges`), the number of bands and the
-    number of blocks, ``min(BLOCKS, L)``. Read only."""
+    ``-sin(2 pi k t / L)``), the band of each bin ``(bins,)`` (:func:`band_edges`) and the number of bands. Read
+    only."""
     edges = band_edges(length)
     bins = np.arange(1, edges[-1]) if len(edges) > 1 else np.arange(0)
     angle = 2 * np.pi * np.outer(bins, np.arange(length)) / length
     band = np.searchsorted(edges, bins, side="right") - 1
-    tables = (np.hanning(length + 2)[1:-1], np.cos(angle), -np.sin(angle), band.astype(np.int64), len(edges) - 1,
-              min(BLOCKS, length))
+    tables = (np.hanning(length + 2)[1:-1], np.cos(angle), -np.sin(angle), band.astype(np.int64), len(edges) - 1)
     for table in tables[:4]:
         table.setflags(write=False)
     return tables
@@ -78,7 +72,7 @@ def summary_tables(length: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.
 def represent(windows: np.ndarray, channels: int, representation: str) -> np.ndarray:
     """Representation of every column of ``windows`` ``(channels * L, m)``, as rows: ``(m, p)``.
 
-    ``p = channels * L`` for ``hankel`` and ``channels * (5 + K' + B')`` for ``summary`` (module docstring).
+    ``p = channels * L`` for ``hankel`` and ``channels * (6 + B')`` for ``summary`` (module docstring).
     """
     windows = np.asarray(windows, dtype=float)
     if windows.ndim == 1:
@@ -91,9 +85,9 @@ def represent(windows: np.ndarray, channels: int, representation: str) -> np.nda
     if channels < 1 or d % channels:
         raise InputError(f"windows of {d} values do not split into {channels} channels")
     length = d // channels
-    taper, cos, sin, band, bands, blocks = summary_tables(length)
-    out = np.empty((m, channels * (5 + blocks + bands)))
-    summary_matrix(np.ascontiguousarray(windows.T), channels, taper, cos, sin, band, bands, blocks, out)
+    taper, cos, sin, band, bands = summary_tables(length)
+    out = np.empty((m, channels * (6 + bands)))
+    summary_matrix(np.ascontiguousarray(windows.T), channels, taper, cos, sin, band, bands, out)
     return out
 
 
@@ -101,4 +95,4 @@ def representation_size(channels: int, length: int, representation: str) -> int:
     """Length ``p`` of one represented window."""
     if representation == "hankel":
         return channels * length
-    return channels * (5 + min(BLOCKS, length) + len(band_edges(length)) - 1)
+    return channels * (6 + len(band_edges(length)) - 1)

@@ -66,8 +66,8 @@ class ModelRing:
             row["reject"] = np.inf if getattr(clf, "reject", None) is None else clf.reject
             y += d
             if compiled and model.representation == "summary":
-                taper, cos, sin, band, bands, blocks = summary_tables(model.window)
-                row["summary"], row["bins"], row["bands"], row["blocks"] = True, len(band), bands, blocks
+                taper, cos, sin, band, bands = summary_tables(model.window)
+                row["summary"], row["bins"], row["bands"] = True, len(band), bands
                 row["tables"], row["z"], row["p"] = sum(k.size for k in kernels), y, len(model.feature_offset)
                 kernels += [taper, cos.reshape(-1), sin.reshape(-1), band.astype(float), model.feature_offset,
                             model.feature_scale]

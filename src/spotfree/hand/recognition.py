@@ -92,8 +92,8 @@ gesture alternates with postures of a few seconds, and a longer cost merges it i
 
 Representations: the ``live-state`` stage (the state stage of live labels, learnt from the same sessions and class
 sets as ``state``) and the gesture stage keep their windows whole (``hankel``), because the ``summary`` of a window
-keeps of the order of its samples only the course of its level over four blocks and the change of spread between its
-halves. A movement and its reverse pass through the same orientations in the opposite order. And a live window labels its newest sample, while
+keeps of the order of its samples only the change of level and spread between its halves. A movement and its
+reverse pass through the same orientations in the opposite order. And a live window labels its newest sample, while
 the summary of a window in which the hand comes to rest is much like that of one in which it starts to move: with
 summaries, the live windows just after a gesture, which still hold its end, were called gesture. Offline, a window
 labels its middle sample, which its summary does not misplace, and the ``summary`` state finds a gesture's first

@@ -187,7 +187,7 @@ def pipeline_spec(model: DictionaryModel, classifier=None) -> dict:
     CRC_RLS; for kernel CRC_RLS ``gamma``, the ``m`` ``landmarks`` ``(m, d)`` and the ``normalisation``
     ``(f, m)``, flat, row-major, and then ``operator`` acts on the ``f`` features), ``summary`` (None for a
     ``hankel`` model; for a ``summary`` one the tables of :func:`~spotfree.representation.summary_tables`: ``taper``,
-    ``cos`` and ``sin`` ``(bins, L)`` flat, ``band``, ``bands``, ``blocks``, and the standardisation ``offset``, ``scale``; the
+    ``cos`` and ``sin`` ``(bins, L)`` flat, ``band``, ``bands``, and the standardisation ``offset``, ``scale``; the
     classifier then acts on the represented window).
     """
     if model.features != "ride":
@@ -216,10 +216,9 @@ def pipeline_spec(model: DictionaryModel, classifier=None) -> dict:
                     "zi": scipy.signal.lfilter_zi(design.b_acc, design.a).tolist()}
     summary = None
     if model.representation == "summary":
-        taper, cos, sin, band, bands, blocks = summary_tables(model.window)
+        taper, cos, sin, band, bands = summary_tables(model.window)
         summary = {"taper": taper.tolist(), "cos": cos.reshape(-1).tolist(), "sin": sin.reshape(-1).tolist(),
-                   "band": band.tolist(), "bands": int(bands), "blocks": int(blocks),
-                   "offset": model.feature_offset.tolist(),
+                   "band": band.tolist(), "bands": int(bands), "offset": model.feature_offset.tolist(),
                    "scale": model.feature_scale.tolist()}
     b, a, c = lean_coefficients(model.rate)
     return {

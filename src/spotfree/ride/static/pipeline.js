@@ -448,23 +448,18 @@
       return this.label;
     }
     summarise(y) {
-      // summary representation (spotfree.representation): per channel mean, std, min, max, the mean of each of K
-      // blocks minus the mean (sample t in block floor(t K / L)), the change of std from the older to the newer L/2
-      // samples, and the log power of the tapered, mean-removed window in each band,
-      // log(1 + sum_{k in band} |X_k|^2 / L); then standardised
+      // summary representation (spotfree.representation): per channel mean, std, min, max, the change of mean and
+      // of std from the older to the newer L/2 samples, and the log power of the tapered, mean-removed window in each
+      // band, log(1 + sum_{k in band} |X_k|^2 / L); then standardised
       const S = this.spec.summary, c = this.spec.channels.length, L = this.spec.window, bins = S.band.length;
-      const K = S.blocks, half = Math.floor(L / 2), width = 5 + K + S.bands, z = new Float64Array(c * width);
-      const v = new Float64Array(L), blockSum = new Float64Array(K), blockSize = new Float64Array(K);
-      for (let t = 0; t < L; t++) blockSize[Math.floor(t * K / L)] += 1;
+      const half = Math.floor(L / 2), width = 6 + S.bands, z = new Float64Array(c * width), v = new Float64Array(L);
       for (let i = 0; i < c; i++) {
         let total = 0.0, low = Infinity, high = -Infinity, older = 0.0, newer = 0.0;
-        blockSum.fill(0.0);
         for (let t = 0; t < L; t++) {
           const x = y[i * L + t];
           total += x;
           low = Math.min(low, x);
           high = Math.max(high, x);
-          blockSum[Math.floor(t * K / L)] += x;
           if (t < half) older += x;
           if (t >= L - half) newer += x;
         }
@@ -479,17 +474,16 @@
           if (t < half) olderVar += (x - older) * (x - older);
           if (t >= L - half) newerVar += (x - newer) * (x - newer);
         }
-        let o = i * width;
+        const o = i * width;
         z[o] = mean; z[o + 1] = Math.sqrt(variance / L); z[o + 2] = low; z[o + 3] = high;
-        for (let k = 0; k < K; k++) z[o + 4 + k] = blockSum[k] / blockSize[k] - mean;
-        o += 4 + K;
-        z[o] = Math.sqrt(newerVar / n) - Math.sqrt(olderVar / n);
+        z[o + 4] = newer - older;
+        z[o + 5] = Math.sqrt(newerVar / n) - Math.sqrt(olderVar / n);
         for (let k = 0; k < bins; k++) {
           let re = 0.0, im = 0.0;
           for (let t = 0; t < L; t++) { re += S.cos[k * L + t] * v[t]; im += S.sin[k * L + t] * v[t]; }
-          z[o + 1 + S.band[k]] += (re * re + im * im) / L;
+          z[o + 6 + S.band[k]] += (re * re + im * im) / L;
         }
-        for (let b = 0; b < S.bands; b++) z[o + 1 + b] = Math.log1p(z[o + 1 + b]);
+        for (let b = 0; b < S.bands; b++) z[o + 6 + b] = Math.log1p(z[o + 6 + b]);
       }
       for (let j = 0; j < z.length; j++) z[j] = (z[j] - S.offset[j]) / S.scale[j];
       return z;
