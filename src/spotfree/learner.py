@@ -219,13 +219,13 @@ class SetSupervisedLearner(BaseEstimator):
         fitted = np.arange(len(X))
         if len(X) > FIT_WINDOWS * n_classes:  # the same windows in every round, so that the rounds can settle
             fitted = np.sort(rng.choice(len(X), FIT_WINDOWS * n_classes, replace=False))
-        log_q = np.where(mask, prior, -np.inf)
+        log_q = _single(np.where(mask, prior, -np.inf))
         weights = _normalised(log_q)
         self.history_ = []
         for _ in range(self.rounds):
             log_p = self._cross_fitted(X, weights, data, fitted)
             share = np.maximum(weights.mean(axis=0), 1.0 / len(weights))
-            log_q = np.where(mask, SHARPEN * (log_p + prior) + self.share_power * np.log(share), -np.inf)
+            log_q = _single(np.where(mask, SHARPEN * (log_p + prior) + self.share_power * np.log(share), -np.inf))
             new = _normalised(log_q)
             changed = 0.5 * float(np.abs(new - weights).sum(axis=1).mean())
             weights = new
@@ -529,9 +529,20 @@ def _margins(log_q: np.ndarray, labels: np.ndarray) -> np.ndarray:
 
 
 def _normalised(log_q: np.ndarray) -> np.ndarray:
-    """``exp(log_q)`` normalised per row (rows of ``-inf`` but the finite entries)."""
+    """``exp(log_q)`` normalised per row (rows of ``-inf`` but the finite entries), in single precision
+    (:func:`_single`)."""
     w = np.exp(log_q - log_q.max(axis=1, keepdims=True))
-    return w / w.sum(axis=1, keepdims=True)
+    return _single(w / w.sum(axis=1, keepdims=True))
+
+
+def _single(values: np.ndarray) -> np.ndarray:
+    """``values`` rounded to single precision (kept as float64): the names the rounds, the decoding and the margins
+    read. numpy's ``exp`` and ``log`` round the last bit differently on different processors (its AVX-512 kernels), and
+    the trees, fitted on the names as sample weights, turn such a difference into other trees, round after round; a
+    last-bit difference of float64 changes the value rounded to float32 only when it falls on a rounding boundary
+    (about one value in 2^29), so the names, and so the model, are the same on every machine (the trees see their
+    features in float32 already)."""
+    return values.astype(np.float32).astype(np.float64)
 
 
 def _candidate_rows(weights: np.ndarray, windows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

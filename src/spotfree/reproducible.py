@@ -3,8 +3,9 @@
 numpy computes ``exp``, ``log`` and the trigonometric functions of float64 arrays with kernels of its own on a
 processor with AVX-512 (Intel's SVML on ``AVX512_SKX``: numpy pull request 19478) and with the C library's or its AVX2
 ones elsewhere, and the two round the last bit differently (numpy issue 22904: ``np.log`` differs on Intel servers
-from Skylake on). The learner's forests split at thresholds drawn between feature values, so a last-bit difference in
-one feature can move a window to another leaf, and the rounds carry that on into a different model.
+from Skylake on). The learner keeps its names in single precision, so that its names and columns do not depend on
+those kernels (:mod:`spotfree.learner`), but the values of its dictionary, features computed with them, do in
+their last bit.
 ``NPY_DISABLE_CPU_FEATURES`` (read by numpy when it is imported) switches those kernels off, so a process started with
 :func:`pinned_environment` computes what a machine without AVX-512 does.
 """
