@@ -540,7 +540,7 @@ def _single(values: np.ndarray) -> np.ndarray:
     read. numpy's ``exp`` and ``log`` round the last bit differently on different processors (its AVX-512 kernels), and
     the trees, fitted on the names as sample weights, turn such a difference into other trees, round after round; a
     last-bit difference of float64 changes the value rounded to float32 only when it falls on a rounding boundary
-    (about one value in 2^29), so the names, and so the model, are the same on every machine (the trees see their
+    (about one value in 2^29), so the names and the columns chosen are the same on every machine (the trees see their
     features in float32 already)."""
     return values.astype(np.float32).astype(np.float64)
 
