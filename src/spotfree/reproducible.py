@@ -5,7 +5,7 @@ processor with AVX-512 (Intel's SVML on ``AVX512_SKX``: numpy pull request 19478
 ones elsewhere, and the two round the last bit differently (numpy issue 22904: ``np.log`` differs on Intel servers
 from Skylake on). The learner keeps its names in single precision, so that its names and columns do not depend on
 those kernels (:mod:`spotfree.learner`), but the values of its dictionary, features computed with them, do in
-their last bit.
+their last bit, and so may the landmarks k-means places on them for kernel CRC_RLS (a few labels then differ).
 ``NPY_DISABLE_CPU_FEATURES`` (read by numpy when it is imported) switches those kernels off, so a process started with
 :func:`pinned_environment` computes what a machine without AVX-512 does.
 """
