@@ -4,8 +4,9 @@ numpy computes ``exp``, ``log`` and the trigonometric functions of float64 array
 processor with AVX-512 (Intel's SVML on ``AVX512_SKX``: numpy pull request 19478) and with the C library's or its AVX2
 ones elsewhere, and the two round the last bit differently (numpy issue 22904: ``np.log`` differs on Intel servers
 from Skylake on). The learner keeps its names in single precision, so that its names and columns do not depend on
-those kernels (:mod:`spotfree.learner`), but the values of its dictionary, features computed with them, do in
-their last bit, and so may the landmarks k-means places on them for kernel CRC_RLS (a few labels then differ).
+those kernels (:mod:`spotfree.learner`), and kernel CRC_RLS groups the atoms in single precision to place its
+landmarks (:mod:`spotfree.classify.kcrc`), but the values of the dictionary, features computed with them, still
+differ in their last bit, and so does a residual, which can change the label of a window near a tie.
 ``NPY_DISABLE_CPU_FEATURES`` (read by numpy when it is imported) switches those kernels off, so a process started with
 :func:`pinned_environment` computes what a machine without AVX-512 does.
 """

@@ -250,14 +250,17 @@ def _block_squares(z: np.ndarray, width: int) -> np.ndarray:
 def _central_points(points: np.ndarray, m: int) -> np.ndarray:
     """``m`` of ``points`` that represent them: the member nearest the mean of each of
     ``m`` k-means groups (k-means++ start from a fixed seed, one thread: the same points give the same choice); the
-    distinct points when there are no more than ``m``."""
+    distinct points when there are no more than ``m``. The groups and distances are computed on the points rounded
+    to single precision, so that points that differ in their last bits (computed on another processor) give the same
+    choice; the points returned are the float64 ones."""
     distinct = np.unique(points, axis=0)
     if len(distinct) <= m:
         return distinct
+    single = points.astype(np.float32)
     with threadpool_limits(limits=1), warnings.catch_warnings():
         warnings.simplefilter("ignore", ConvergenceWarning)  # fewer groups than m: one landmark a group, as meant
-        groups = KMeans(n_clusters=m, n_init=1, random_state=0).fit(points)
-    distance = np.linalg.norm(points - groups.cluster_centers_[groups.labels_], axis=1)
+        groups = KMeans(n_clusters=m, n_init=1, random_state=0).fit(single)
+    distance = np.linalg.norm(single - groups.cluster_centers_[groups.labels_], axis=1)
     order = np.lexsort((distance, groups.labels_))  # by group, nearest its mean first
     first = order[np.r_[True, np.diff(groups.labels_[order]) != 0]]
     return points[np.sort(first)]
