@@ -5,8 +5,9 @@ processor with AVX-512 (Intel's SVML on ``AVX512_SKX``: numpy pull request 19478
 ones elsewhere, and the two round the last bit differently (numpy issue 22904: ``np.log`` differs on Intel servers
 from Skylake on). The learner keeps its names in single precision, so that its names and columns do not depend on
 those kernels (:mod:`spotfree.learner`), and kernel CRC_RLS groups the atoms in single precision to place its
-landmarks (:mod:`spotfree.classify.kcrc`), but the values of the dictionary, features computed with them, still
-differ in their last bit, and so does a residual, which can change the label of a window near a tie.
+landmarks (:mod:`spotfree.classify.kcrc`); the dictionary's values, features computed with those kernels, still
+differ in their last bit, and so do the residuals computed from them, which can change the label of a window near a
+tie.
 ``NPY_DISABLE_CPU_FEATURES`` (read by numpy when it is imported) switches those kernels off, so a process started with
 :func:`pinned_environment` computes what a machine without AVX-512 does.
 """
