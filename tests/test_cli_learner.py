@@ -10,14 +10,15 @@ from typer.testing import CliRunner
 
 from spotfree.cli import app
 from spotfree.model import DictionaryModel
-from spotfree.signal.body import BODY_CHANNELS
+from spotfree.signal.body import ACC_BODY_CHANNELS, BODY_CHANNELS
 
 runner = CliRunner()
 RATE = 20.0
 
 
-def _imu_log(path, parts, seed):
-    """A raw IMU CSV of a phone in a pocket: standing still, or walking (a 2 Hz sway with gravity on y)."""
+def _imu_log(path, parts, seed, gyroscope=True):
+    """A raw IMU CSV of a phone in a pocket: standing still, or walking (a 2 Hz sway with gravity on y); without
+    the gyroscope's columns unless ``gyroscope``."""
     rng = np.random.default_rng(seed)
     rows, label = [], []
     for kind, seconds in parts:
@@ -32,7 +33,7 @@ def _imu_log(path, parts, seed):
     frame = pd.DataFrame(x, columns=["ax", "ay", "az", "gx", "gy", "gz"])
     frame.insert(0, "time", np.arange(len(x)) / RATE)
     frame["label"] = label
-    frame.to_csv(path, index=False)
+    frame.drop(columns=[] if gyroscope else ["gx", "gy", "gz"]).to_csv(path, index=False)
 
 
 def test_body_features_train_and_classify_from_class_sets(tmp_path):
@@ -60,6 +61,42 @@ def test_body_features_train_and_classify_from_class_sets(tmp_path):
         away[max(0, change - 10):change + 10] = False
     scored = away & (labels != "")
     assert np.mean(labels[scored] == truth[scored]) >= 0.95
+
+
+def test_logs_of_acceleration_alone_train_and_classify_on_its_body_channels(tmp_path):
+    for name, parts, seed in (("walk", [("still", 8), ("walking", 10), ("still", 6), ("walking", 8)], 1),
+                              ("still", [("still", 20)], 2), ("test", [("still", 6), ("walking", 8), ("still", 6)], 3)):
+        _imu_log(tmp_path / f"{name}.csv", parts, seed, gyroscope=False)
+    _imu_log(tmp_path / "full.csv", [("still", 8), ("walking", 10)], 4)
+    declared = ["--experiment", f"{tmp_path / 'walk.csv'}=still,walking", "--experiment", f"{tmp_path / 'still.csv'}=still"]
+    model = tmp_path / "acc.npz"
+    result = runner.invoke(app, ["train", "-o", str(model), "--features", "body", *declared], catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    assert f"summary of body channels {','.join(ACC_BODY_CHANNELS)};" in result.output
+    assert DictionaryModel.load(model).channels == list(ACC_BODY_CHANNELS)
+    for log in ("test.csv", "full.csv"):  # a log with a gyroscope too gives the same channels, and more
+        out = tmp_path / f"labels_{log}"
+        result = runner.invoke(app, ["classify", str(model), str(tmp_path / log), "-o", str(out), "--centred"],
+                               catch_exceptions=False)
+        assert result.exit_code == 0, result.output
+        labels = pd.read_csv(out, keep_default_na=False)["label"].to_numpy()
+        truth = pd.read_csv(tmp_path / log)["label"].to_numpy()
+        assert np.mean(labels[40:100] == truth[40:100]) >= 0.95  # inside the first still and walking stretches
+    result = runner.invoke(app, ["train", "-o", str(tmp_path / "raw.npz"), *declared], catch_exceptions=False)
+    assert "summary of the log's channels ax,ay,az;" in result.output  # not a ride log: read as it is
+
+
+def test_a_model_of_every_body_channel_refuses_a_log_without_a_gyroscope(tmp_path):
+    _imu_log(tmp_path / "walk.csv", [("still", 8), ("walking", 10), ("still", 6), ("walking", 8)], 1)
+    _imu_log(tmp_path / "still.csv", [("still", 20)], 2)
+    _imu_log(tmp_path / "acc.csv", [("still", 6), ("walking", 8)], 3, gyroscope=False)
+    model = tmp_path / "m.npz"
+    assert runner.invoke(app, ["train", "-o", str(model), "--features", "body", "--experiment",
+                               f"{tmp_path / 'walk.csv'}=still,walking", "--experiment",
+                               f"{tmp_path / 'still.csv'}=still"]).exit_code == 0
+    result = runner.invoke(app, ["classify", str(model), str(tmp_path / "acc.csv"), "-o", str(tmp_path / "o.csv")])
+    assert result.exit_code == 2
+    assert "model expects channels ax,ay,az,gx,gy,gz" in result.output and "give the raw IMU log" in result.output
 
 
 def test_ride_features_of_a_log_not_from_a_handlebar_say_so(tmp_path):

@@ -12,7 +12,7 @@ from scipy.spatial.transform import Rotation
 
 from spotfree.errors import InputError
 from spotfree.io.recording import Recording
-from spotfree.signal.body import BODY_CHANNELS, TURN_CUTOFF, body_features, vertical_rotation
+from spotfree.signal.body import ACC_BODY_CHANNELS, BODY_CHANNELS, TURN_CUTOFF, body_features, vertical_rotation
 from spotfree.signal.butterworth import butter_lowpass
 
 RATE = 20.0
@@ -64,6 +64,21 @@ def test_a_stride_to_and_fro_is_filtered_out_and_a_turn_kept():
 def test_body_features_hold_every_body_channel():
     rec = body_features(_held(Rotation.random(random_state=0), 40, 1.0, 0.5))
     assert rec.names == list(BODY_CHANNELS) and rec.meta["features"] == "body"
+
+
+def test_a_log_without_a_gyroscope_gives_the_acceleration_channels():
+    full = body_features(_held(Rotation.random(random_state=1), 40, 1.0, 0.5))
+    acc_only = full.with_channels({c: full.channels[c] for c in ("ax", "ay", "az")})
+    rec = body_features(acc_only)
+    assert rec.names == list(ACC_BODY_CHANNELS) and rec.meta["features"] == "body"
+    np.testing.assert_array_equal(rec.channels["acc_norm"], full.channels["acc_norm"])
+
+
+def test_a_log_without_an_accelerometer_is_refused_naming_its_columns():
+    rec = _log(np.zeros((40, 3)), np.zeros((40, 3)))
+    gyro_only = rec.with_channels({c: rec.channels[c] for c in ("gx", "gy", "gz")})
+    with pytest.raises(InputError, match="accelerometer's columns ax, ay, az.*the log has gx, gy, gz"):
+        body_features(gyro_only)
 
 
 def test_causal_and_restarted_after_a_gap():

@@ -423,10 +423,10 @@ def _train(output: Path, declared: list, channels: Optional[str], window: int, s
                "read": said["read"], "notes": said["notes"], "mounts": said["mounts"],
                "warnings": said["warnings"] + model.summary.get("warnings", []), "figure": figure}
     if recipe == "paper":
-        out.print(f"learner: the paper's recipe (hankel of {model.features} channels {','.join(model.channels)})")
+        out.print(f"learner: the paper's recipe (hankel of {_channels_said(model)})")
         out.print("columns per class: " + ", ".join(f"{c} {counts[c]}" for c in model.classes))
         return summary
-    out.print(f"learner: sets ({model.representation} of {model.features} channels {','.join(model.channels)}; "
+    out.print(f"learner: sets ({model.representation} of {_channels_said(model)}; "
               f"prior: {prior or 'none'})")
     out.print(_naming_table(model.summary["recordings"], f"{output}: {model.dictionary.shape[1]} columns, window "
                             f"{window} samples"))
@@ -444,6 +444,13 @@ def _train(output: Path, declared: list, channels: Optional[str], window: int, s
 
 TABLE_ROWS = 20
 """Most recordings :func:`_naming_table` shows a row each; of more, a row per declared set."""
+
+
+def _channels_said(model) -> str:
+    """A model's channels as the summaries say them: ``ride channels a,b``, ``body channels ...`` or, for a log used
+    as it was read, ``the log's channels ...``."""
+    kind = "the log's" if model.features == "channels" else model.features
+    return f"{kind} channels {','.join(model.channels)}"
 
 
 def _naming_table(recordings: list[dict], title: str):
@@ -623,8 +630,7 @@ def _classify_one(dictionary, classifier, name: str, source: str, output: Path, 
         _report_mount(estimate.describe(), estimate.warnings)
     window = f"{dictionary.window} samples = {dictionary.window / dictionary.rate:.2f} s"
     where = f"centred on it (offset {labels.meta['offset']} samples)" if centred else "ending at it"
-    out.print(f"model: {dictionary.features} channels {','.join(dictionary.channels)}, {dictionary.representation} "
-              "windows")
+    out.print(f"model: {_channels_said(dictionary)}, {dictionary.representation} windows")
     out.print(f"wrote {output}: {int(labels.labelled().sum())} of {len(labels)} samples labelled by {method}; "
               f"windows: {labels.meta['alignment']}, each label from the window of {window} {where}"
               + (f"; majority vote over {smooth} samples" if smooth else "") + note)

@@ -15,11 +15,11 @@ FEATURES = ("ride", "body")
 
 def feature_recording(spec: str | Recording, orientation: str = "default", rate: float = 20.0,
                       features: str = "ride") -> Recording:
-    """Read ``spec`` (``PATH`` or ``PATH@K``, or a Recording already read); a raw IMU log becomes, by ``features``, the ride features with the
-    derived channels (:data:`~spotfree.signal.features.DERIVED_CHANNELS`: a phone on a vehicle's handlebar) or the
-    body channels (:data:`~spotfree.signal.body.BODY_CHANNELS`: a phone in a pocket, a watch); any other log is used
-    as is, but a GPS-only log (a track: nothing for a model to learn from but where and how fast) is refused,
-    naming the motion sensors it lacks.
+    """Read ``spec`` (``PATH`` or ``PATH@K``, or a Recording already read); a raw IMU log becomes, by ``features``,
+    the ride features with the derived channels (:data:`~spotfree.signal.features.DERIVED_CHANNELS`: a phone on a
+    vehicle's handlebar) or the body channels (:mod:`spotfree.signal.body`: a phone in a pocket, a watch; a log of
+    acceleration alone gives the acceleration's); any other log is used as is, but a GPS-only log (a track: nothing
+    for a model to learn from but where and how fast) is refused, naming the motion sensors it lacks.
 
     ``meta['features']`` says which: ``"ride"`` (with ``meta['orientation']``), ``"body"`` or ``"channels"``.
     A log outside what a phone records is refused (:func:`spotfree.limits.check_recording`).
@@ -28,7 +28,7 @@ def feature_recording(spec: str | Recording, orientation: str = "default", rate:
         raise InputError(f"--features {features!r}: use one of {', '.join(FEATURES)}")
     rec = spec if isinstance(spec, Recording) else read_recording(spec, rate=rate)
     check_recording(rec)
-    if rec.has_imu and features == "body":
+    if rec.has_accelerometer and features == "body":
         return body_features(rec)
     if not rec.has_imu and set(rec.names) <= set(GPS_CHANNELS):
         rec.require_imu("a model's features; `spotfree features` gives a track's GPS features")

@@ -105,12 +105,12 @@ class Labels:
 
 
 def model_features(model: DictionaryModel, rec: Recording) -> Recording:
-    """``rec`` with the model's channels: the ride features (with the model's orientation filter) or the body
-    channels (:mod:`spotfree.signal.body`) of a raw IMU log when the model was trained on them, else ``rec`` itself;
-    the channels and rate must match the model's."""
+    """``rec`` with the model's channels: the ride features (with the model's orientation filter) of a raw IMU log,
+    or the body channels (:mod:`spotfree.signal.body`) of a log with an accelerometer, when the model was trained on
+    them, else ``rec`` itself; the channels and rate must match the model's."""
     if model.features == "ride" and rec.has_imu:
         rec = ride_features(rec, orientation=model.orientation, derived=True)
-    elif model.features == "body" and rec.has_imu:
+    elif model.features == "body" and rec.has_accelerometer:
         rec = body_features(rec)
     missing = [c for c in model.channels if c not in rec.channels]
     if missing or abs(rec.rate - model.rate) > RATE_TOLERANCE * model.rate:

@@ -91,6 +91,11 @@ class Recording:
         """True when the six raw IMU channels are present."""
         return all(c in self.channels for c in IMU_CHANNELS)
 
+    @property
+    def has_accelerometer(self) -> bool:
+        """True when the three raw accelerometer channels are present."""
+        return all(c in self.channels for c in ACC_CHANNELS)
+
     def missing_advice(self) -> str:
         """What the reader said is missing for the ride features, in the app's terms: the advice of
         ``meta['missing']`` for each absent sensor (accelerometer, then gyroscope), each said once, joined by

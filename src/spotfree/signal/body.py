@@ -23,6 +23,9 @@ rotation would add to the channel as much as a slow turn does. The low-pass dela
 ``sqrt(2) / (2 pi TURN_CUTOFF)`` s (its group delay at low frequency). Both filters run over each gap-free stretch
 alone and are causal, so that a window's value does not depend on the samples after it (live labels).
 
+A log with an accelerometer and no gyroscope (many activity recordings hold only acceleration) gives the
+acceleration's channels alone, ``ax ay az acc_norm`` (:data:`ACC_BODY_CHANNELS`).
+
 ``BODY_CHANNELS`` lists them in the order :func:`body_features` returns them.
 """
 
@@ -35,6 +38,8 @@ from spotfree.io.recording import ACC_CHANNELS, GYRO_CHANNELS, IMU_CHANNELS, Rec
 from spotfree.signal.butterworth import butter_lowpass, lowpass
 
 BODY_CHANNELS = IMU_CHANNELS + ("acc_norm", "gyro_norm", "gyro_vertical")
+ACC_BODY_CHANNELS = ACC_CHANNELS + ("acc_norm",)
+"""The body channels of a log without a gyroscope."""
 GRAVITY_SECONDS = 1.0
 """Time constant of the low-pass that estimates gravity's direction for ``gyro_vertical``, s (cut-off
 ``1 / (2 pi GRAVITY_SECONDS)`` Hz): long against a step or an arm's swing, short against a change of how the device
@@ -46,14 +51,17 @@ while a turn of the body passes (module docstring)."""
 
 
 def body_features(rec: Recording) -> Recording:
-    """The :data:`BODY_CHANNELS` of a raw IMU log, on its grid; ``meta['features']`` is ``"body"``."""
-    if not rec.has_imu:
-        raise InputError(f"{rec.source}: body channels need the raw IMU columns {', '.join(IMU_CHANNELS)}; "
-                         f"the log has {', '.join(rec.names) or 'none'}")
-    channels = {c: rec.channels[c] for c in IMU_CHANNELS}
+    """The :data:`BODY_CHANNELS` of a raw IMU log, or the :data:`ACC_BODY_CHANNELS` of a log without a gyroscope,
+    on its grid; ``meta['features']`` is ``"body"``."""
+    if not rec.has_accelerometer:
+        raise InputError(f"{rec.source}: body channels need the accelerometer's columns {', '.join(ACC_CHANNELS)} "
+                         f"(m/s^2, gravity included; with gx gy gz in rad/s when there is a gyroscope); the log has "
+                         f"{', '.join(rec.names) or 'none'}")
+    channels = {c: rec.channels[c] for c in (IMU_CHANNELS if rec.has_imu else ACC_CHANNELS)}
     channels["acc_norm"] = np.linalg.norm(rec.array(ACC_CHANNELS), axis=1)
-    channels["gyro_norm"] = np.linalg.norm(rec.array(GYRO_CHANNELS), axis=1)
-    channels["gyro_vertical"] = vertical_rotation(rec)
+    if rec.has_imu:
+        channels["gyro_norm"] = np.linalg.norm(rec.array(GYRO_CHANNELS), axis=1)
+        channels["gyro_vertical"] = vertical_rotation(rec)
     out = rec.with_channels(channels)
     out.meta.update(features="body")
     return out
