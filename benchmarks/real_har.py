@@ -26,11 +26,13 @@ Methods in the same run:
   sample's label.
 
     python benchmarks/real_har.py [--device sp sw] [--train-subjects 12] [--clip 2 3 5] [--seeds 0 1 2] [--last]
-                                  [--quick]
+                                  [--accelerometer] [--quick]
 
 ``--last``: the other split, the last ``--train-subjects`` subjects train and the first ones are the test (the
-defaults of the learner were chosen on the first split). Writes ``benchmarks/results/real_har.md`` (command,
-machine, date, tables), ``real_har_last.md`` with ``--last``.
+defaults of the learner were chosen on the first split). ``--accelerometer``: every method on the acceleration's
+body channels alone (``ax ay az acc_norm``), as from a log without a gyroscope. Writes
+``benchmarks/results/real_har.md`` (command, machine, date, tables), ``real_har_last.md`` with ``--last``,
+``real_har_acc.md`` (``real_har_acc_last.md``) with ``--accelerometer``.
 """
 
 from __future__ import annotations
@@ -50,7 +52,7 @@ from spotfree.io.recording import IMU_CHANNELS, Recording
 from spotfree.io.resample import Stream, merge_streams
 from spotfree.learner import SetSupervisedLearner
 from spotfree.paper_recipe import PaperRecipe
-from spotfree.signal.body import BODY_CHANNELS, body_features
+from spotfree.signal.body import ACC_BODY_CHANNELS, BODY_CHANNELS, body_features
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "sp_sw_har"
 RESULTS = Path(__file__).resolve().parent / "results" / "real_har.md"
@@ -142,9 +144,11 @@ def named_right(learner: SetSupervisedLearner, train: list[Recording]) -> float:
     return right / total
 
 
-def compare(train: list[Recording], tests: list[Recording], seeds: list[int], **tags) -> list[dict]:
+def compare(train: list[Recording], tests: list[Recording], seeds: list[int], channels: tuple[str, ...] | None = None,
+            **tags) -> list[dict]:
     """Every method fitted on the clips ``train`` (the learner and the paper's recipe given each clip's class set, the
-    peers every sample's label) and scored on the whole recordings ``tests``; one row a method, carrying ``tags``."""
+    peers every sample's label) on ``channels`` (None: every body channel) and scored on the whole recordings
+    ``tests``; one row a method, carrying ``tags``."""
     sets = [sorted(set(c.truth["label"])) for c in train]
     classes = sorted(set().union(*sets))
     rows = []
@@ -164,19 +168,20 @@ def compare(train: list[Recording], tests: list[Recording], seeds: list[int], **
               f"live {rows[-1]['live']['away']:.3f} away, fit {fit_s:.1f} s", file=sys.stderr)
 
     for seed in seeds:  # the learner's forests and samples are seeded: its spread over seeds is part of the result
-        learner = SetSupervisedLearner(seed=seed)
+        learner = SetSupervisedLearner(channels=channels, seed=seed)
         measure(f"spotfree, seed {seed}", "class sets", lambda: learner.fit(train, sets), learner.predict,
                 lambda r: learner.predict(r, centred=False), lambda: named_right(learner, train))
-    labelled = TrueNames(seed=seeds[0])
+    labelled = TrueNames(channels=channels, seed=seeds[0])
     measure("spotfree, true names", "every sample", lambda: labelled.fit(train, sets), labelled.predict,
             lambda r: labelled.predict(r, centred=False))
-    paper = PaperRecipe(seed=seeds[0])
+    paper = PaperRecipe(channels=channels, seed=seeds[0])
     measure("paper recipe", "class sets", lambda: paper.fit(train, sets), paper.predict,
             lambda r: paper.predict(r, centred=False))
     from spotfree.evaluation.peers import MiniRocketPeer, NearestNeighbourPeer
 
-    for name, make in (("sliding 1-NN", lambda a: NearestNeighbourPeer(channels=BODY_CHANNELS, alignment=a)),
-                       ("MiniRocket", lambda a: MiniRocketPeer(channels=BODY_CHANNELS, alignment=a,
+    peer_channels = channels or BODY_CHANNELS
+    for name, make in (("sliding 1-NN", lambda a: NearestNeighbourPeer(channels=peer_channels, alignment=a)),
+                       ("MiniRocket", lambda a: MiniRocketPeer(channels=peer_channels, alignment=a,
                                                                n_kernels=MINIROCKET_KERNELS))):
         centred, causal = make("centred"), make("causal")  # a peer is trained on the alignment it labels with
         measure(name, "every sample", lambda c=centred, k=causal: (c.fit(train), k.fit(train)), centred.predict,
@@ -187,7 +192,7 @@ def compare(train: list[Recording], tests: list[Recording], seeds: list[int], **
 
 
 def run(device: str, train_subjects: int, clip: float, seeds: list[int], quick: bool,
-        last: bool = False) -> list[dict]:
+        last: bool = False, channels: tuple[str, ...] | None = None) -> list[dict]:
     files = sorted((DATA / "DATA").glob(f"s*/s*_{device}.csv.gz"))
     subjects = sorted({f.parent.name for f in files})
     if last:  # the other split: the last subjects train, the first ones are the test
@@ -197,7 +202,7 @@ def run(device: str, train_subjects: int, clip: float, seeds: list[int], quick: 
         test_ids = set(sorted(test_ids)[:3])
     train = [c for f in files if f.parent.name in train_ids for c in clips(load(f), clip)]
     tests = [load(f) for f in files if f.parent.name in test_ids]
-    return compare(train, tests, seeds, device=device, clip=clip)
+    return compare(train, tests, seeds, channels, device=device, clip=clip)
 
 
 def table(rows: list[dict], first: str, prefix: str = "") -> list[str]:
@@ -246,7 +251,7 @@ def events_table(rows: list[dict], first: str) -> list[str]:
     return lines
 
 
-def write(rows: list[dict], command: str, last: bool = False) -> None:
+def write(rows: list[dict], command: str, last: bool = False, accelerometer: bool = False) -> None:
     lines = ["# Spotting-free learning on real recordings (sp_sw_har)", "",
              f"- command: `{command}`",
              f"- machine: {describe()}",
@@ -254,12 +259,13 @@ def write(rows: list[dict], command: str, last: bool = False) -> None:
              f"- training: the recordings of the {'last' if last else 'first'} training subjects cut into clips, each "
              f"declared with its set of classes; test: {rows[0]['test_recordings']} whole recordings of the other "
              "subjects per device",
+             f"- channels: {', '.join(ACC_BODY_CHANNELS if accelerometer else BODY_CHANNELS)} (every method)",
              "- balanced accuracy = mean of per-class recalls; away = leaving out samples within 0.5 s of a true "
              "change; centred labels (each window labels its centre, offline), and live: causal labels (each window "
              "labels its last sample, as a phone does live; a peer trained on that alignment, its fit time included); "
              "training windows named right = the learner's final names of its training windows "
              "against the true label at each window's centre", "", *table(rows, "device")]
-    results = RESULTS.with_name("real_har_last.md") if last else RESULTS
+    results = RESULTS.with_name("real_har" + "_acc" * accelerometer + "_last" * last + ".md")
     results.parent.mkdir(exist_ok=True)
     results.write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
@@ -275,10 +281,13 @@ def main() -> None:
     parser.add_argument("--last", action="store_true", help="train on the last subjects and test on the others "
                         "(the other split; writes real_har_last.md)")
     parser.add_argument("--quick", action="store_true", help="three test subjects (for a smoke run)")
+    parser.add_argument("--accelerometer", action="store_true", help="every method on the acceleration's body "
+                        "channels alone, as from a log without a gyroscope (writes real_har_acc.md)")
     args = parser.parse_args()
     rows = [r for d in args.device for c in args.clip
-            for r in run(d, args.train_subjects, c, args.seeds, args.quick, args.last)]
-    write(rows, "python benchmarks/real_har.py " + " ".join(sys.argv[1:]), args.last)
+            for r in run(d, args.train_subjects, c, args.seeds, args.quick, args.last,
+                         ACC_BODY_CHANNELS if args.accelerometer else None)]
+    write(rows, "python benchmarks/real_har.py " + " ".join(sys.argv[1:]), args.last, args.accelerometer)
 
 
 if __name__ == "__main__":
