@@ -16,9 +16,11 @@ recordings are the test. Scores and methods are those of ``real_har.py`` (:func:
 away from changes (0.5 s) and strict; the learner once per seed of ``--seeds``, the paper's recipe, and the supervised
 sliding 1-NN and MiniRocket peers given every sample's label of the same clips.
 
-    python benchmarks/basic_motions.py [--clip 3 6 20] [--seeds 0 1 2] [--order 0] [--quick]
+    python benchmarks/basic_motions.py [--clip 3 6 20] [--seeds 0 1 2] [--order 0] [--accelerometer] [--quick]
 
-Writes ``benchmarks/results/basic_motions.md`` (command, machine, date, tables).
+``--accelerometer``: every method on the acceleration's body channels alone, as ``real_har.py --accelerometer``.
+Writes ``benchmarks/results/basic_motions.md`` (command, machine, date, tables), ``basic_motions_acc.md`` with
+``--accelerometer``.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ import numpy as np
 from machine import results_file
 from real_har import clips, compare, on_grid, table
 from spotfree.io.recording import Recording
+from spotfree.signal.body import ACC_BODY_CHANNELS
 
 CASES = 8
 """Cases of 10 s joined into one recording (80 s; each split's 40 cases make five)."""
@@ -56,12 +59,12 @@ def recordings(split: str, order: int) -> list[Recording]:
     return out
 
 
-def run(clip: float, seeds: list[int], order: int, quick: bool) -> list[dict]:
+def run(clip: float, seeds: list[int], order: int, quick: bool, channels: tuple[str, ...] | None = None) -> list[dict]:
     tests = recordings("test", order)
     if quick:
         tests = tests[:2]
     train = [c for r in recordings("train", order) for c in clips(r, clip)]
-    return compare(train, tests, seeds, order=order, clip=clip)
+    return compare(train, tests, seeds, channels, order=order, clip=clip)
 
 
 def main() -> None:
@@ -72,6 +75,8 @@ def main() -> None:
     parser.add_argument("--order", type=int, nargs="+", default=[0], help="seeds of the order in which the cases "
                         "are joined into recordings")
     parser.add_argument("--quick", action="store_true", help="two test recordings (for a smoke run)")
+    parser.add_argument("--accelerometer", action="store_true", help="every method on the acceleration's body "
+                        "channels alone (writes basic_motions_acc.md)")
     args = parser.parse_args()
     if min(args.clip) <= 0:
         parser.exit(2, f"error: --clip must be positive seconds, got {min(args.clip):g}\n")
@@ -81,12 +86,17 @@ def main() -> None:
         import aeon.datasets  # noqa: F401
     except ImportError:
         parser.exit(2, "error: BasicMotions ships with aeon: pip install '.[eval]'\n")
-    with results_file("basic_motions", "Spotting-free learning on real recordings (BasicMotions)",
+    channels = ACC_BODY_CHANNELS if args.accelerometer else None
+    with results_file("basic_motions" + "_acc" * args.accelerometer,
+                      "Spotting-free learning on real recordings (BasicMotions)"
+                      + ", acceleration alone" * args.accelerometer,
                       packages=("numpy", "scipy", "scikit-learn", "aeon")):
-        rows = [r for o in args.order for c in args.clip for r in run(c, args.seeds, o, args.quick)]
+        rows = [r for o in args.order for c in args.clip for r in run(c, args.seeds, o, args.quick, channels)]
         print(f"- training: the archive's training cases joined {CASES} at a time, in the order of each seed of "
               f"--order, into recordings of {CASES * 10:g} s and cut into clips, each declared with its set of "
               f"classes; test: {rows[0]['test_recordings']} whole recordings of the test cases joined the same way")
+        if channels:
+            print(f"- channels: {', '.join(channels)} (every method)")
         print("- balanced accuracy = mean of per-class recalls; away = leaving out samples within 0.5 s of a true "
               "change; centred labels (offline), and live: causal labels (each window labels its last sample; a "
               "peer trained on that alignment, its fit time included); training windows named right = the learner's "
