@@ -251,7 +251,7 @@ def events_table(rows: list[dict], first: str) -> list[str]:
     return lines
 
 
-def write(rows: list[dict], command: str, last: bool = False, accelerometer: bool = False) -> None:
+def write(rows: list[dict], command: str, last: bool = False, channels: tuple[str, ...] | None = None) -> None:
     lines = ["# Spotting-free learning on real recordings (sp_sw_har)", "",
              f"- command: `{command}`",
              f"- machine: {describe()}",
@@ -259,13 +259,13 @@ def write(rows: list[dict], command: str, last: bool = False, accelerometer: boo
              f"- training: the recordings of the {'last' if last else 'first'} training subjects cut into clips, each "
              f"declared with its set of classes; test: {rows[0]['test_recordings']} whole recordings of the other "
              "subjects per device",
-             f"- channels: {', '.join(ACC_BODY_CHANNELS if accelerometer else BODY_CHANNELS)} (every method)",
+             f"- channels: {', '.join(channels or BODY_CHANNELS)} (every method)",
              "- balanced accuracy = mean of per-class recalls; away = leaving out samples within 0.5 s of a true "
              "change; centred labels (each window labels its centre, offline), and live: causal labels (each window "
              "labels its last sample, as a phone does live; a peer trained on that alignment, its fit time included); "
              "training windows named right = the learner's final names of its training windows "
              "against the true label at each window's centre", "", *table(rows, "device")]
-    results = RESULTS.with_name("real_har" + "_acc" * accelerometer + "_last" * last + ".md")
+    results = RESULTS.with_name("real_har" + "_acc" * (channels == ACC_BODY_CHANNELS) + "_last" * last + ".md")
     results.parent.mkdir(exist_ok=True)
     results.write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
@@ -284,10 +284,10 @@ def main() -> None:
     parser.add_argument("--accelerometer", action="store_true", help="every method on the acceleration's body "
                         "channels alone, as from a log without a gyroscope (writes real_har_acc.md)")
     args = parser.parse_args()
+    channels = ACC_BODY_CHANNELS if args.accelerometer else None
     rows = [r for d in args.device for c in args.clip
-            for r in run(d, args.train_subjects, c, args.seeds, args.quick, args.last,
-                         ACC_BODY_CHANNELS if args.accelerometer else None)]
-    write(rows, "python benchmarks/real_har.py " + " ".join(sys.argv[1:]), args.last, args.accelerometer)
+            for r in run(d, args.train_subjects, c, args.seeds, args.quick, args.last, channels)]
+    write(rows, "python benchmarks/real_har.py " + " ".join(sys.argv[1:]), args.last, channels)
 
 
 if __name__ == "__main__":

@@ -68,7 +68,8 @@ def test_logs_of_acceleration_alone_train_and_classify_on_its_body_channels(tmp_
                               ("still", [("still", 20)], 2), ("test", [("still", 6), ("walking", 8), ("still", 6)], 3)):
         _imu_log(tmp_path / f"{name}.csv", parts, seed, gyroscope=False)
     _imu_log(tmp_path / "full.csv", [("still", 8), ("walking", 10)], 4)
-    declared = ["--experiment", f"{tmp_path / 'walk.csv'}=still,walking", "--experiment", f"{tmp_path / 'still.csv'}=still"]
+    declared = ["--experiment", f"{tmp_path / 'walk.csv'}=still,walking",
+                "--experiment", f"{tmp_path / 'still.csv'}=still"]
     model = tmp_path / "acc.npz"
     result = runner.invoke(app, ["train", "-o", str(model), "--features", "body", *declared], catch_exceptions=False)
     assert result.exit_code == 0, result.output
