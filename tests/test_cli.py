@@ -165,6 +165,13 @@ def test_train_writes_a_model_its_summary_and_its_figure(tmp_path):
         refused = runner.invoke(app, ["train", "-o", str(tmp_path / "bad.npz"), *declared, "--share-power", bad])
         assert refused.exit_code == 2 and "share_power=" in refused.output and "give a number >= 0" in refused.output
         assert not (tmp_path / "bad.npz").exists()
+    assert model.parameters["column_share"] == 0.5  # the braking preset's
+    result = runner.invoke(app, ["train", "-o", str(tmp_path / "all.npz"), *declared, "--column-share", "1"])
+    assert result.exit_code == 0, result.output
+    assert DictionaryModel.load(tmp_path / "all.npz").parameters["column_share"] == 1.0
+    refused = runner.invoke(app, ["train", "-o", str(tmp_path / "bad.npz"), *declared, "--column-share", "0"])
+    assert refused.exit_code == 2 and "column_share=0.0: give a share > 0 and <= 1" in refused.output
+    assert not (tmp_path / "bad.npz").exists()
 
 
 def test_train_paper_recipe_is_the_baseline_and_takes_no_learner_option(tmp_path):
@@ -177,7 +184,7 @@ def test_train_paper_recipe_is_the_baseline_and_takes_no_learner_option(tmp_path
     assert result.exit_code == 0, result.output
     assert "learner: the paper's recipe" in result.output
     assert DictionaryModel.load(tmp_path / "p.npz").parameters["learner"] == "paper recipe"
-    for option, value in (("--prior", "ride"), ("--share-power", "1")):
+    for option, value in (("--prior", "ride"), ("--share-power", "1"), ("--column-share", "1")):
         refused = runner.invoke(app, ["train", "-o", str(tmp_path / "q.npz"), *declared, option, value])
         assert refused.exit_code == 2 and f"{option} is an option of --recipe sets" in refused.output
         assert not (tmp_path / "q.npz").exists()

@@ -72,3 +72,17 @@ def test_one_kind_road_rides_hold_one_surface_event_each_or_none():
     data = spec_split(MODELS["road"], seed=5, repeats=3, n_train=1)
     assert [classes for _, classes in data.training] == [["smooth", "rough-asphalt"], ["smooth", "cobblestone"],
                                                   ["smooth", "kerb"], ["smooth"]]
+
+
+@pytest.mark.parametrize("name", ["braking", "lateral", "road"])
+def test_a_preset_s_learner_holds_its_settings_and_a_parameter_given_overrides_them(name):
+    from spotfree.presets import PRESETS, preset_learner
+
+    preset, learner = PRESETS[name], preset_learner(name, seed=3)
+    assert (learner.channels, learner.window, learner.representation) == (
+        preset["channels"], preset["window"], preset["representation"])
+    assert learner.column_share == preset["column_share"] and learner.seed == 3
+    assert (learner.prior is None) == (preset["prior"] is None)
+    assert preset_learner(name, column_share=0.25, window=7).get_params()["column_share"] == 0.25
+    # the ride models trained on rides of one manoeuvre or surface each draw from every window of a class
+    assert preset["column_share"] == (1.0 if name in MODELS else 0.5)

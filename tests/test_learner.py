@@ -210,6 +210,35 @@ def test_a_share_power_that_is_not_a_number_at_least_0_is_refused(power):
         SetSupervisedLearner(share_power=power).fit([_recording([("still", 5)], rng, "a")], [{"still"}])
 
 
+@pytest.mark.parametrize("share", [0.0, -0.5, 1.5, float("nan"), "1", True])
+def test_a_column_share_outside_0_to_1_is_refused(share):
+    rng = np.random.default_rng(8)
+    with pytest.raises(InputError, match="column_share=.*give a share > 0 and <= 1"):
+        SetSupervisedLearner(column_share=share).fit([_recording([("still", 5)], rng, "a")], [{"still"}])
+
+
+def test_the_columns_are_drawn_from_the_share_of_a_class_s_windows_named_most_surely():
+    rng = np.random.default_rng(9)
+    train = [_alternating("still", "slow", rng, "a"), _alternating("still", "slow", rng, "b"),
+             _recording([("still", 20)], rng, "c")]
+    sets = [{"still", "slow"}, {"still", "slow"}, {"still"}]
+    models = {share: SetSupervisedLearner(column_share=share, max_columns=100_000, seed=0).fit(train, sets)
+              for share in (0.25, 0.5, 1.0)}
+    named = np.concatenate(models[1.0].window_labels_)
+    for share, learner in models.items():
+        np.testing.assert_array_equal(np.concatenate(learner.window_labels_), named)  # the share moves no name
+    slow = models[1.0].classes_.index("slow")
+    n_slow = int(np.sum(named == "slow"))
+    counts = {share: int(np.sum(learner.model_.column_class == slow)) for share, learner in models.items()}
+    assert counts[1.0] == n_slow  # every window named slow
+    for share in (0.25, 0.5):
+        assert share * n_slow <= counts[share] <= share * n_slow + 2, counts  # a quantile of the margins
+    columns = {share: {tuple(np.round(col, 9)) for col, c in zip(learner.model_.dictionary.T,
+                                                                   learner.model_.column_class) if c == slow}
+               for share, learner in models.items()}
+    assert columns[0.25] <= columns[0.5] <= columns[1.0]  # a smaller share keeps the windows named most surely
+
+
 def test_no_class_in_every_recording_and_windows_keep_to_their_sets():
     """Two recordings share no class; a window only ever takes a class its recording declares."""
     rng = np.random.default_rng(4)

@@ -311,8 +311,8 @@ def train(
                                  "handlebar: vehicle-frame ride features) | body (a phone in a pocket, a watch: device "
                                  "axes and magnitudes)"),
     preset: Optional[str] = typer.Option(None, "--preset", help="braking | lateral | road: the channels, window, "
-                                         "representation and prior of spotfree's ride model of that name (any of "
-                                         "them given here overrides it)"),
+                                         "representation, prior and column share of spotfree's ride model of that "
+                                         "name (any of them given here overrides it)"),
     recipe: str = typer.Option("sets", "--recipe", help="sets (the general learner from class sets) | paper (the "
                                "paper's recipe, literally: a baseline)"),
     prior: Optional[str] = typer.Option(None, "--prior", help="ride: braking loses GPS speed (sets learner only)"),
@@ -320,6 +320,10 @@ def train(
                                        "their change and band powers of each window) | hankel (the paper's raw "
                                        "windows)"),
     max_columns: int = typer.Option(300, "--max-columns", min=1, help="dictionary columns kept per class"),
+    column_share: float = typer.Option(0.5, "--column-share", help="sets learner: share of each class's windows, "
+                                       "those named most surely, that its columns are drawn from, > 0 and <= 1; 1 "
+                                       "where each recording declares one class beside a background "
+                                       "(docs/training.md)"),
     share_power: float = typer.Option(0.5, "--share-power", help="sets learner: how much a class's share of the "
                                       "windows weighs in its names, >= 0; 1 for a short rare event (it then claims "
                                       "less than 0.5 lets it), 0.5 where classes come together (docs/training.md)"),
@@ -352,7 +356,8 @@ def train(
             raise InputError(f"{option} {value!r}: use one of {', '.join(c for c in choices if c)}")
     given = [p.opts[0] for p in ctx.command.params
              if p.name and getattr(ctx.get_parameter_source(p.name), "name", "") == "COMMANDLINE"]
-    misplaced = [o for o in given if o in ("--prior", "--representation", "--share-power", "--figure", "--preset")
+    misplaced = [o for o in given if o in ("--prior", "--representation", "--column-share", "--share-power",
+                                           "--figure", "--preset")
                  and recipe != "sets"]
     if misplaced:
         raise InputError(f"{misplaced[0]} is an option of --recipe sets; leave it out with --recipe {recipe}")
@@ -362,20 +367,21 @@ def train(
         window = window if "--window" in given else settings["window"]
         representation = representation if "--representation" in given else settings["representation"]
         prior = prior if "--prior" in given else settings["prior"]
+        column_share = column_share if "--column-share" in given else settings["column_share"]
     from spotfree.io.class_sets import read_class_sets
 
     declared = [_parse_experiment(spec) for spec in experiment] + (read_class_sets(sets) if sets else [])
     if not declared:
         raise InputError("no training recording: give --experiment PATH=CLASS[,CLASS...] or --sets FILE")
     summary = _train(output, declared, channels, window, step, orientation, features, recipe, prior,
-                     representation, max_columns, share_power, seed, figure, mount)
+                     representation, max_columns, column_share, share_power, seed, figure, mount)
     if as_json:
         _print_json(summary)
 
 
 def _train(output: Path, declared: list, channels: Optional[str], window: int, step: int, orientation: str,
            features: str, recipe: str, prior: Optional[str], representation: str, max_columns: int,
-           share_power: float, seed: int, figure: Optional[Path], mount: str) -> dict:
+           column_share: float, share_power: float, seed: int, figure: Optional[Path], mount: str) -> dict:
     """``spotfree train``: :class:`~spotfree.learner.SetSupervisedLearner` (``recipe`` sets) or
     :class:`~spotfree.paper_recipe.PaperRecipe` (``recipe`` paper) on the ``declared`` recordings and their sets
     (:class:`~spotfree.io.class_sets.Declared`: each log read and turned into features once, then cut into its
@@ -402,7 +408,8 @@ def _train(output: Path, declared: list, channels: Optional[str], window: int, s
         learner = PaperRecipe(channels=chosen, window=window, step=step, max_columns=max_columns, seed=seed)
     else:
         learner = SetSupervisedLearner(channels=chosen, window=window, step=step, representation=representation,
-                                       max_columns=max_columns, share_power=share_power,
+                                       max_columns=max_columns, column_share=column_share,
+                                       share_power=share_power,
                                        prior=prior_named(prior), seed=seed)
     learner.fit(recordings, sets)
     model = learner.model_

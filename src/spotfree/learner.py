@@ -46,11 +46,12 @@ Method (``docs/training.md`` has the derivation and the references):
    Then the windows of each recording are decoded into runs (:func:`decode_runs`): the class sequence inside
    ``S_r`` that maximises ``sum_i log w_i(z_i)`` minus ``smoothing * rate / step`` per change of class, in which every
    declared class occurs (a class lasts longer than one window; every declared class finds its windows).
-4. **Dictionary.** Per class, the windows whose posterior margin is at or above the class's median, at most
-   ``max_columns`` of them spread evenly over time, become the dictionary's columns: windows that straddle a change
-   stay eligible, so that the dictionary also holds a class's onsets and ends, which the test windows show as
-   often. The causal columns are chosen alike among the windows named by the class at their last sample.
-   Classification is kernel CRC_RLS on the dictionary (:class:`~spotfree.classify.kcrc.KernelCRCClassifier`).
+4. **Dictionary.** Per class, the share ``column_share`` of its windows with the largest posterior margins (by
+   default those at or above the class's median), at most ``max_columns`` of them spread evenly over time, become
+   the dictionary's columns: windows that straddle a change stay eligible, so that the dictionary also holds a
+   class's onsets and ends, which the test windows show as often. The causal columns are chosen alike among the
+   windows named by the class at their last sample. Classification is kernel CRC_RLS on the dictionary
+   (:class:`~spotfree.classify.kcrc.KernelCRCClassifier`).
 
 Domain knowledge enters only through ``prior``: an object whose ``log_prior(recording, centres, classes)`` returns an
 ``(m, C)`` array, ``log pr``, for the windows centred at sample indices ``centres``, multiplied into the names at the
@@ -147,6 +148,12 @@ class SetSupervisedLearner(BaseEstimator):
         :func:`decode_runs`); the dictionary's margins are averaged over as many windows.
     max_columns : int
         Most dictionary columns per class.
+    column_share : float
+        Share ``0 < s <= 1`` of each class's windows, those named with the largest margins, that its columns are
+        drawn from (step 4): 0.5, the half above the class's median margin, keeps out most misnamed windows where the
+        sets leave the names uncertain; 1 draws from every window of the class, its onsets and ends included, which
+        pays where the sets pin the names down (each recording declares one class beside a background that other
+        recordings declare alone).
     share_power : float
         Exponent ``a >= 0`` of each class's share of the names in the next round's names (module docstring, step
         3): 0 names from the balanced posterior alone, under which every class tends to an equal share of the
@@ -178,7 +185,8 @@ class SetSupervisedLearner(BaseEstimator):
 
     def __init__(self, channels: tuple[str, ...] | None = None, window: int = 20, step: int = 1,
                  representation: str = "summary", rounds: int = 5, smoothing: float = 0.5,
-                 max_columns: int = 300, share_power: float = 0.5, prior=None, seed: int = 0):
+                 max_columns: int = 300, column_share: float = 0.5, share_power: float = 0.5, prior=None,
+                 seed: int = 0):
         self.channels = channels
         self.window = window
         self.step = step
@@ -186,6 +194,7 @@ class SetSupervisedLearner(BaseEstimator):
         self.rounds = rounds
         self.smoothing = smoothing
         self.max_columns = max_columns
+        self.column_share = column_share
         self.share_power = share_power
         self.prior = prior
         self.seed = seed
@@ -269,6 +278,10 @@ class SetSupervisedLearner(BaseEstimator):
             raise InputError(f"rounds={self.rounds!r}: give a whole number >= 0")
         if not (np.isfinite(self.smoothing) and self.smoothing >= 0):
             raise InputError(f"smoothing={self.smoothing!r}: give seconds >= 0")
+        share = self.column_share
+        if not isinstance(share, (int, float, np.integer, np.floating)) or isinstance(share, bool) or not (
+                0 < share <= 1):
+            raise InputError(f"column_share={self.column_share!r}: give a share > 0 and <= 1 (0.5 by default)")
         power = self.share_power
         if not isinstance(power, (int, float, np.integer, np.floating)) or isinstance(power, bool) or not (
                 np.isfinite(power) and power >= 0):
@@ -481,8 +494,8 @@ class SetSupervisedLearner(BaseEstimator):
             if b - a > half:
                 causal[a:b - half] = labels[a + half:b]
                 causal_margin[a:b - half] = margin[a + half:b]
-        columns, column_class = _pick(labels, margin, len(names), self.max_columns)
-        causal_columns, causal_class = _pick(causal, causal_margin, len(names), self.max_columns)
+        columns, column_class = _pick(labels, margin, len(names), self.max_columns, self.column_share)
+        causal_columns, causal_class = _pick(causal, causal_margin, len(names), self.max_columns, self.column_share)
         found = np.bincount(column_class, minlength=len(names))
         for c in np.flatnonzero(found == 0):
             self.warnings_.append(f"class {names[c]} names no window; declare it in recordings where it lasts longer "
@@ -513,7 +526,8 @@ class SetSupervisedLearner(BaseEstimator):
             orientation=recordings[0].meta.get("orientation", "default"),
             parameters={"affine": AFFINE if self.representation == "hankel" else 0.0,
                         "rounds": self.rounds, "smoothing": self.smoothing,
-                        "max_columns": self.max_columns, "share_power": self.share_power, "seed": self.seed,
+                        "max_columns": self.max_columns, "column_share": self.column_share,
+                        "share_power": self.share_power, "seed": self.seed,
                         "landmarks": LANDMARKS,
                         "prior": type(self.prior).__name__ if self.prior is not None else None},
             summary=summary,
@@ -555,14 +569,18 @@ def _candidate_rows(weights: np.ndarray, windows: np.ndarray) -> tuple[np.ndarra
     return rows, classes, sample_weight / totals[classes]
 
 
-def _pick(labels: np.ndarray, margin: np.ndarray, n_classes: int, max_columns: int) -> tuple[np.ndarray, np.ndarray]:
+def _pick(labels: np.ndarray, margin: np.ndarray, n_classes: int, max_columns: int,
+          share: float) -> tuple[np.ndarray, np.ndarray]:
     """Per class ``c``, the windows labelled ``c`` (``labels`` ``-1``: none) with a margin at or above the class's
-    median, at most ``max_columns`` spread evenly over their order."""
+    ``1 - share`` quantile (the median for ``share`` 0.5; every window for 1), at most ``max_columns`` spread evenly
+    over their order. An infinite margin (a window whose recording declares its class alone) counts as the largest
+    finite one, so that the quantile is never undefined."""
     picked, owner = [], []
     for c in range(n_classes):
         idx = np.flatnonzero(labels == c)
-        if len(idx) > 1:
-            idx = idx[margin[idx] >= np.median(margin[idx])]
+        if len(idx) > 1 and share < 1:
+            kept = np.minimum(margin[idx], np.finfo(float).max)
+            idx = idx[kept >= np.quantile(kept, 1.0 - share)]
         if len(idx) > max_columns:
             idx = idx[np.linspace(0, len(idx) - 1, max_columns).round().astype(int)]
         picked.append(np.sort(idx))

@@ -14,7 +14,13 @@ for, so that the same model can be trained again on one's own rides with one com
     Smooth road, rough asphalt, cobblestone, kerb strikes: summary windows (0.5 s) of the speed-normalised
     vibration ``rough_y, rough_z``.
 
-A preset fixes only these four settings; every other parameter of
+Each preset also says from how many of a class's windows its columns are drawn (``column_share`` of
+:class:`~spotfree.learner.SetSupervisedLearner`). The lateral and road models draw from every window of a class: their
+training rides each hold one kind of manoeuvre or surface beside the straight, smooth riding that other rides hold
+alone, which names the windows well, and the dictionary then also holds the windows near a turn's or a surface's
+ends. The braking model keeps the default half, since sudden braking is declared in a single ride there.
+
+A preset fixes only these five settings; every other parameter of
 :class:`~spotfree.learner.SetSupervisedLearner` keeps its default unless given.
 """
 
@@ -28,11 +34,15 @@ PRIORS = {"ride": RidePrior}
 """Domain priors a model may ask for by name (``spotfree train --prior NAME``)."""
 
 PRESETS = {
-    "braking": {"channels": ("acc_long", "pitch_rate"), "window": 20, "representation": "hankel", "prior": "ride"},
-    "lateral": {"channels": ("yaw_rate",), "window": 40, "representation": "summary", "prior": None},
-    "road": {"channels": ("rough_y", "rough_z"), "window": 10, "representation": "summary", "prior": None},
+    "braking": {"channels": ("acc_long", "pitch_rate"), "window": 20, "representation": "hankel", "prior": "ride",
+                "column_share": 0.5},
+    "lateral": {"channels": ("yaw_rate",), "window": 40, "representation": "summary", "prior": None,
+                "column_share": 1.0},
+    "road": {"channels": ("rough_y", "rough_z"), "window": 10, "representation": "summary", "prior": None,
+             "column_share": 1.0},
 }
-"""Per preset: channels, window (samples at 20 Hz), representation and prior name (module docstring)."""
+"""Per preset: channels, window (samples at 20 Hz), representation, prior name and column share (module
+docstring)."""
 
 
 def prior_named(name: str | None):
@@ -51,5 +61,6 @@ def preset_learner(name: str, **params) -> SetSupervisedLearner:
         raise InputError(f"preset {name!r} is unknown; use one of {', '.join(PRESETS)}")
     preset = PRESETS[name]
     settings = {"channels": preset["channels"], "window": preset["window"],
-                "representation": preset["representation"], "prior": prior_named(preset["prior"])}
+                "representation": preset["representation"], "prior": prior_named(preset["prior"]),
+                "column_share": preset["column_share"]}
     return SetSupervisedLearner(**{**settings, **params})
