@@ -75,12 +75,13 @@ HOLD = "hold"
 """Background class of the gesture stage's training (the postures at the ends of a gesture stretch)."""
 
 STAGE_PARAMETERS = {
-    "state": {"channels": ("speed", "turn"), "window": 4, "smoothing": 0.1},
-    "live-state": {"channels": ("speed", "turn"), "window": 4, "smoothing": 0.1, "representation": "hankel"},
+    "state": {"channels": ("speed", "turn"), "window": 4, "smoothing": 0.1, "column_share": 1.0},
+    "live-state": {"channels": ("speed", "turn"), "window": 4, "smoothing": 0.1, "representation": "hankel",
+                   "column_share": 1.0},
     "posture": {"channels": ("pos_x", "pos_y", "pos_z", "normal_y", "normal_z", *DIRECTION), "window": 6,
-                "smoothing": 0.1},
+                "smoothing": 0.1, "column_share": 1.0},
     "gesture": {"channels": (*VELOCITY, *NORMAL, *DIRECTION, *NORMAL_RATE, *DIRECTION_RATE), "window": 6,
-                "smoothing": 0.1, "representation": "hankel"},
+                "smoothing": 0.1, "representation": "hankel", "column_share": 1.0},
 }
 """Parameters of each stage's :class:`~spotfree.learner.SetSupervisedLearner` beyond its defaults (``seed`` is
 :attr:`HandTrainingConfig.seed`).
@@ -88,7 +89,11 @@ STAGE_PARAMETERS = {
 Windows, samples at 20 Hz: 0.2 s for the state (a causal window labels its last sample, so the live state lags a
 change by up to a window), 0.3 s (the shortest gesture of the simulator) for the labels. ``smoothing``, the
 switching cost of the learner's decoding in seconds, is 0.1 s in every stage, under the shortest gesture: a
-gesture alternates with postures of a few seconds, and a longer cost merges it into them.
+gesture alternates with postures of a few seconds, and a longer cost merges it into them. ``column_share`` is 1 in
+every stage: each session declares one posture, or one or two movements, beside the straight hand or the posture
+held around them, which names the windows surely, so every window of a class may be a column, its slow starts and
+ends included (the learner's step 4; measured on held-out people in ``benchmarks/hand_eval.py`` and
+``benchmarks/evaluate_seeds.py``).
 
 Representations: the ``live-state`` stage (the state stage of live labels, learnt from the same sessions and class
 sets as ``state``) and the gesture stage keep their windows whole (``hankel``), because the ``summary`` of a window
