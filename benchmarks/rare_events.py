@@ -13,8 +13,10 @@ Methods in the same run:
 
 * ``spotfree``: :class:`spotfree.learner.SetSupervisedLearner` with its defaults on every ride channel, as
   ``spotfree train --sets`` trains with no option; the same with ``share_power`` 1 (``--share-power 1``: names
-  weighed by the class shares, so that the rare event claims less); and on the braking model's channels
-  (``acc_long, pitch_rate``);
+  weighed by the class shares, so that the rare event claims less), with ``column_share`` 0.25 (``--column-share
+  0.25``: columns from the quarter of each class's windows named most surely, so that fewer of the windows the event
+  claims beyond itself become its columns), with both; and on the braking model's channels (``acc_long,
+  pitch_rate``);
 * ``MiniRocket`` and ``1-NN``: sliding-window peers trained on the same clips and channels (every ride channel) with
   every sample's label, once per alignment.
 
@@ -42,8 +44,16 @@ from spotfree.sim.scenarios import simulate_scenario
 SCENARIOS = ("normal-braking", "sudden-braking", "cruising")
 EVENT, OTHER = "sudden-braking", "other"
 BRAKING_CHANNELS = ("acc_long", "pitch_rate")
-METHODS = ("spotfree, every ride channel", "spotfree, every ride channel, --share-power 1",
-           "spotfree, acc_long and pitch_rate", "MiniRocket (every label)", "1-NN (every label)")
+LEARNERS = {
+    "spotfree, every ride channel": {},
+    "spotfree, every ride channel, --share-power 1": {"share_power": 1.0},
+    "spotfree, every ride channel, --column-share 0.25": {"column_share": 0.25},
+    "spotfree, every ride channel, --share-power 1 --column-share 0.25": {"share_power": 1.0, "column_share": 0.25},
+    "spotfree, acc_long and pitch_rate": {"channels": BRAKING_CHANNELS},
+}
+"""The learners compared, by name: :class:`~spotfree.learner.SetSupervisedLearner`'s parameters beyond its
+defaults."""
+METHODS = (*LEARNERS, "MiniRocket (every label)", "1-NN (every label)")
 MINIROCKET_KERNELS = 2_016
 """MiniRocket features, as in ``real_har.py`` (aeon rounds to a multiple of 84)."""
 
@@ -72,15 +82,13 @@ def run(seed: int, seconds: float) -> tuple[dict, str]:
     tests = [two_classes(feats[s].select_experiment(k)) for s in SCENARIOS for k in range(3, 8)]
     sets = [sorted(set(c.truth["label"])) for c in train]
     out = {}
-    learners = dict(zip(METHODS[:3], (SetSupervisedLearner(seed=seed),
-                                      SetSupervisedLearner(share_power=1.0, seed=seed),
-                                      SetSupervisedLearner(channels=BRAKING_CHANNELS, seed=seed))))
+    learners = {name: SetSupervisedLearner(**params, seed=seed) for name, params in LEARNERS.items()}
     for name, learner in learners.items():
         learner.fit(train, sets)
         out[name] = {"offline": score([learner.predict(r) for r in tests], tests),
                      "live": score([learner.predict(r, centred=False) for r in tests], tests)}
     channels = tuple(learners[METHODS[0]].model_.channels)
-    peers = dict(zip(METHODS[3:], (lambda a: MiniRocketPeer(channels=channels, alignment=a,
+    peers = dict(zip(METHODS[len(LEARNERS):], (lambda a: MiniRocketPeer(channels=channels, alignment=a,
                                                             n_kernels=MINIROCKET_KERNELS),
                                    lambda a: NearestNeighbourPeer(channels=channels, alignment=a))))
     for name, make in peers.items():
