@@ -140,7 +140,7 @@ def test_train_writes_a_model_its_summary_and_its_figure(tmp_path):
     result = runner.invoke(app, ["train", "-o", str(tmp_path / "m.npz"), *declared, "--figure",
                                  str(tmp_path / "m.png")])
     assert result.exit_code == 0, result.output
-    assert "learner: sets (hankel of ride channels acc_long,pitch_rate; prior: ride)" in result.output
+    assert "learner: sets (hankel of ride channels acc_long,pitch_rate; prior: ride; column share 0.5)" in result.output
     assert "columns per class: cruising" in result.output
     assert (tmp_path / "m.png").stat().st_size > 0
     model = DictionaryModel.load(tmp_path / "m.npz")
@@ -155,7 +155,8 @@ def test_train_writes_a_model_its_summary_and_its_figure(tmp_path):
     # an option given beside the preset overrides it
     result = runner.invoke(app, ["train", "-o", str(tmp_path / "summary.npz"), *declared, "--representation",
                                  "summary", "--window", "10"])
-    assert "learner: sets (summary of ride channels acc_long,pitch_rate; prior: ride)" in result.output
+    said = "learner: sets (summary of ride channels acc_long,pitch_rate; prior: ride; column share 0.5)"
+    assert said in result.output
     assert DictionaryModel.load(tmp_path / "summary.npz").window == 10
     assert model.parameters["share_power"] == 0.5
     result = runner.invoke(app, ["train", "-o", str(tmp_path / "rare.npz"), *declared, "--share-power", "1"])
@@ -169,6 +170,7 @@ def test_train_writes_a_model_its_summary_and_its_figure(tmp_path):
     result = runner.invoke(app, ["train", "-o", str(tmp_path / "all.npz"), *declared, "--column-share", "1"])
     assert result.exit_code == 0, result.output
     assert DictionaryModel.load(tmp_path / "all.npz").parameters["column_share"] == 1.0
+    assert "prior: ride; column share 1)" in result.output
     refused = runner.invoke(app, ["train", "-o", str(tmp_path / "bad.npz"), *declared, "--column-share", "0"])
     assert refused.exit_code == 2 and "column_share=0.0: give a share > 0 and <= 1" in refused.output
     assert not (tmp_path / "bad.npz").exists()

@@ -334,7 +334,8 @@ def train(
     mount: str = MOUNT,
     quiet: bool = QUIET,
     as_json: bool = _json_option('{"output", "learner" (sets | paper), "features", "channels", '
-                                 '"representation", "window", "step", "prior", "classes", "columns", '
+                                 '"representation", "window", "step", "prior", "column_share" (sets learner), '
+                                 '"classes", "columns", '
                                  '"columns_per_class", "recordings" ([{"source", "declared", '
                                  '"windows"}], sets learner), "rounds_changed" (fraction of names moved per '
                                  'round, sets learner), "read" (one line per log), "notes", "mounts" (the mount '
@@ -422,7 +423,8 @@ def _train(output: Path, declared: list, channels: Optional[str], window: int, s
     counts = Counter(model.classes[k] for k in model.column_class)
     summary = {"output": output, "learner": recipe, "features": model.features, "channels": model.channels,
                "representation": model.representation, "window": model.window, "step": model.step,
-               "prior": prior if recipe == "sets" else None, "classes": model.classes,
+               "prior": prior if recipe == "sets" else None,
+               "column_share": learner.column_share if recipe == "sets" else None, "classes": model.classes,
                "columns": model.dictionary.shape[1], "columns_per_class": {c: counts[c] for c in model.classes},
                "recordings": [{"source": rec["source"], "declared": rec["classes"], "windows": rec["windows"]}
                               for rec in model.summary.get("recordings", [])],
@@ -434,7 +436,7 @@ def _train(output: Path, declared: list, channels: Optional[str], window: int, s
         out.print("columns per class: " + ", ".join(f"{c} {counts[c]}" for c in model.classes))
         return summary
     out.print(f"learner: sets ({model.representation} of {_channels_said(model)}; "
-              f"prior: {prior or 'none'})")
+              f"prior: {prior or 'none'}; column share {learner.column_share:g})")
     out.print(_naming_table(model.summary["recordings"], f"{output}: {model.dictionary.shape[1]} columns, window "
                             f"{window} samples"))
     out.print("columns per class: " + ", ".join(f"{c} {k}" for c, k in model.summary["columns_per_class"].items()))
