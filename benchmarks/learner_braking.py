@@ -7,7 +7,9 @@ scenario, each declared with its scenario's classes: :data:`spotfree.sim.scenari
 0.5 s of a true change ("away"), the strict figure beside; and per seed the lowest per-class accuracy away from true
 changes over all tests, as the goals table of ``spotfree evaluate`` reads one seed. One row trains as ``spotfree
 evaluate`` and the shipped default model do: on the normal-braking and sudden-braking rides only (no cruising ride),
-so that a single ride declares sudden braking and a single one does not.
+so that a single ride declares sudden braking and a single one does not. Every spotfree row is the ``braking`` preset's
+learner (:func:`spotfree.presets.preset_learner`: its channels, window and column share), with the representation or
+the prior its name says.
 
     python benchmarks/learner_braking.py [--seeds 0 1 2 3 4]
 
@@ -25,9 +27,8 @@ import numpy as np
 
 from machine import describe
 from spotfree.evaluation.metrics import near_transitions
-from spotfree.learner import SetSupervisedLearner
 from spotfree.evaluation.peers import MiniRocketPeer
-from spotfree.ride_prior import RidePrior
+from spotfree.presets import preset_learner
 from spotfree.signal.features import ride_features
 from spotfree.sim.scenarios import CLASSES, simulate_scenario
 
@@ -38,16 +39,14 @@ CHANNELS = ("acc_long", "pitch_rate")
 
 def methods():
     """Per row: the model and the scenarios whose experiment 1 it trains on."""
-    def hankel():
-        return SetSupervisedLearner(channels=CHANNELS, representation="hankel", prior=RidePrior())
+    def hankel():  # the braking preset's learner: hankel windows, the ride prior, its column share
+        return preset_learner("braking")
 
     return {
         "spotfree, hankel, ride prior": (hankel, SCENARIOS),
         "spotfree, hankel, ride prior, two rides (as spotfree evaluate)": (hankel, SCENARIOS[:2]),
-        "spotfree, summary, ride prior": (lambda: SetSupervisedLearner(channels=CHANNELS, prior=RidePrior()),
-                                          SCENARIOS),
-        "spotfree, hankel, no prior": (lambda: SetSupervisedLearner(channels=CHANNELS, representation="hankel"),
-                                       SCENARIOS),
+        "spotfree, summary, ride prior": (lambda: preset_learner("braking", representation="summary"), SCENARIOS),
+        "spotfree, hankel, no prior": (lambda: preset_learner("braking", prior=None), SCENARIOS),
         "MiniRocket (every label)": (lambda: MiniRocketPeer(channels=CHANNELS, alignment="centred"), SCENARIOS),
     }
 

@@ -140,7 +140,7 @@ def test_train_writes_a_model_its_summary_and_its_figure(tmp_path):
     result = runner.invoke(app, ["train", "-o", str(tmp_path / "m.npz"), *declared, "--figure",
                                  str(tmp_path / "m.png")])
     assert result.exit_code == 0, result.output
-    assert "learner: sets (hankel of ride channels acc_long,pitch_rate; prior: ride; column share 0.5)" in result.output
+    assert "sets (hankel of ride channels acc_long,pitch_rate; prior: ride; column share 0.75)" in result.output
     assert "columns per class: cruising" in result.output
     assert (tmp_path / "m.png").stat().st_size > 0
     model = DictionaryModel.load(tmp_path / "m.npz")
@@ -155,7 +155,7 @@ def test_train_writes_a_model_its_summary_and_its_figure(tmp_path):
     # an option given beside the preset overrides it
     result = runner.invoke(app, ["train", "-o", str(tmp_path / "summary.npz"), *declared, "--representation",
                                  "summary", "--window", "10"])
-    said = "learner: sets (summary of ride channels acc_long,pitch_rate; prior: ride; column share 0.5)"
+    said = "learner: sets (summary of ride channels acc_long,pitch_rate; prior: ride; column share 0.75)"
     assert said in result.output
     assert DictionaryModel.load(tmp_path / "summary.npz").window == 10
     assert model.parameters["share_power"] == 0.5
@@ -166,7 +166,7 @@ def test_train_writes_a_model_its_summary_and_its_figure(tmp_path):
         refused = runner.invoke(app, ["train", "-o", str(tmp_path / "bad.npz"), *declared, "--share-power", bad])
         assert refused.exit_code == 2 and "share_power=" in refused.output and "give a number >= 0" in refused.output
         assert not (tmp_path / "bad.npz").exists()
-    assert model.parameters["column_share"] == 0.5  # the braking preset's
+    assert model.parameters["column_share"] == 0.75  # the braking preset's
     result = runner.invoke(app, ["train", "-o", str(tmp_path / "all.npz"), *declared, "--column-share", "1"])
     assert result.exit_code == 0, result.output
     assert DictionaryModel.load(tmp_path / "all.npz").parameters["column_share"] == 1.0

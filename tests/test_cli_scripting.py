@@ -39,7 +39,7 @@ def test_train_json_is_the_whole_stdout_and_describes_the_model_written(rides):
     model = DictionaryModel.load(folder / "m.npz")
     assert summary["output"] == str(folder / "m.npz") and summary["learner"] == "sets"
     assert summary["channels"] == ["acc_long", "pitch_rate"] and summary["representation"] == "hankel"
-    assert summary["prior"] == "ride" and summary["window"] == 20 and summary["column_share"] == 0.5
+    assert summary["prior"] == "ride" and summary["window"] == 20 and summary["column_share"] == 0.75
     assert summary["classes"] == model.classes == ["cruising", "normal-braking", "sudden-braking"]
     assert summary["columns"] == model.dictionary.shape[1] == sum(summary["columns_per_class"].values())
     assert summary["columns_per_class"] == model.summary["columns_per_class"]

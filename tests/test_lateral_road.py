@@ -85,4 +85,4 @@ def test_a_preset_s_learner_holds_its_settings_and_a_parameter_given_overrides_t
     assert (learner.prior is None) == (preset["prior"] is None)
     assert preset_learner(name, column_share=0.25, window=7).get_params()["column_share"] == 0.25
     # the ride models trained on rides of one manoeuvre or surface each draw from every window of a class
-    assert preset["column_share"] == (1.0 if name in MODELS else 0.5)
+    assert preset["column_share"] == (1.0 if name in MODELS else 0.75)

@@ -18,7 +18,8 @@ Each preset also says from how many of a class's windows its columns are drawn (
 :class:`~spotfree.learner.SetSupervisedLearner`). The lateral and road models draw from every window of a class: their
 training rides each hold one kind of manoeuvre or surface beside the straight, smooth riding that other rides hold
 alone, which names the windows well, and the dictionary then also holds the windows near a turn's or a surface's
-ends. The braking model keeps the default half, since sudden braking is declared in a single ride there.
+ends. The braking model draws from three quarters of a class's windows: sudden braking is declared in a single ride
+and claims more than itself there, which every window would let into its columns.
 
 A preset fixes only these five settings; every other parameter of
 :class:`~spotfree.learner.SetSupervisedLearner` keeps its default unless given.
@@ -35,7 +36,7 @@ PRIORS = {"ride": RidePrior}
 
 PRESETS = {
     "braking": {"channels": ("acc_long", "pitch_rate"), "window": 20, "representation": "hankel", "prior": "ride",
-                "column_share": 0.5},
+                "column_share": 0.75},
     "lateral": {"channels": ("yaw_rate",), "window": 40, "representation": "summary", "prior": None,
                 "column_share": 1.0},
     "road": {"channels": ("rough_y", "rough_z"), "window": 10, "representation": "summary", "prior": None,
