@@ -18,8 +18,8 @@ Each preset also says from how many of a class's windows its columns are drawn (
 :class:`~spotfree.learner.SetSupervisedLearner`). The lateral and road models draw from every window of a class: their
 training rides each hold one kind of manoeuvre or surface beside the straight, smooth riding that other rides hold
 alone, which names the windows well, and the dictionary then also holds a class's less typical windows (a slow,
-shallow slalom). The braking model draws from three quarters of a class's windows: sudden braking is declared in a single ride
-and claims more than itself there, which every window would let into its columns.
+shallow slalom). The braking model draws from three quarters of a class's windows: sudden braking is declared in a
+single ride and claims more than itself there, which every window would let into its columns.
 
 A preset fixes only these five settings; every other parameter of
 :class:`~spotfree.learner.SetSupervisedLearner` keeps its default unless given.
