@@ -347,7 +347,7 @@ def train(
 
     if features not in FEATURES:
         raise InputError(f"--features {features!r}: use one of {', '.join(FEATURES)}")
-    from spotfree.presets import PRESETS, PRIORS
+    from spotfree.presets import PRESETS, PRIORS, prior_named
     from spotfree.representation import REPRESENTATIONS
 
     for option, value, choices in (("--recipe", recipe, ("sets", "paper")),
@@ -362,28 +362,26 @@ def train(
                  and recipe != "sets"]
     if misplaced:
         raise InputError(f"{misplaced[0]} is an option of --recipe sets; leave it out with --recipe {recipe}")
-    if preset is not None:
-        settings = PRESETS[preset]
-        channels = channels if "--channels" in given else ",".join(settings["channels"])
-        window = window if "--window" in given else settings["window"]
-        representation = representation if "--representation" in given else settings["representation"]
-        prior = prior if "--prior" in given else settings["prior"]
-        column_share = column_share if "--column-share" in given else settings["column_share"]
+    chosen = tuple(c.strip() for c in channels.split(",")) if channels else None
+    params = {"step": step, "max_columns": max_columns, "share_power": share_power, "seed": seed}
+    settings = {"--channels": ("channels", chosen), "--window": ("window", window),
+                "--representation": ("representation", representation), "--prior": ("prior", prior_named(prior)),
+                "--column-share": ("column_share", column_share)}
+    params.update(item for option, item in settings.items() if preset is None or option in given)  # else the preset's
     from spotfree.io.class_sets import read_class_sets
 
     declared = [_parse_experiment(spec) for spec in experiment] + (read_class_sets(sets) if sets else [])
     if not declared:
         raise InputError("no training recording: give --experiment PATH=CLASS[,CLASS...] or --sets FILE")
-    summary = _train(output, declared, channels, window, step, orientation, features, recipe, prior,
-                     representation, max_columns, column_share, share_power, seed, figure, mount)
+    summary = _train(output, declared, orientation, features, recipe, preset, params, figure, mount)
     if as_json:
         _print_json(summary)
 
 
-def _train(output: Path, declared: list, channels: Optional[str], window: int, step: int, orientation: str,
-           features: str, recipe: str, prior: Optional[str], representation: str, max_columns: int,
-           column_share: float, share_power: float, seed: int, figure: Optional[Path], mount: str) -> dict:
-    """``spotfree train``: :class:`~spotfree.learner.SetSupervisedLearner` (``recipe`` sets) or
+def _train(output: Path, declared: list, orientation: str, features: str, recipe: str, preset: Optional[str],
+           params: dict, figure: Optional[Path], mount: str) -> dict:
+    """``spotfree train``: :class:`~spotfree.learner.SetSupervisedLearner` (``recipe`` sets; of ``preset``'s
+    settings when given, :func:`~spotfree.presets.preset_learner`, ``params`` overriding them) or
     :class:`~spotfree.paper_recipe.PaperRecipe` (``recipe`` paper) on the ``declared`` recordings and their sets
     (:class:`~spotfree.io.class_sets.Declared`: each log read and turned into features once, then cut into its
     spans); prints the summary and returns it (the document of ``--json``)."""
@@ -392,7 +390,7 @@ def _train(output: Path, declared: list, channels: Optional[str], window: int, s
     from spotfree.learner import SetSupervisedLearner
     from spotfree.paper_recipe import PaperRecipe
     from spotfree.pipeline import feature_recording
-    from spotfree.presets import prior_named
+    from spotfree.presets import preset_learner, prior_name
 
     read: dict[str, tuple] = {}  # log spec: (log, its features)
     for item in declared:
@@ -404,14 +402,10 @@ def _train(output: Path, declared: list, channels: Optional[str], window: int, s
     recordings = [item.take(read[item.recording][1]) for item in declared]
     sets = [list(item.classes) for item in declared]
     logs = [log for log, _ in read.values()]
-    chosen = tuple(c.strip() for c in channels.split(",")) if channels else None
     if recipe == "paper":
-        learner = PaperRecipe(channels=chosen, window=window, step=step, max_columns=max_columns, seed=seed)
+        learner = PaperRecipe(**{k: params[k] for k in ("channels", "window", "step", "max_columns", "seed")})
     else:
-        learner = SetSupervisedLearner(channels=chosen, window=window, step=step, representation=representation,
-                                       max_columns=max_columns, column_share=column_share,
-                                       share_power=share_power,
-                                       prior=prior_named(prior), seed=seed)
+        learner = preset_learner(preset, **params) if preset else SetSupervisedLearner(**params)
     learner.fit(recordings, sets)
     model = learner.model_
     model.save(output)
@@ -423,7 +417,7 @@ def _train(output: Path, declared: list, channels: Optional[str], window: int, s
     counts = Counter(model.classes[k] for k in model.column_class)
     summary = {"output": output, "learner": recipe, "features": model.features, "channels": model.channels,
                "representation": model.representation, "window": model.window, "step": model.step,
-               "prior": prior if recipe == "sets" else None,
+               "prior": prior_name(learner.prior) if recipe == "sets" else None,
                "column_share": learner.column_share if recipe == "sets" else None, "classes": model.classes,
                "columns": model.dictionary.shape[1], "columns_per_class": {c: counts[c] for c in model.classes},
                "recordings": [{"source": rec["source"], "declared": rec["classes"], "windows": rec["windows"]}
@@ -436,9 +430,9 @@ def _train(output: Path, declared: list, channels: Optional[str], window: int, s
         out.print("columns per class: " + ", ".join(f"{c} {counts[c]}" for c in model.classes))
         return summary
     out.print(f"learner: sets ({model.representation} of {_channels_said(model)}; "
-              f"prior: {prior or 'none'}; column share {learner.column_share:g})")
+              f"prior: {prior_name(learner.prior) or 'none'}; column share {learner.column_share:g})")
     out.print(_naming_table(model.summary["recordings"], f"{output}: {model.dictionary.shape[1]} columns, window "
-                            f"{window} samples"))
+                            f"{model.window} samples"))
     out.print("columns per class: " + ", ".join(f"{c} {k}" for c, k in model.summary["columns_per_class"].items()))
     out.print("names moved per round: " + (", ".join(f"{100 * h:.1f} %" for h in learner.history_) or "none"))
     for warning in learner.warnings_:

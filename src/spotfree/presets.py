@@ -55,6 +55,11 @@ def prior_named(name: str | None):
     return PRIORS[name]()
 
 
+def prior_name(prior) -> str | None:
+    """The name (:data:`PRIORS`) a fitted or fresh ``prior`` is asked for by; None for None."""
+    return None if prior is None else next(name for name, kind in PRIORS.items() if isinstance(prior, kind))
+
+
 def preset_learner(name: str, **params) -> SetSupervisedLearner:
     """The learner of preset ``name`` (:data:`PRESETS`); ``params`` override any parameter of
     :class:`~spotfree.learner.SetSupervisedLearner`."""
