@@ -158,7 +158,8 @@ def test_case_and_spaces_in_standard_names_are_renamed_and_logged(tmp_path):
 
 
 @pytest.mark.parametrize(
-    "wrong, right", [("acc_x", "ax"), ("gyro_z", "gz"), ("Accel X", "ax"), ("tiem", "time"), ("latitude", "lat")]
+    "wrong, right", [("acc_x", "ax"), ("gyro_z", "gz"), ("Accel X", "ax"), ("tiem", "time"), ("latitude", "lat"),
+                     ("x_acc", "ax"), ("z_gyro", "gz"), ("timestamp", "time")]
 )
 def test_misspelt_columns_are_refused_with_the_right_name(tmp_path, wrong, right):
     columns = imu_table()
@@ -169,6 +170,30 @@ def test_misspelt_columns_are_refused_with_the_right_name(tmp_path, wrong, right
         read_csv(path)
     message = str(info.value)
     assert str(path) in message and f"'{wrong}' should be '{right}'" in message and "\n" not in message
+
+
+def test_a_gzip_compressed_log_reads_as_the_file_it_holds_and_a_truncated_one_is_refused(tmp_path):
+    import gzip
+
+    plain = write_table(tmp_path / "log.csv", imu_table())
+    packed = tmp_path / "log.csv.gz"
+    packed.write_bytes(gzip.compress(plain.read_bytes()))
+    assert_same(read_recording(str(packed)), read_recording(str(plain)))
+    broken = tmp_path / "broken.csv.gz"
+    broken.write_bytes(packed.read_bytes()[:60])
+    with pytest.raises(InputError, match=r"broken\.csv\.gz: cannot be read .*; check the file$"):
+        read_recording(str(broken))
+
+
+def test_a_gzip_log_that_inflates_past_the_limit_is_refused(tmp_path, monkeypatch):
+    import gzip
+
+    packed = tmp_path / "big.csv.gz"
+    packed.write_bytes(gzip.compress(write_table(tmp_path / "big.csv", imu_table()).read_bytes()))
+    assert 2 * packed.stat().st_size < (tmp_path / "big.csv").stat().st_size
+    monkeypatch.setattr(checks, "MAX_UNPACKED", 2 * packed.stat().st_size)  # more than the file, less than it holds
+    with pytest.raises(InputError, match=r"big\.csv\.gz: holds more than .* GiB once uncompressed; split the log"):
+        read_recording(str(packed))
 
 
 def test_a_missing_time_column_is_named(tmp_path):

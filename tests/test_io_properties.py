@@ -1,6 +1,7 @@
 """Property tests of the readers: CSV round trips, dialects, merging, and junk that must only raise InputError."""
 
 import io
+import gzip
 import tempfile
 import zipfile
 from pathlib import Path
@@ -142,6 +143,13 @@ headers = st.sampled_from(["time", "Time", "ax", "ay", "az", "gx", "gy", "gz", "
 def test_junk_tables_only_ever_raise_input_error(header, rows, sep, suffix):
     text = sep.join(header) + "\n" + "\n".join(sep.join(row) for row in rows)
     read_or_refuse(text.encode(), suffix)
+    read_or_refuse(gzip.compress(text.encode()), suffix + ".gz")  # read as the file it holds
+
+
+@SETTINGS
+@given(st.binary(min_size=2, max_size=400))
+def test_junk_after_the_gzip_magic_only_ever_raises_input_error(data):
+    read_or_refuse(b"\x1f\x8b" + data, ".csv.gz")
 
 
 @SETTINGS

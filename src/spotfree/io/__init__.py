@@ -9,6 +9,8 @@ and picks the reader from the path and, where the extension does not settle it, 
   phyphox when it holds ``meta/`` or a CSV whose first column is ``"Time (s)"``;
 * any other file is CSV text: phyphox when its first column is ``"Time (s)"``, the generic CSV otherwise.
 
+A gzip-compressed file (``log.csv.gz``, ``track.gpx.gz``) is read as the file it holds.
+
 A raw motion channel (``ax`` ... ``gz``) that holds one value throughout the recording (a sensor that did not
 record, or an export that wrote zeros for it) is warned about in ``meta['warnings']``: a real sensor is never that
 quiet, and a channel that never changes tells no class apart.
@@ -19,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from spotfree.errors import InputError
-from spotfree.io.checks import Archive
+from spotfree.io.checks import Archive, base_suffix, read_bytes
 from spotfree.io.csvlog import read_csv, write_csv
 from spotfree.io.gpx import read_gpx, write_gpx
 from spotfree.io.phyphox import is_phyphox_table, read_phyphox
@@ -83,14 +85,10 @@ def detect_format(path: str | Path) -> str:
         raise InputError(f"{path}: file not found; check the path")
     if path.is_dir() or path.suffix.lower() == ".zip":
         return _archive_format(path)
-    suffix = path.suffix.lower()
+    suffix = base_suffix(path)
     if suffix in (".gpx", ".json"):
         return "gpx" if suffix == ".gpx" else "sensorlogger"
-    try:
-        with open(path, "rb") as stream:
-            head = stream.read(_SNIFF_BYTES)
-    except OSError as exc:
-        raise InputError(f"{path}: cannot be read ({exc.strerror or exc}); check the path") from None
+    head = read_bytes(path, _SNIFF_BYTES)
     if head.startswith(b"PK\x03\x04"):
         return _archive_format(path)
     text = head.decode("utf-8-sig", errors="replace").lstrip()

@@ -10,11 +10,13 @@ from __future__ import annotations
 import contextlib
 import csv
 import difflib
+import gzip
 import io
 import os
 import re
 import secrets
 import zipfile
+import zlib
 from pathlib import Path, PurePosixPath
 from typing import Iterator
 
@@ -32,6 +34,12 @@ MIN_RATE, MAX_RATE = 0.1, 10_000.0
 
 MIN_MOTION_RATE = 2.0
 """Lowest plausible rate (Hz) of a phone's accelerometer or gyroscope."""
+
+GZIP_MAGIC = b"\x1f\x8b"
+"""First bytes of a gzip-compressed file."""
+MAX_UNPACKED = 2 << 30
+"""Most bytes a gzip-compressed log may hold (2 GiB, a day of 100 Hz motion and GPS as CSV): a few kilobytes of gzip
+can inflate to gigabytes."""
 
 G_RANGE = (0.7, 1.3)
 """A median specific-force magnitude in this range means the numbers are in g (about 1), not m/s^2 (about 9.81)."""
@@ -100,15 +108,37 @@ def decode(raw: bytes, source: str) -> str:
         raise InputError(f"{source}: not UTF-8 text (byte {exc.start}); save the file as UTF-8 CSV") from None
 
 
-def read_text(path: Path) -> str:
-    """A file decoded as UTF-8 text; a missing or unreadable file is an InputError."""
+def read_bytes(path: Path, size: int = -1) -> bytes:
+    """The first ``size`` bytes of a file (all of it for -1); a gzip-compressed file (``log.csv.gz``) is read as the
+    file it holds, up to :data:`MAX_UNPACKED` bytes. A missing, unreadable, truncated or overlong file is an
+    InputError."""
     try:
-        raw = Path(path).read_bytes()
+        with open(path, "rb") as stream:
+            compressed = stream.read(len(GZIP_MAGIC)) == GZIP_MAGIC
+        if not compressed:
+            with open(path, "rb") as stream:
+                return stream.read(size)
+        with gzip.open(path, "rb") as stream:
+            raw = stream.read(MAX_UNPACKED + 1 if size < 0 else min(size, MAX_UNPACKED + 1))
+        if len(raw) > MAX_UNPACKED:
+            raise InputError(f"{path}: holds more than {MAX_UNPACKED / 2 ** 30:g} GiB once uncompressed; split the log")
+        return raw
     except FileNotFoundError:
         raise InputError(f"{path}: file not found; check the path") from None
-    except OSError as exc:
-        raise InputError(f"{path}: cannot be read ({exc.strerror or exc}); check the path") from None
-    return decode(raw, str(path))
+    except (OSError, EOFError, zlib.error) as exc:
+        raise InputError(f"{path}: cannot be read ({getattr(exc, 'strerror', None) or exc}); check the file") from None
+
+
+def read_text(path: Path) -> str:
+    """A file (:func:`read_bytes`) decoded as UTF-8 text."""
+    return decode(read_bytes(path), str(path))
+
+
+def base_suffix(path: Path) -> str:
+    """The lower-case suffix that says a file's format, ``.gz`` looked through: ``.gpx`` for ``track.gpx.gz``."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    return Path(path.stem).suffix.lower() if suffix == ".gz" else suffix
 
 
 @contextlib.contextmanager
