@@ -5,7 +5,7 @@ import pytest
 from classify_fixtures import model, raw, truth_model, with_gap  # noqa: F401 (fixtures)
 
 from spotfree.classify.batch import classify_recording, dictionary_classifier, model_features
-from spotfree.classify.smoothing import MajorityVote, majority_vote
+from spotfree.classify.smoothing import OFFLINE_VOTE, MajorityVote, majority_vote
 from spotfree.errors import InputError
 from spotfree.signal.features import ride_features
 from spotfree.sim.scenarios import simulate_scenario
@@ -36,11 +36,24 @@ def test_a_causal_label_is_the_class_of_the_window_ending_at_that_sample(model, 
 
 
 def test_centred_labels_are_the_causal_ones_moved_back_half_a_window(model, test_ride, causal):
-    centred = classify_recording(model, test_ride, centred=True)
+    centred = classify_recording(model, test_ride, centred=True, smoothing=0)
     o = L // 2
-    assert centred.meta["alignment"] == "centred" and centred.meta["offset"] == o
+    assert centred.meta["alignment"] == "centred" and centred.meta["offset"] == o and centred.meta["smoothing"] == 0
     np.testing.assert_array_equal(centred.label[L - 1 - o:len(centred) - o], causal.label[L - 1:])
     assert np.all(centred.label[:L - 1 - o] == "") and np.all(centred.label[len(centred) - o:] == "")
+
+
+def test_offline_labels_get_the_short_centred_vote_by_default_and_live_ones_none(model, test_ride, causal):
+    raw = classify_recording(model, test_ride, centred=True, smoothing=0).label
+    voted = classify_recording(model, test_ride, centred=True)
+    assert voted.meta["smoothing"] == OFFLINE_VOTE and causal.meta["smoothing"] == 0
+    np.testing.assert_array_equal(voted.label, majority_vote(raw, OFFLINE_VOTE, centred=True))
+    starts = np.flatnonzero(np.r_[True, voted.label[1:] != voted.label[:-1]])
+    lengths = np.diff(np.r_[starts, len(voted.label)])
+    inner = (voted.label[starts] != "") & (starts > 0) & (starts + lengths < len(voted.label))
+    assert (lengths[inner] >= 2).all()  # no label holds for a single sample between two others
+    one = np.flatnonzero(np.r_[False, (raw[1:-1] != raw[:-2]) & (raw[1:-1] != raw[2:]) & (raw[:-2] == raw[2:]), False])
+    assert len(one) and (voted.label[one] == raw[one - 1]).all()  # each such flicker of the raw labels is gone
 
 
 def test_labels_follow_the_truth_and_centred_windows_are_more_accurate(model, test_ride, causal):

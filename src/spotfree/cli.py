@@ -508,7 +508,8 @@ def classify(
                                "not in the paper)"),
     centred: bool = typer.Option(False, "--centred", help="label each sample by the window centred on it "
                                  "(offline); default: the window ending at it, as a live stream does"),
-    smooth: int = typer.Option(0, "--smooth", help="majority vote over N samples (0: none)"),
+    smooth: Optional[int] = typer.Option(None, "--smooth", help="majority vote over N samples (0: none; default: 3 "
+                                         "with --centred, none live)"),
     segments: list[str] = typer.Option([], "--segments", metavar="[MODEL=]PENALTY",
                                        help="offline segment vote: cut the ride where the model's channels change "
                                        "(PELT, this penalty per change; larger: fewer segments; 4 suits the lateral "
@@ -558,6 +559,9 @@ def classify(
     else:
         votes = votes_per_model(models, **vote) if len(models) > 1 else {names[0]: Votes(**vote)}
     note = _stored_note(votes) if offline else _vote_note(vote)
+    from spotfree.classify.smoothing import check_smoothing, default_smoothing
+
+    smooth = check_smoothing(default_smoothing(centred) if smooth is None else smooth) or 0
     classifiers = {name: dictionary_classifier(model, method, causal=not centred) for name, model in models.items()}
     summaries = []
     if len(sources) > 1:

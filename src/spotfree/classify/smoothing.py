@@ -1,4 +1,4 @@
-"""Label smoothing: a short majority vote over the per-sample label stream (off unless asked for).
+"""Label smoothing: a short majority vote over the per-sample label stream.
 
 The smoothed label at sample ``t`` is the class named most often among the labels of the ``n`` samples
 
@@ -9,6 +9,9 @@ within one gap-free segment. A sample without a label (before the first full win
 place in the ``n`` but casts no vote, and smoothing never labels a sample that had no label. Ties go to the most
 recent of the tied labels, so ``n = 1`` and a run of one class pass unchanged and a change of class shows once
 it holds more than half of the last ``n`` samples: a causal vote adds about ``n / 2`` samples of delay.
+
+Offline (centred) labels are voted over :data:`OFFLINE_VOTE` samples unless asked otherwise; live labels are not
+voted unless asked, since every sample of a causal vote is a sample of delay.
 """
 
 from __future__ import annotations
@@ -18,6 +21,17 @@ from collections import deque
 import numpy as np
 
 from spotfree.errors import InputError
+
+
+OFFLINE_VOTE = 3
+"""Samples of the centred vote that offline labels get by default: a run of one sample between two others becomes
+theirs, and every change of class between runs of two samples or more stays where it was. A label that flickers for
+one sample is otherwise an event of its own when the labels are scored or counted as events."""
+
+
+def default_smoothing(centred: bool) -> int | None:
+    """The vote labels get when none is asked for: :data:`OFFLINE_VOTE` samples offline, none live."""
+    return OFFLINE_VOTE if centred else None
 
 
 def check_smoothing(n: int | None) -> int | None:
