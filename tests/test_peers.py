@@ -72,6 +72,19 @@ def test_alignment_decides_which_samples_a_window_labels(split, alignment, unlab
     assert len(labelled) == len(rec) - 19
 
 
+def test_centred_labels_get_the_vote_spotfree_s_offline_labels_get(split, monkeypatch):
+    import spotfree.evaluation.peers.base as base
+    from spotfree.classify.smoothing import OFFLINE_VOTE, majority_vote
+
+    peer = NearestNeighbourPeer(alignment="centred").fit(split[0])
+    voted = np.concatenate([peer.predict(rec) for rec in split[1]])
+    monkeypatch.setattr(base, "default_smoothing", lambda centred: None)
+    raw = [peer.predict(rec) for rec in split[1]]
+    expected = np.concatenate([majority_vote(r.astype(object), OFFLINE_VOTE, centred=True).astype(str) for r in raw])
+    np.testing.assert_array_equal(voted, expected)
+    assert (voted != np.concatenate(raw)).any()  # the split's raw labels flicker somewhere
+
+
 @needs_aeon
 def test_no_label_inside_a_gap_and_labels_resume_after_it(split, minirocket):
     rec = split[1][1]

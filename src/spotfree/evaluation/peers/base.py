@@ -16,6 +16,9 @@ Channels are divided by their standard deviation over the training samples
 sample ``e`` is aligned with the label stream as in :mod:`spotfree.classify.batch`: ``causal`` labels ``e`` (what
 a live stream can do), ``centred`` labels ``e - L // 2`` (offline). Training windows take the ground-truth label of
 that same sample, so a peer is trained and scored on one alignment. Windows never span a gap or two experiments.
+Centred labels then get the vote spotfree's own offline labels get
+(:func:`~spotfree.classify.smoothing.default_smoothing`), so that every method is scored after the same
+post-processing.
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ import numpy as np
 from sklearn.base import BaseEstimator
 from threadpoolctl import threadpool_limits
 
+from spotfree.classify.smoothing import default_smoothing, majority_vote
 from spotfree.errors import InputError, SpotfreeError
 from spotfree.io.recording import Recording
 from spotfree.windows import ChannelScaling, recording_windows
@@ -201,7 +205,12 @@ class WindowClassifierPeer(Peer):
         labels = np.concatenate([
             self.estimator_.predict(self._features(windows[i:i + CHUNK])) for i in range(0, len(windows), CHUNK)
         ])
-        return per_sample(len(recording), labelled, labels)
+        out = per_sample(len(recording), labelled, labels)
+        smoothing = default_smoothing(self.alignment == "centred")
+        if smoothing:  # the vote spotfree's own labels of this alignment get, so that both are scored alike
+            for start, stop in recording.segments():
+                out[start:stop] = majority_vote(out[start:stop], smoothing, centred=True)
+        return out
 
 
 def from_aeon(module: str, name: str):
