@@ -78,7 +78,7 @@ def test_centred_labels_get_the_vote_spotfree_s_offline_labels_get(split, monkey
 
     peer = NearestNeighbourPeer(alignment="centred").fit(split[0])
     voted = np.concatenate([peer.predict(rec) for rec in split[1]])
-    monkeypatch.setattr(base, "default_smoothing", lambda centred: None)
+    monkeypatch.setattr(base, "alignment_smoothing", lambda n, centred: None)
     raw = [peer.predict(rec) for rec in split[1]]
     expected = np.concatenate([majority_vote(r.astype(object), OFFLINE_VOTE, centred=True).astype(str) for r in raw])
     np.testing.assert_array_equal(voted, expected)

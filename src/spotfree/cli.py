@@ -559,9 +559,9 @@ def classify(
     else:
         votes = votes_per_model(models, **vote) if len(models) > 1 else {names[0]: Votes(**vote)}
     note = _stored_note(votes) if offline else _vote_note(vote)
-    from spotfree.classify.smoothing import check_smoothing, default_smoothing
+    from spotfree.classify.smoothing import alignment_smoothing
 
-    smooth = check_smoothing(default_smoothing(centred) if smooth is None else smooth) or 0
+    smooth = alignment_smoothing(smooth, centred) or 0
     classifiers = {name: dictionary_classifier(model, method, causal=not centred) for name, model in models.items()}
     summaries = []
     if len(sources) > 1:

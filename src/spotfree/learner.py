@@ -258,7 +258,7 @@ class SetSupervisedLearner(BaseEstimator):
     def predict(self, recording: Recording, centred: bool = True, smoothing: int | None = None) -> np.ndarray:
         """One class name per sample of ``recording`` (``""`` where no window labels it); ``centred``: each window
         labels its centre (offline), else its last sample (live); ``smoothing``: majority vote over that many
-        samples (0: none; None: the alignment's default, :func:`~spotfree.classify.smoothing.default_smoothing`)."""
+        samples (0: none; None: the alignment's default, :func:`~spotfree.classify.smoothing.alignment_smoothing`)."""
         if not hasattr(self, "model_"):
             raise InputError("the learner is not fitted; call fit(recordings, class_sets) first")
         classifier = self.classifier_ if centred else self.causal_classifier_

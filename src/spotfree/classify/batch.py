@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 
 from spotfree.classify import DEFAULT_METHOD, make_classifier
-from spotfree.classify.smoothing import check_smoothing, default_smoothing, majority_vote
+from spotfree.classify.smoothing import alignment_smoothing, majority_vote
 from spotfree.errors import InputError
 from spotfree.io.checks import write_text
 from spotfree.io.recording import Recording
@@ -150,11 +150,11 @@ def classify_recording(model: DictionaryModel, rec: Recording, method: str = DEF
     """Label every sample of ``rec`` (a raw IMU log or a log of the model's channels), see the module docstring.
 
     ``smoothing``: majority vote over that many samples (:mod:`spotfree.classify.smoothing`), 0 for none; None: the
-    default of the alignment (:func:`~spotfree.classify.smoothing.default_smoothing`: a short vote centred, none
-    causal).
+    default of the alignment (:func:`~spotfree.classify.smoothing.alignment_smoothing`: a short vote centred,
+    none causal).
     ``classifier``: a classifier already fitted by :func:`dictionary_classifier` (fitted here when None).
     """
-    smoothing = check_smoothing(default_smoothing(centred) if smoothing is None else smoothing)
+    smoothing = alignment_smoothing(smoothing, centred)
     feats = classifiable_features(model, rec)
     segments = feats.segments()
     clf = classifier if classifier is not None else dictionary_classifier(model, method, causal=not centred)

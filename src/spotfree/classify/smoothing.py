@@ -29,9 +29,6 @@ theirs, and every change of class between runs of two samples or more stays wher
 one sample is otherwise an event of its own when the labels are scored or counted as events."""
 
 
-def default_smoothing(centred: bool) -> int | None:
-    """The vote labels get when none is asked for: :data:`OFFLINE_VOTE` samples offline, none live."""
-    return OFFLINE_VOTE if centred else None
 
 
 def check_smoothing(n: int | None) -> int | None:
@@ -74,6 +71,12 @@ class MajorityVote:
             if count and (count, self._last[name]) > key:
                 best, key = name, (count, self._last[name])
         return best
+
+
+def alignment_smoothing(n: int | None, centred: bool) -> int | None:
+    """The vote (samples, validated; None for none) that labels of this alignment get when ``n`` is asked for: ``n``
+    itself (0: none), or for None the default, :data:`OFFLINE_VOTE` samples offline and none live."""
+    return check_smoothing((OFFLINE_VOTE if centred else None) if n is None else n)
 
 
 def majority_vote(labels: np.ndarray, n: int, centred: bool = False) -> np.ndarray:

@@ -115,11 +115,11 @@ def read_bytes(path: Path, size: int = -1) -> bytes:
     try:
         with open(path, "rb") as stream:
             compressed = stream.read(len(GZIP_MAGIC)) == GZIP_MAGIC
-        if not compressed:
-            with open(path, "rb") as stream:
+            stream.seek(0)
+            if not compressed:
                 return stream.read(size)
-        with gzip.open(path, "rb") as stream:
-            raw = stream.read(MAX_UNPACKED + 1 if size < 0 else min(size, MAX_UNPACKED + 1))
+            with gzip.GzipFile(fileobj=stream) as unpacked:
+                raw = unpacked.read(MAX_UNPACKED + 1 if size < 0 else min(size, MAX_UNPACKED + 1))
         if len(raw) > MAX_UNPACKED:
             raise InputError(f"{path}: holds more than {MAX_UNPACKED / 2 ** 30:g} GiB once uncompressed; split the log")
         return raw

@@ -17,7 +17,7 @@ sample ``e`` is aligned with the label stream as in :mod:`spotfree.classify.batc
 a live stream can do), ``centred`` labels ``e - L // 2`` (offline). Training windows take the ground-truth label of
 that same sample, so a peer is trained and scored on one alignment. Windows never span a gap or two experiments.
 Centred labels then get the vote spotfree's own offline labels get
-(:func:`~spotfree.classify.smoothing.default_smoothing`), so that every method is scored after the same
+(:func:`~spotfree.classify.smoothing.alignment_smoothing`), so that every method is scored after the same
 post-processing.
 """
 
@@ -32,7 +32,7 @@ import numpy as np
 from sklearn.base import BaseEstimator
 from threadpoolctl import threadpool_limits
 
-from spotfree.classify.smoothing import default_smoothing, majority_vote
+from spotfree.classify.smoothing import alignment_smoothing, majority_vote
 from spotfree.errors import InputError, SpotfreeError
 from spotfree.io.recording import Recording
 from spotfree.windows import ChannelScaling, recording_windows
@@ -206,7 +206,7 @@ class WindowClassifierPeer(Peer):
             self.estimator_.predict(self._features(windows[i:i + CHUNK])) for i in range(0, len(windows), CHUNK)
         ])
         out = per_sample(len(recording), labelled, labels)
-        smoothing = default_smoothing(self.alignment == "centred")
+        smoothing = alignment_smoothing(None, self.alignment == "centred")
         if smoothing:  # the vote spotfree's own labels of this alignment get, so that both are scored alike
             for start, stop in recording.segments():
                 out[start:stop] = majority_vote(out[start:stop], smoothing, centred=True)
