@@ -21,6 +21,9 @@ Methods in the same run:
   of ``--seeds`` (a summary below the table gives the mean and the range);
 * ``spotfree, true names``: the same learner (first seed) with its naming (step 3) replaced by the true label at
   each window's centre (:class:`TrueNames`): the same windows, columns and classifier, so the ceiling of its naming;
+* ``spotfree, true names, all columns``: the same with the columns drawn from every window of a class (column share
+  1): the default share keeps the half of a class's windows named most surely, which guards against wrong names and
+  with right names only leaves out windows; so what the representation and the classifier reach with right names;
 * ``paper recipe``: :class:`spotfree.paper_recipe.PaperRecipe`, class sets only;
 * ``1-NN``, ``MiniRocket``: sliding-window peers (:mod:`spotfree.evaluation.peers`) trained on the same clips with every
   sample's label.
@@ -171,9 +174,12 @@ def compare(train: list[Recording], tests: list[Recording], seeds: list[int], ch
         learner = SetSupervisedLearner(channels=channels, seed=seed)
         measure(f"spotfree, seed {seed}", "class sets", lambda: learner.fit(train, sets), learner.predict,
                 lambda r: learner.predict(r, centred=False), lambda: named_right(learner, train))
-    labelled = TrueNames(channels=channels, seed=seeds[0])
-    measure("spotfree, true names", "every sample", lambda: labelled.fit(train, sets), labelled.predict,
-            lambda r: labelled.predict(r, centred=False))
+    for name, share in (("spotfree, true names", None), ("spotfree, true names, all columns", 1.0)):
+        labelled = TrueNames(channels=channels, seed=seeds[0])
+        if share is not None:
+            labelled.set_params(column_share=share)
+        measure(name, "every sample", lambda m=labelled: m.fit(train, sets), labelled.predict,
+                lambda r, m=labelled: m.predict(r, centred=False))
     paper = PaperRecipe(channels=channels, seed=seeds[0])
     measure("paper recipe", "class sets", lambda: paper.fit(train, sets), paper.predict,
             lambda r: paper.predict(r, centred=False))
