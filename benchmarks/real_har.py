@@ -174,12 +174,10 @@ def compare(train: list[Recording], tests: list[Recording], seeds: list[int], ch
         learner = SetSupervisedLearner(channels=channels, seed=seed)
         measure(f"spotfree, seed {seed}", "class sets", lambda: learner.fit(train, sets), learner.predict,
                 lambda r: learner.predict(r, centred=False), lambda: named_right(learner, train))
-    for name, share in (("spotfree, true names", None), ("spotfree, true names, all columns", 1.0)):
-        labelled = TrueNames(channels=channels, seed=seeds[0])
-        if share is not None:
-            labelled.set_params(column_share=share)
-        measure(name, "every sample", lambda m=labelled: m.fit(train, sets), labelled.predict,
-                lambda r, m=labelled: m.predict(r, centred=False))
+    for name, params in (("spotfree, true names", {}), ("spotfree, true names, all columns", {"column_share": 1.0})):
+        labelled = TrueNames(channels=channels, seed=seeds[0], **params)
+        measure(name, "every sample", lambda: labelled.fit(train, sets), labelled.predict,
+                lambda r: labelled.predict(r, centred=False))
     paper = PaperRecipe(channels=channels, seed=seeds[0])
     measure("paper recipe", "class sets", lambda: paper.fit(train, sets), paper.predict,
             lambda r: paper.predict(r, centred=False))
