@@ -549,6 +549,7 @@ def classify(
     vote = {"segments": penalties if len(names) > 1 else penalties[names[0]], "keep": tuple(keep),
             "events": tuple(events), "edges": edge_levels(edges)}
     from spotfree.classify.batch import dictionary_classifier
+    from spotfree.classify.smoothing import alignment_smoothing
     from spotfree.model import DictionaryModel
     from spotfree.votes.options import Votes, stored_votes, votes_per_model
 
@@ -559,8 +560,6 @@ def classify(
     else:
         votes = votes_per_model(models, **vote) if len(models) > 1 else {names[0]: Votes(**vote)}
     note = _stored_note(votes) if offline else _vote_note(vote)
-    from spotfree.classify.smoothing import alignment_smoothing
-
     smooth = alignment_smoothing(smooth, centred) or 0
     classifiers = {name: dictionary_classifier(model, method, causal=not centred) for name, model in models.items()}
     summaries = []

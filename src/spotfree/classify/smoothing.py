@@ -22,13 +22,10 @@ import numpy as np
 
 from spotfree.errors import InputError
 
-
 OFFLINE_VOTE = 3
 """Samples of the centred vote that offline labels get by default: a run of one sample between two others becomes
 theirs, and every change of class between runs of two samples or more stays where it was. A label that flickers for
 one sample is otherwise an event of its own when the labels are scored or counted as events."""
-
-
 
 
 def check_smoothing(n: int | None) -> int | None:
