@@ -306,6 +306,24 @@ def test_the_ride_prior_never_engages_for_other_data():
     with_prior = SetSupervisedLearner(prior=prior, seed=0).fit(train, sets).model_
     without = SetSupervisedLearner(seed=0).fit(train, sets).model_
     np.testing.assert_array_equal(with_prior.dictionary, without.dictionary)
+    n = 100  # a ride's channels, but classes the prior does not name; the names it knows, but no ride channels
+    ride = Recording(time=np.arange(n) / RATE, channels={"yaw_rate": np.full(n, 0.5), "speed": np.r_[5.0, np.full(
+        n - 1, np.nan)]}, rate=RATE)
+    assert not prior.log_prior(ride, np.arange(n), ["slow", "still"]).any()
+    assert not prior.log_prior(train[0], np.arange(len(train[0])), ["gentle-turn", "straight", "normal-braking"]).any()
+
+
+def test_the_ride_prior_favours_turning_where_the_vehicle_yaws_and_bridges_a_slalom_s_lobes():
+    n = 200
+    yaw = np.zeros(n)
+    yaw[60:100], yaw[102:140] = 0.3, -0.3  # two lobes of a slalom, through zero for 0.1 s between them
+    yaw[150] = np.nan  # a gap: no evidence there
+    rec = Recording(time=np.arange(n) / RATE, channels={"u": np.zeros(n), "yaw_rate": yaw}, rate=RATE)
+    log_prior = RidePrior().log_prior(rec, np.arange(n), ["slalom", "straight"])
+    assert log_prior[20, 1] > 0 and log_prior[20, 0] == 0  # 1 s: straight ahead
+    assert (log_prior[[70, 100, 101, 120], 0] > 0).all() and not log_prior[[70, 100, 101, 120], 1].any()
+    assert log_prior[60 - 5, 0] > 0 and log_prior[60 - 6, 1] > 0  # the turn widened by the bridge, 0.25 s
+    assert not log_prior[150].any()
 
 
 def test_the_ride_prior_favours_braking_where_the_speed_falls():

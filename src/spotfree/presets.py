@@ -7,9 +7,9 @@ for, so that the same model can be trained again on one's own rides with one com
     longitudinal acceleration and the pitch rate, with the ride prior (:class:`~spotfree.ride_prior.RidePrior`:
     braking loses GPS speed).
 ``lateral``
-    Straight riding, gentle and sharp turns, slaloms: summary windows (2 s) of the yaw rate. A slalom's lobes last
-    1-2 s, so a window of 1 s often holds one lobe alone, which looks like part of a turn; one of 2 s mostly holds a
-    change of direction.
+    Straight riding, gentle and sharp turns, slaloms: summary windows (2 s) of the yaw rate, with the ride prior (a
+    turn yaws, which places a turn's start and end in the names). A slalom's lobes last 1-2 s, so a window of 1 s
+    often holds one lobe alone, which looks like part of a turn; one of 2 s mostly holds a change of direction.
 ``road``
     Smooth road, rough asphalt, cobblestone, kerb strikes: summary windows (0.5 s) of the speed-normalised
     vibration ``rough_y, rough_z``.
@@ -37,7 +37,7 @@ PRIORS = {"ride": RidePrior}
 PRESETS = {
     "braking": {"channels": ("acc_long", "pitch_rate"), "window": 20, "representation": "hankel", "prior": "ride",
                 "column_share": 0.75},
-    "lateral": {"channels": ("yaw_rate",), "window": 40, "representation": "summary", "prior": None,
+    "lateral": {"channels": ("yaw_rate",), "window": 40, "representation": "summary", "prior": "ride",
                 "column_share": 1.0},
     "road": {"channels": ("rough_y", "rough_z"), "window": 10, "representation": "summary", "prior": None,
              "column_share": 1.0},

@@ -1,4 +1,4 @@
-"""The ride's domain prior for :class:`~spotfree.learner.SetSupervisedLearner`: braking loses speed.
+"""The ride's domain prior for :class:`~spotfree.learner.SetSupervisedLearner`: braking loses speed, a turn yaws.
 
 A ride model asks for it by name (``spotfree train --prior ride``); the generic learner never uses it by itself.
 
@@ -7,11 +7,17 @@ any ride); the GPS speed can. Around each window's centre the speed's trend ``a`
 of the GPS fixes within ``SPAN`` s (:func:`speed_trend`). A window that loses speed (``a <= -slowing``) is more likely
 braking, one that keeps or gains it more likely not:
 
-    log prior(c) = +weight   if c is a braking class and a <= -slowing, or c is not braking and a > -slowing
-                   0         otherwise, and for every class where the recording has no GPS speed
+    log prior(c) += weight   if c is a braking class and a <= -slowing, or c is not braking and a > -slowing
 
-The prior engages only for the classes it names (``braking``) and only in recordings that carry a ``speed`` channel:
-for any other data it is zero.
+Declared sets can tell a turn from straight riding, but not where it starts and ends: a window that holds a little of
+a turn looks like none of the straight rides, so the turn claims the straight riding next to it. The yaw rate says
+where the vehicle turns. With ``y`` the largest ``|yaw_rate|`` (rad/s) within ``bridge`` s of the window's centre
+(which carries a slalom across the instants its yaw rate passes through zero between two lobes):
+
+    log prior(c) += weight   if c is a turning class and y >= yawing, or c is not turning and y < yawing
+
+Each part engages only for the classes it names (``braking``, ``turning``) and only in recordings that carry its
+channel (``speed``, ``yaw_rate``), and only where that channel has a value: for any other data the prior is zero.
 """
 
 from __future__ import annotations
@@ -19,6 +25,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.ndimage
 
 
 SPAN = 1.5
@@ -42,7 +49,7 @@ def speed_trend(speed: np.ndarray, rate: float, at: np.ndarray, span: float = SP
 
 @dataclass(frozen=True)
 class RidePrior:
-    """Braking loses speed (module docstring).
+    """Braking loses speed, a turn yaws (module docstring).
 
     Parameters
     ----------
@@ -50,26 +57,42 @@ class RidePrior:
         The classes that lose speed.
     slowing : float
         Deceleration (m/s^2) from which a window counts as losing speed.
+    turning : tuple of str
+        The classes during which the vehicle turns.
+    yawing : float
+        Yaw rate (rad/s, either side) from which a window counts as turning.
+    bridge : float
+        Half-width (s) of the stretch around a window's centre whose largest yaw rate is compared with ``yawing``.
     weight : float
-        Log-prior bonus of the classes that agree with the speed's trend.
+        Log-prior bonus of the classes that agree with the speed's trend, and of those that agree with the yaw rate.
     """
 
     braking: tuple[str, ...] = ("normal-braking", "sudden-braking")
     slowing: float = 0.4
+    turning: tuple[str, ...] = ("gentle-turn", "sharp-turn", "slalom")
+    yawing: float = 0.1
+    bridge: float = 0.25
     weight: float = 2.0
 
     def log_prior(self, recording, centres: np.ndarray, classes: list[str]) -> np.ndarray:
         """``(len(centres), len(classes))`` log-prior of the windows centred at sample indices ``centres`` of
         ``recording``."""
+        centres = np.asarray(centres)
         out = np.zeros((len(centres), len(classes)))
-        named = np.isin(classes, self.braking)
-        if "speed" not in recording.channels or not named.any():
-            return out
-        trend = speed_trend(np.asarray(recording.channels["speed"], dtype=float), recording.rate,
-                            np.asarray(centres))
-        known = np.isfinite(trend)
-        slowing = known & (trend <= -self.slowing)
-        out[slowing[:, None] & named[None, :]] = self.weight
-        out[(known & ~slowing)[:, None] & ~named[None, :]] = self.weight
+        braking = np.isin(classes, self.braking)
+        if "speed" in recording.channels and braking.any():
+            trend = speed_trend(np.asarray(recording.channels["speed"], dtype=float), recording.rate, centres)
+            self._agree(out, braking, np.isfinite(trend), trend <= -self.slowing)
+        turning = np.isin(classes, self.turning)
+        if "yaw_rate" in recording.channels and turning.any():
+            yaw = np.abs(np.asarray(recording.channels["yaw_rate"], dtype=float))
+            reach = int(round(self.bridge * recording.rate))
+            peak = scipy.ndimage.maximum_filter1d(np.nan_to_num(yaw, nan=-1.0), 2 * reach + 1, mode="nearest")
+            self._agree(out, turning, np.isfinite(yaw[centres]), peak[centres] >= self.yawing)
         return out
 
+    def _agree(self, out: np.ndarray, named: np.ndarray, known: np.ndarray, holds: np.ndarray) -> None:
+        """Add ``weight`` to the ``named`` classes where ``holds`` and to the others where it does not, in the rows
+        that are ``known``."""
+        out[(known & holds)[:, None] & named[None, :]] += self.weight
+        out[(known & ~holds)[:, None] & ~named[None, :]] += self.weight
