@@ -315,7 +315,8 @@ def train(
                                          "name (any of them given here overrides it)"),
     recipe: str = typer.Option("sets", "--recipe", help="sets (the general learner from class sets) | paper (the "
                                "paper's recipe, literally: a baseline)"),
-    prior: Optional[str] = typer.Option(None, "--prior", help="ride: braking loses GPS speed, a turn yaws (sets learner only)"),
+    prior: Optional[str] = typer.Option(None, "--prior",
+                                        help="ride: braking loses GPS speed, a turn yaws (sets learner only)"),
     representation: str = typer.Option("summary", "--representation", help="sets learner: summary (level, spread, "
                                        "their change and band powers of each window) | hankel (the paper's raw "
                                        "windows)"),
