@@ -82,6 +82,7 @@ def test_a_preset_s_learner_holds_its_settings_and_a_parameter_given_overrides_t
     assert (learner.channels, learner.window, learner.representation) == (
         preset["channels"], preset["window"], preset["representation"])
     assert learner.column_share == preset["column_share"] and learner.seed == 3
+    assert learner.max_columns == preset["max_columns"] and preset_learner(name, max_columns=7).max_columns == 7
     assert (learner.prior is None) == (preset["prior"] is None)
     assert preset_learner(name, column_share=0.25, window=7).get_params()["column_share"] == 0.25
     # the ride models trained on rides of one manoeuvre or surface each draw from every window of a class

@@ -311,8 +311,8 @@ def train(
                                  "handlebar: vehicle-frame ride features) | body (a phone in a pocket, a watch: device "
                                  "axes and magnitudes)"),
     preset: Optional[str] = typer.Option(None, "--preset", help="braking | lateral | road: the channels, window, "
-                                         "representation, prior and column share of spotfree's ride model of that "
-                                         "name (any of them given here overrides it)"),
+                                         "representation, prior, column share and most columns of spotfree's ride "
+                                         "model of that name (any of them given here overrides it)"),
     recipe: str = typer.Option("sets", "--recipe", help="sets (the general learner from class sets) | paper (the "
                                "paper's recipe, literally: a baseline)"),
     prior: Optional[str] = typer.Option(None, "--prior",
@@ -320,7 +320,8 @@ def train(
     representation: str = typer.Option("summary", "--representation", help="sets learner: summary (level, spread, "
                                        "their change and band powers of each window) | hankel (the paper's raw "
                                        "windows)"),
-    max_columns: int = typer.Option(300, "--max-columns", min=1, help="dictionary columns kept per class"),
+    max_columns: int = typer.Option(300, "--max-columns", min=1,
+                                    help="most dictionary columns per class (300, or the preset's)"),
     column_share: float = typer.Option(0.5, "--column-share", help="sets learner: share of each class's windows, "
                                        "those named most surely, that its columns are drawn from, > 0 and <= 1; 1 "
                                        "where each recording declares one class beside a background "
@@ -364,10 +365,10 @@ def train(
     if misplaced:
         raise InputError(f"{misplaced[0]} is an option of --recipe sets; leave it out with --recipe {recipe}")
     chosen = tuple(c.strip() for c in channels.split(",")) if channels else None
-    params = {"step": step, "max_columns": max_columns, "share_power": share_power, "seed": seed}
+    params = {"step": step, "share_power": share_power, "seed": seed}
     settings = {"--channels": ("channels", chosen), "--window": ("window", window),
                 "--representation": ("representation", representation), "--prior": ("prior", prior_named(prior)),
-                "--column-share": ("column_share", column_share)}
+                "--column-share": ("column_share", column_share), "--max-columns": ("max_columns", max_columns)}
     params.update(item for option, item in settings.items() if preset is None or option in given)  # else the preset's
     from spotfree.io.class_sets import read_class_sets
 

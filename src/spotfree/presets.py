@@ -21,7 +21,12 @@ alone, which names the windows well, and the dictionary then also holds a class'
 shallow slalom). The braking model draws from three quarters of a class's windows: sudden braking is declared in a
 single ride and claims more than itself there, which every window would let into its columns.
 
-A preset fixes only these five settings; every other parameter of
+The lateral model also keeps up to 3,000 columns per class (``max_columns``; 300 by default): its straight riding
+spans many more windows than its turns, and a few hundred spread evenly over it hold few of the windows just after a
+turn, which the live labels get wrong most. With its names sure, more of them serve; on the real activity
+recordings, whose names are less sure, more columns lowered the labels.
+
+A preset fixes only these six settings; every other parameter of
 :class:`~spotfree.learner.SetSupervisedLearner` keeps its default unless given.
 """
 
@@ -36,14 +41,14 @@ PRIORS = {"ride": RidePrior}
 
 PRESETS = {
     "braking": {"channels": ("acc_long", "pitch_rate"), "window": 20, "representation": "hankel", "prior": "ride",
-                "column_share": 0.75},
+                "column_share": 0.75, "max_columns": 300},
     "lateral": {"channels": ("yaw_rate",), "window": 40, "representation": "summary", "prior": "ride",
-                "column_share": 1.0},
+                "column_share": 1.0, "max_columns": 3000},
     "road": {"channels": ("rough_y", "rough_z"), "window": 10, "representation": "summary", "prior": None,
-             "column_share": 1.0},
+             "column_share": 1.0, "max_columns": 300},
 }
-"""Per preset: channels, window (samples at 20 Hz), representation, prior name and column share (module
-docstring)."""
+"""Per preset: channels, window (samples at 20 Hz), representation, prior name, column share and most columns per
+class (module docstring)."""
 
 
 def prior_named(name: str | None):
@@ -68,5 +73,5 @@ def preset_learner(name: str, **params) -> SetSupervisedLearner:
     preset = PRESETS[name]
     settings = {"channels": preset["channels"], "window": preset["window"],
                 "representation": preset["representation"], "prior": prior_named(preset["prior"]),
-                "column_share": preset["column_share"]}
+                "column_share": preset["column_share"], "max_columns": preset["max_columns"]}
     return SetSupervisedLearner(**{**settings, **params})
