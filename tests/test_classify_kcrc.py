@@ -142,3 +142,17 @@ def test_a_last_bit_difference_of_the_atoms_does_not_move_the_landmarks():
         off = np.where(rng.random(points.shape) < 0.5, np.nextafter(points, np.inf), points)
         chosen = [np.flatnonzero((cdist(p, _central_points(p, 60)) == 0).any(axis=1)) for p in (points, off)]
         np.testing.assert_array_equal(*chosen)
+
+
+def test_the_kernel_width_comes_from_every_atom_or_from_an_even_spread_of_a_bounded_number(monkeypatch):
+    import spotfree.classify.kcrc as kcrc
+
+    rng = np.random.default_rng(3)
+    atoms, labels = rng.normal(size=(200, 4)), np.repeat(["a", "b"], 100)
+    every = KernelCRCClassifier(landmarks=8).fit(atoms, labels)
+    assert every.gamma_ == pytest.approx(0.25 / np.median(pdist(atoms, "sqeuclidean")))
+    monkeypatch.setattr(kcrc, "SPREAD_ATOMS", 50)
+    spread = KernelCRCClassifier(landmarks=8).fit(atoms, labels)
+    sample = atoms[np.linspace(0, 199, 50).round().astype(int)]
+    assert spread.gamma_ == pytest.approx(0.25 / np.median(pdist(sample, "sqeuclidean")))
+    assert spread.gamma_ != every.gamma_

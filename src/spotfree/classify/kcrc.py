@@ -45,7 +45,8 @@ bounded by how far the points lie from their nearest landmark, which k-means mak
 "Improved Nystroem low-rank approximation and error analysis", ICML 2008); landmarks spread as far apart as possible
 would go to the outliers instead. The k-means runs on one thread from a fixed seed, so every process that fits the
 same dictionary places the same landmarks. ``gamma = gamma_scale / median_{j<l} ||a_j - a_l||^2``, so the kernel does
-not depend on the windows' units.
+not depend on the windows' units; over at most :data:`SPREAD_ATOMS` atoms, evenly spread over the dictionary's order
+when it holds more, so that the pairs' memory stays bounded.
 
 Compared with CRC_RLS, a normal stop no longer matches a scaled-down sudden stop. The number of landmarks is a
 model's (``parameters["landmarks"]``, set by training; 32 for models without it).
@@ -69,6 +70,9 @@ from spotfree.errors import InputError
 
 HEAD = 8
 """Rows per class of the rotated operators that bound every class's residual (module docstring)."""
+SPREAD_ATOMS = 8192
+"""Most atoms whose pairwise distances give the kernel's width (module docstring): their ``n (n - 1) / 2`` squared
+distances take 268 MB at this size."""
 
 
 class KernelCRCClassifier(ResidualClassifier):
@@ -119,7 +123,9 @@ class KernelCRCClassifier(ResidualClassifier):
             raise InputError(f"landmarks={self.landmarks!r}: give a number of landmarks >= 1, or None for every atom")
         check_n_jobs(self.n_jobs)
         atoms = A.T.astype(float)
-        spread = float(np.median(pdist(atoms, "sqeuclidean"))) if len(atoms) > 1 else 0.0
+        sample = (atoms if len(atoms) <= SPREAD_ATOMS else
+                  atoms[np.linspace(0, len(atoms) - 1, SPREAD_ATOMS).round().astype(int)])
+        spread = float(np.median(pdist(sample, "sqeuclidean"))) if len(sample) > 1 else 0.0
         self.gamma_ = self.gamma_scale / (spread if spread > 0 else 1.0)
         self.landmarks_ = self._place_landmarks(atoms, atom_class)
         values, vectors = np.linalg.eigh(_kernel(self.landmarks_, self.landmarks_, self.gamma_))
