@@ -23,8 +23,8 @@ single ride and claims more than itself there, which every window would let into
 
 The lateral model also keeps up to 3,000 columns per class (``max_columns``; 300 by default): its straight riding
 spans many more windows than its turns, and a few hundred spread evenly over it hold few of the windows just after a
-turn, which the live labels get wrong most. With its names sure, more of them serve; on the real activity
-recordings, whose names are less sure, more columns lowered the labels.
+turn, which the live labels get wrong most. With its names sure, more of them serve; where names are less sure,
+more columns also let in more wrong ones.
 
 A preset fixes only these six settings; every other parameter of
 :class:`~spotfree.learner.SetSupervisedLearner` keeps its default unless given.
@@ -70,8 +70,5 @@ def preset_learner(name: str, **params) -> SetSupervisedLearner:
     :class:`~spotfree.learner.SetSupervisedLearner`."""
     if name not in PRESETS:
         raise InputError(f"preset {name!r} is unknown; use one of {', '.join(PRESETS)}")
-    preset = PRESETS[name]
-    settings = {"channels": preset["channels"], "window": preset["window"],
-                "representation": preset["representation"], "prior": prior_named(preset["prior"]),
-                "column_share": preset["column_share"], "max_columns": preset["max_columns"]}
+    settings = {**PRESETS[name], "prior": prior_named(PRESETS[name]["prior"])}
     return SetSupervisedLearner(**{**settings, **params})

@@ -77,9 +77,9 @@ class CRCClassifier(ResidualClassifier):
         self.lambda_ = float(self.alpha * max(np.trace(outer) / max(A.shape[1], 1), np.finfo(float).tiny))
         eye = np.eye(A.shape[0])
         regularised = outer + self.lambda_ * eye
+        blocks = [A[:, atom_class == i] for i in range(len(self.classes_))]
         self.residual_operators_ = np.stack(
-            [eye - np.linalg.solve(regularised, A[:, atom_class == i] @ A[:, atom_class == i].T).T
-             for i in range(len(self.classes_))]
+            [eye - np.linalg.solve(regularised, A_i @ A_i.T).T for A_i in blocks]
         )  # E_i = I - A_i A_i^T (A A^T + lambda I)^{-1}, (C, d, d)
         stacked = self.residual_operators_.reshape(-1, A.shape[0])  # E, (C d, d)
         self._operator = np.ascontiguousarray(stacked)
