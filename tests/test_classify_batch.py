@@ -5,7 +5,7 @@ import pytest
 from classify_fixtures import model, raw, truth_model, with_gap  # noqa: F401 (fixtures)
 
 from spotfree.classify.batch import classify_recording, dictionary_classifier, model_features
-from spotfree.classify.smoothing import OFFLINE_VOTE, MajorityVote, majority_vote
+from spotfree.classify.smoothing import MajorityVote, majority_vote, vote_samples
 from spotfree.errors import InputError
 from spotfree.signal.features import ride_features
 from spotfree.sim.scenarios import simulate_scenario
@@ -43,17 +43,25 @@ def test_centred_labels_are_the_causal_ones_moved_back_half_a_window(model, test
     assert np.all(centred.label[:L - 1 - o] == "") and np.all(centred.label[len(centred) - o:] == "")
 
 
-def test_offline_labels_get_the_short_centred_vote_by_default_and_live_ones_none(model, test_ride, causal):
+def test_offline_labels_get_the_model_s_smoothing_vote_by_default_and_live_ones_none(model, test_ride, causal):
     raw = classify_recording(model, test_ride, centred=True, smoothing=0).label
     voted = classify_recording(model, test_ride, centred=True)
-    assert voted.meta["smoothing"] == OFFLINE_VOTE and causal.meta["smoothing"] == 0
-    np.testing.assert_array_equal(voted.label, majority_vote(raw, OFFLINE_VOTE, centred=True))
+    n = vote_samples(model.parameters.get("smoothing", 0.5), model.rate)
+    assert n % 2 == 1 and n >= 3
+    assert voted.meta["smoothing"] == n and causal.meta["smoothing"] == 0
+    np.testing.assert_array_equal(voted.label, majority_vote(raw, n, centred=True))
     starts = np.flatnonzero(np.r_[True, voted.label[1:] != voted.label[:-1]])
     lengths = np.diff(np.r_[starts, len(voted.label)])
     inner = (voted.label[starts] != "") & (starts > 0) & (starts + lengths < len(voted.label))
     assert (lengths[inner] >= 2).all()  # no label holds for a single sample between two others
     one = np.flatnonzero(np.r_[False, (raw[1:-1] != raw[:-2]) & (raw[1:-1] != raw[2:]) & (raw[:-2] == raw[2:]), False])
     assert len(one) and (voted.label[one] == raw[one - 1]).all()  # each such flicker of the raw labels is gone
+
+
+@pytest.mark.parametrize("seconds, rate, n", [(0.5, 20.0, 11), (0.1, 20.0, 3), (0.45, 20.0, 9), (0.0, 20.0, 1),
+                                              (0.5, 100.0, 51), (0.02, 20.0, 1)])
+def test_the_vote_spans_the_smoothing_in_an_odd_number_of_samples(seconds, rate, n):
+    assert vote_samples(seconds, rate) == n
 
 
 def test_labels_follow_the_truth_and_centred_windows_are_more_accurate(model, test_ride, causal):

@@ -77,6 +77,28 @@ def test_centred_windows_and_smoothing_are_said_and_used(folder):
     assert (causal["label"].iloc[:19] == "").all() and (causal["label"].iloc[-10:] != "").all()
 
 
+def test_centred_labels_are_voted_over_each_model_s_smoothing_span_by_default(folder, tmp_path):
+    from spotfree.model import DictionaryModel
+
+    model = DictionaryModel.load(folder / "model.npz")
+    assert model.parameters["smoothing"] == 0.5  # 0.5 s at 20 Hz: 11 samples
+    result = invoke("classify", folder / "model.npz", f"{folder / 'ride.csv'}@2", "-o", tmp_path / "one.csv",
+                    "--centred", "--json")
+    assert result.exit_code == 0, result.output
+    assert '"smoothing": 11' in result.output
+    model.parameters["smoothing"] = 0.1  # a model decoded with a shorter switching cost: 3 samples
+    model.save(tmp_path / "short.npz")
+    result = invoke("classify", folder / "model.npz", tmp_path / "short.npz", f"{folder / 'ride.csv'}@2", "-o",
+                    tmp_path / "two.csv", "--centred")
+    assert result.exit_code == 0, result.output
+    assert "majority vote over model 11, short 3 samples" in result.output
+    two = pd.read_csv(tmp_path / "two.csv", keep_default_na=False)
+    one = pd.read_csv(tmp_path / "one.csv", keep_default_na=False)
+    assert (two["model"] == one["label"]).all() and (two["short"] != two["model"]).any()
+    live = invoke("classify", folder / "model.npz", f"{folder / 'ride.csv'}@2", "-o", tmp_path / "live.csv")
+    assert "majority vote" not in live.output
+
+
 def test_labels_stop_at_a_gap_and_resume_after_it_and_say_so(folder):
     ride = pd.read_csv(folder / "ride.csv", keep_default_na=False)
     one = ride[ride["experiment"] == 1].drop(columns="experiment")

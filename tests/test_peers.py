@@ -74,15 +74,18 @@ def test_alignment_decides_which_samples_a_window_labels(split, alignment, unlab
 
 def test_centred_labels_get_the_vote_spotfree_s_offline_labels_get(split, monkeypatch):
     import spotfree.evaluation.peers.base as base
-    from spotfree.classify.smoothing import OFFLINE_VOTE, majority_vote
+    from spotfree.classify.smoothing import majority_vote, vote_samples
 
-    peer = NearestNeighbourPeer(alignment="centred").fit(split[0])
-    voted = np.concatenate([peer.predict(rec) for rec in split[1]])
-    monkeypatch.setattr(base, "alignment_smoothing", lambda n, centred: None)
-    raw = [peer.predict(rec) for rec in split[1]]
-    expected = np.concatenate([majority_vote(r.astype(object), OFFLINE_VOTE, centred=True).astype(str) for r in raw])
-    np.testing.assert_array_equal(voted, expected)
-    assert (voted != np.concatenate(raw)).any()  # the split's raw labels flicker somewhere
+    for vote in (0.5, 0.1):  # the learner's default smoothing, and the hand's
+        peer = NearestNeighbourPeer(alignment="centred", vote=vote).fit(split[0])
+        voted = np.concatenate([peer.predict(rec) for rec in split[1]])
+        with monkeypatch.context() as patch:
+            patch.setattr(base, "alignment_smoothing", lambda n, centred, offline: None)
+            raw = [peer.predict(rec) for rec in split[1]]
+        n = vote_samples(vote, split[1][0].rate)
+        expected = np.concatenate([majority_vote(r.astype(object), n, centred=True).astype(str) for r in raw])
+        np.testing.assert_array_equal(voted, expected)
+        assert (voted != np.concatenate(raw)).any()  # the split's raw labels flicker somewhere
 
 
 @needs_aeon

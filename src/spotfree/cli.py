@@ -510,8 +510,9 @@ def classify(
                                "not in the paper)"),
     centred: bool = typer.Option(False, "--centred", help="label each sample by the window centred on it "
                                  "(offline); default: the window ending at it, as a live stream does"),
-    smooth: Optional[int] = typer.Option(None, "--smooth", help="majority vote over N samples (0: none; default: 3 "
-                                         "with --centred, none live)"),
+    smooth: Optional[int] = typer.Option(None, "--smooth", help="majority vote over N samples (0: none; default "
+                                         "with --centred: the model's smoothing span, 11 samples at 20 Hz for the "
+                                         "learner's 0.5 s; none live)"),
     segments: list[str] = typer.Option([], "--segments", metavar="[MODEL=]PENALTY",
                                        help="offline segment vote: cut the ride where the model's channels change "
                                        "(PELT, this penalty per change; larger: fewer segments; 4 suits the lateral "
@@ -550,7 +551,7 @@ def classify(
     penalties = model_penalties(segments, names)
     vote = {"segments": penalties if len(names) > 1 else penalties[names[0]], "keep": tuple(keep),
             "events": tuple(events), "edges": edge_levels(edges)}
-    from spotfree.classify.batch import dictionary_classifier
+    from spotfree.classify.batch import dictionary_classifier, offline_vote
     from spotfree.classify.smoothing import alignment_smoothing
     from spotfree.model import DictionaryModel
     from spotfree.votes.options import Votes, stored_votes, votes_per_model
@@ -562,18 +563,18 @@ def classify(
     else:
         votes = votes_per_model(models, **vote) if len(models) > 1 else {names[0]: Votes(**vote)}
     note = _stored_note(votes) if offline else _vote_note(vote)
-    smooth = alignment_smoothing(smooth, centred) or 0
+    voting = {name: alignment_smoothing(smooth, centred, offline_vote(model)) or 0 for name, model in models.items()}
     classifiers = {name: dictionary_classifier(model, method, causal=not centred) for name, model in models.items()}
     summaries = []
     if len(sources) > 1:
         output.mkdir(parents=True, exist_ok=True)
     for source, target in targets.items():
         if len(models) > 1:
-            summaries.append(_classify_several(models, classifiers, source, target, method, centred, smooth, votes,
-                                               note, mount))
+            summaries.append(_classify_several(models, classifiers, source, target, method, centred, smooth, voting,
+                                               votes, note, mount))
         else:
             summaries.append(_classify_one(models[names[0]], classifiers[names[0]], names[0], source, target, method,
-                                           centred, smooth, votes[names[0]], note, mount))
+                                           centred, voting[names[0]], votes[names[0]], note, mount))
     if as_json:
         _print_json(summaries[0] if len(summaries) == 1 else {"logs": summaries})
 
@@ -693,10 +694,12 @@ def _vote_note(vote: dict) -> str:
 
 
 def _classify_several(models: dict, classifiers: dict, source: str, output: Path, method: str, centred: bool,
-                      smooth: int, votes: dict, note: str, mount: str = "auto") -> dict:
+                      smooth: int | None, voting: dict, votes: dict, note: str, mount: str = "auto") -> dict:
     """``classify`` with several models (by name, each with its ``classifiers`` fitted for this alignment and its
     ``votes``, described by ``note``) on the log ``source``: one label column per model, see
-    :mod:`spotfree.classify.multi`; ``mount`` the ``--mount`` choice. Returns the ``--json`` document."""
+    :mod:`spotfree.classify.multi`; ``smooth`` the ``--smooth`` asked for (None: each model's default), ``voting``
+    the majority vote it gives per model (samples, for the summary); ``mount`` the ``--mount`` choice. Returns the
+    ``--json`` document."""
     from spotfree.classify.multi import write_labels
     from spotfree.votes.options import voted_models
 
@@ -714,9 +717,18 @@ def _classify_several(models: dict, classifiers: dict, source: str, output: Path
     windows = ", ".join(f"{name} {m.window} samples" for name, m in models.items())
     out.print(f"wrote {output}: {len(table)} samples, one label column per model ({', '.join(models)}) by {method}; "
               f"windows {'centred on' if centred else 'ending at'} each sample: {windows}"
-              + (f"; majority vote over {smooth} samples" if smooth else "") + note)
+              + _smooth_note(voting) + note)
     return _classify_summary(output, {name: (model, table[name].to_numpy(str)) for name, model in models.items()},
-                             method, centred, smooth, note, estimate, said)
+                             method, centred, voting if len(set(voting.values())) > 1 else next(iter(voting.values())),
+                             note, estimate, said)
+
+
+def _smooth_note(voting: dict) -> str:
+    """The summary's words on the majority votes (``voting``: samples per model name, 0 for none)."""
+    if len(set(voting.values())) == 1:
+        n = next(iter(voting.values()))
+        return f"; majority vote over {n} samples" if n else ""
+    return "; majority vote over " + ", ".join(f"{name} {n}" for name, n in voting.items()) + " samples"
 
 
 @app.command()

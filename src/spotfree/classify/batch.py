@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 
 from spotfree.classify import DEFAULT_METHOD, make_classifier
-from spotfree.classify.smoothing import alignment_smoothing, majority_vote
+from spotfree.classify.smoothing import VOTE_SECONDS, alignment_smoothing, majority_vote, vote_samples
 from spotfree.errors import InputError
 from spotfree.io.checks import write_text
 from spotfree.io.recording import Recording
@@ -140,6 +140,12 @@ def model_affine(model: DictionaryModel) -> float:
     return float(model.parameters.get("affine", 0.0))
 
 
+def offline_vote(model: DictionaryModel) -> int:
+    """Samples of the centred vote the model's offline labels get by default: its learner's ``smoothing`` span
+    (:data:`~spotfree.classify.smoothing.VOTE_SECONDS` for a model without one), an odd number of samples."""
+    return vote_samples(float(model.parameters.get("smoothing", VOTE_SECONDS)), model.rate)
+
+
 def alignment_offset(model: DictionaryModel, centred: bool) -> int:
     """Samples between a window's last sample and the sample it labels: 0 causal, ``window // 2`` centred."""
     return model.window // 2 if centred else 0
@@ -150,11 +156,11 @@ def classify_recording(model: DictionaryModel, rec: Recording, method: str = DEF
     """Label every sample of ``rec`` (a raw IMU log or a log of the model's channels), see the module docstring.
 
     ``smoothing``: majority vote over that many samples (:mod:`spotfree.classify.smoothing`), 0 for none; None: the
-    default of the alignment (:func:`~spotfree.classify.smoothing.alignment_smoothing`: a short vote centred,
-    none causal).
+    default of the alignment (:func:`~spotfree.classify.smoothing.alignment_smoothing`: the model's
+    :func:`offline_vote` centred, none causal).
     ``classifier``: a classifier already fitted by :func:`dictionary_classifier` (fitted here when None).
     """
-    smoothing = alignment_smoothing(smoothing, centred)
+    smoothing = alignment_smoothing(smoothing, centred, offline_vote(model))
     feats = classifiable_features(model, rec)
     segments = feats.segments()
     clf = classifier if classifier is not None else dictionary_classifier(model, method, causal=not centred)

@@ -10,8 +10,12 @@ place in the ``n`` but casts no vote, and smoothing never labels a sample that h
 recent of the tied labels, so ``n = 1`` and a run of one class pass unchanged and a change of class shows once
 it holds more than half of the last ``n`` samples: a causal vote adds about ``n / 2`` samples of delay.
 
-Offline (centred) labels are voted over :data:`OFFLINE_VOTE` samples unless asked otherwise; live labels are not
-voted unless asked, since every sample of a causal vote is a sample of delay.
+Offline (centred) labels are voted over the model's ``smoothing`` span unless asked otherwise
+(:func:`vote_samples`; :data:`VOTE_SECONDS` for a model without one). The learner's decoding makes each change of
+class pay ``smoothing`` seconds of windows' log-posterior, so that its names seldom hold a class for less; the vote
+keeps the offline labels to the same prior, and a class that shows for fewer than half of those samples between
+runs of another takes theirs. Live labels are not voted
+unless asked, since every sample of a causal vote is a sample of delay.
 """
 
 from __future__ import annotations
@@ -22,10 +26,9 @@ import numpy as np
 
 from spotfree.errors import InputError
 
-OFFLINE_VOTE = 3
-"""Samples of the centred vote that offline labels get by default: a run of one sample between two others becomes
-theirs, and every change of class between runs of two samples or more stays where it was. A label that flickers for
-one sample is otherwise an event of its own when the labels are scored or counted as events."""
+VOTE_SECONDS = 0.5
+"""Span (s) of the centred vote of offline labels when the model has no ``smoothing`` of its own, and of the peers':
+the learner's default ``smoothing``."""
 
 
 def check_smoothing(n: int | None) -> int | None:
@@ -70,10 +73,18 @@ class MajorityVote:
         return best
 
 
-def alignment_smoothing(n: int | None, centred: bool) -> int | None:
+def vote_samples(seconds: float, rate: float) -> int:
+    """The odd number of samples at ``rate`` Hz whose span is nearest ``seconds`` from above (at least 1), so that a
+    centred vote has a middle sample: ``k = round(seconds * rate)``, then ``k`` or ``k + 1``."""
+    k = max(0, int(round(seconds * rate)))
+    return k + 1 - k % 2
+
+
+def alignment_smoothing(n: int | None, centred: bool, offline: int) -> int | None:
     """The vote (samples, validated; None for none) that labels of this alignment get when ``n`` is asked for: ``n``
-    itself (0: none), or for None the default, :data:`OFFLINE_VOTE` samples offline and none live."""
-    return check_smoothing((OFFLINE_VOTE if centred else None) if n is None else n)
+    itself (0: none), or for None the default, ``offline`` samples centred (the model's, :func:`vote_samples`) and
+    none live."""
+    return check_smoothing((offline if centred else None) if n is None else n)
 
 
 def majority_vote(labels: np.ndarray, n: int, centred: bool = False) -> np.ndarray:

@@ -49,6 +49,7 @@ import pandas as pd
 from sklearn.base import clone
 
 from spotfree.classify.runs import RunEvent
+from spotfree.classify.smoothing import VOTE_SECONDS
 from spotfree.evaluation.peers import Peer
 from spotfree.hand.commands import COMMANDS, command_latencies
 from spotfree.hand.features import FEATURES
@@ -187,7 +188,8 @@ def evaluate_hand(train_people: int = TRAINING_PEOPLE, test_people: int = 6, see
                               for s, p in config.stages.items()},
                   "channels": {s: list(m.channels) for s, m in model.stages().items()}, "rate": model.state.rate,
                   "event_samples": gesture_samples(model)},
-        peers={name: _peer_scores(peer, [rec for rec, _ in sessions], feats, gesture_samples(model), say)
+        peers={name: _peer_scores(peer, [rec for rec, _ in sessions], feats, gesture_samples(model),
+                                  float(model.state.parameters.get("smoothing", VOTE_SECONDS)), say)
                for name, peer in (peers or {}).items()},
     )
 
@@ -214,16 +216,17 @@ def _events(labels: HandLabels, feats) -> dict[str, float]:
     return gesture_events(labels.events, truth, experiment, feats.rate)
 
 
-def _peer_scores(peer: Peer, training: list, feats, min_samples: int, say) -> PeerScores:
+def _peer_scores(peer: Peer, training: list, feats, min_samples: int, vote: float, say) -> PeerScores:
     """Fit ``peer`` with each mode's alignment on the ``training`` feature sessions (their truth labels), label the
-    test ``feats`` and score them as the recogniser's labels (the state is the one the label belongs to)."""
+    test ``feats`` and score them as the recogniser's labels (the state is the one the label belongs to); its centred
+    labels get the recogniser's vote of ``vote`` s."""
     truth_state, truth_label = feats.truth["state"], feats.truth["label"]
     pace = feats.truth["pace"].astype(float)
     experiment = feats.experiment_numbers()
     accuracy, onsets, events, fit = {}, {}, {}, 0.0
     for mode, alignment in MODE_ALIGNMENT.items():
         say(f"peer {type(peer).__name__}, {alignment} windows")
-        fitted = clone(peer).set_params(alignment=alignment).fit(training)
+        fitted = clone(peer).set_params(alignment=alignment, vote=vote).fit(training)
         fit += fitted.fit_time_
         label = fitted.predict(feats)
         state = np.where(np.isin(label, GESTURES), "gesture", np.where(np.isin(label, POSTURES), "posture", ""))

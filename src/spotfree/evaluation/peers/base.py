@@ -16,9 +16,9 @@ Channels are divided by their standard deviation over the training samples
 sample ``e`` is aligned with the label stream as in :mod:`spotfree.classify.batch`: ``causal`` labels ``e`` (what
 a live stream can do), ``centred`` labels ``e - L // 2`` (offline). Training windows take the ground-truth label of
 that same sample, so a peer is trained and scored on one alignment. Windows never span a gap or two experiments.
-Centred labels then get the vote spotfree's own offline labels get
-(:func:`~spotfree.classify.smoothing.alignment_smoothing`), so that every method is scored after the same
-post-processing.
+Centred labels then get the vote spotfree's own offline labels get, over ``vote`` seconds
+(:func:`~spotfree.classify.smoothing.vote_samples`; the learner's default ``smoothing`` unless set to the model's),
+so that every method is scored after the same post-processing.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ import numpy as np
 from sklearn.base import BaseEstimator
 from threadpoolctl import threadpool_limits
 
-from spotfree.classify.smoothing import alignment_smoothing, majority_vote
+from spotfree.classify.smoothing import VOTE_SECONDS, alignment_smoothing, majority_vote, vote_samples
 from spotfree.errors import InputError, SpotfreeError
 from spotfree.io.recording import Recording
 from spotfree.windows import ChannelScaling, recording_windows
@@ -140,12 +140,17 @@ class WindowClassifierPeer(Peer):
     train_step : int
         Every ``train_step``-th training window of a recording is fitted on (1: every window; consecutive windows
         overlap in all but one sample, so a larger step bounds the fit's cost on long training rides).
+    vote : float
+        Span (s) of the majority vote of centred labels: that of the spotfree model compared with (its
+        ``smoothing``), so that both are scored after the same vote.
     """
 
-    def __init__(self, channels=DEFAULT_CHANNELS, window: int = 20, alignment: str = "causal", train_step: int = 1):
+    def __init__(self, channels=DEFAULT_CHANNELS, window: int = 20, alignment: str = "causal", train_step: int = 1,
+                 vote: float = VOTE_SECONDS):
         super().__init__(channels=channels, window=window)
         self.alignment = alignment
         self.train_step = train_step
+        self.vote = vote
 
     @property
     def offset(self) -> int:
@@ -206,7 +211,7 @@ class WindowClassifierPeer(Peer):
             self.estimator_.predict(self._features(windows[i:i + CHUNK])) for i in range(0, len(windows), CHUNK)
         ])
         out = per_sample(len(recording), labelled, labels)
-        smoothing = alignment_smoothing(None, self.alignment == "centred")
+        smoothing = alignment_smoothing(None, self.alignment == "centred", vote_samples(self.vote, recording.rate))
         if smoothing:  # the vote spotfree's own labels of this alignment get, so that both are scored alike
             for start, stop in recording.segments():
                 out[start:stop] = majority_vote(out[start:stop], smoothing, centred=True)

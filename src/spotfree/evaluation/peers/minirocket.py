@@ -11,6 +11,7 @@ pattern boundaries marked by hand.
 from __future__ import annotations
 
 from spotfree.errors import InputError
+from spotfree.classify.smoothing import VOTE_SECONDS
 from spotfree.evaluation.peers.base import DEFAULT_CHANNELS, WindowClassifierPeer, from_aeon
 
 MIN_WINDOW = 9
@@ -22,7 +23,7 @@ class MiniRocketPeer(WindowClassifierPeer):
 
     Parameters
     ----------
-    channels, window, alignment, train_step
+    channels, window, alignment, train_step, vote
         As for every window classifier (:class:`spotfree.evaluation.peers.base.WindowClassifierPeer`); ``window`` must be at least 9 samples.
     n_kernels : int
         Number of MiniRocket features (rounded down to a multiple of 84 by aeon; 10,000 is the published default).
@@ -33,8 +34,9 @@ class MiniRocketPeer(WindowClassifierPeer):
     """
 
     def __init__(self, channels=DEFAULT_CHANNELS, window: int = 20, alignment: str = "causal",
-                 n_kernels: int = 10_000, n_jobs: int = 1, random_state: int = 0, train_step: int = 1):
-        super().__init__(channels=channels, window=window, alignment=alignment, train_step=train_step)
+                 n_kernels: int = 10_000, n_jobs: int = 1, random_state: int = 0, train_step: int = 1,
+                 vote: float = VOTE_SECONDS):
+        super().__init__(channels=channels, window=window, alignment=alignment, train_step=train_step, vote=vote)
         self.n_kernels = n_kernels
         self.n_jobs = n_jobs
         self.random_state = random_state

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 from sklearn.neighbors import KNeighborsClassifier
 
+from spotfree.classify.smoothing import VOTE_SECONDS
 from spotfree.evaluation.peers.base import DEFAULT_CHANNELS, WindowClassifierPeer
 
 
@@ -17,15 +18,15 @@ class NearestNeighbourPeer(WindowClassifierPeer):
 
     Parameters
     ----------
-    channels, window, alignment, train_step
+    channels, window, alignment, train_step, vote
         As for every window classifier (:class:`spotfree.evaluation.peers.base.WindowClassifierPeer`).
     n_neighbors : int
         Neighbours that vote (1: the nearest window decides).
     """
 
     def __init__(self, channels=DEFAULT_CHANNELS, window: int = 20, alignment: str = "causal", n_neighbors: int = 1,
-                 train_step: int = 1):
-        super().__init__(channels=channels, window=window, alignment=alignment, train_step=train_step)
+                 train_step: int = 1, vote: float = VOTE_SECONDS):
+        super().__init__(channels=channels, window=window, alignment=alignment, train_step=train_step, vote=vote)
         self.n_neighbors = n_neighbors
 
     def _make_estimator(self):
