@@ -194,6 +194,9 @@ def test_bad_parameters_are_refused(split):
         NearestNeighbourPeer(alignment="middle").fit(split[0])
     with pytest.raises(InputError, match="at least 9 samples"):
         MiniRocketPeer(window=5).fit(split[0])
+    for vote in (-0.5, float("nan"), float("inf"), "0.5", True):
+        with pytest.raises(InputError, match="vote must be seconds >= 0"):
+            NearestNeighbourPeer(alignment="centred", vote=vote).fit(split[0])
     with pytest.raises(InputError, match="naming 'oracle'"):
         ClaspPeer(naming="oracle").fit(split[0])
     with pytest.raises(InputError, match="naming='truth'"):

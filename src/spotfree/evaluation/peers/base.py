@@ -163,6 +163,9 @@ class WindowClassifierPeer(Peer):
             raise InputError(f"alignment {self.alignment!r} is unknown: use one of {', '.join(ALIGNMENTS)}")
         if not isinstance(self.train_step, (int, np.integer)) or self.train_step < 1:
             raise InputError(f"train_step must be an integer >= 1, got {self.train_step!r}")
+        if isinstance(self.vote, bool) or not isinstance(self.vote, (int, float, np.number)) \
+                or not np.isfinite(self.vote) or self.vote < 0:
+            raise InputError(f"vote must be seconds >= 0 (0: no vote), got {self.vote!r}")
 
     @abstractmethod
     def _make_estimator(self):
