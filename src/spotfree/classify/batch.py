@@ -140,10 +140,15 @@ def model_affine(model: DictionaryModel) -> float:
     return float(model.parameters.get("affine", 0.0))
 
 
+def vote_seconds(model: DictionaryModel) -> float:
+    """Span (s) of the centred vote the model's offline labels get by default: its learner's ``smoothing``
+    (:data:`~spotfree.classify.smoothing.VOTE_SECONDS` for a model without one)."""
+    return float(model.parameters.get("smoothing", VOTE_SECONDS))
+
+
 def offline_vote(model: DictionaryModel) -> int:
-    """Samples of the centred vote the model's offline labels get by default: its learner's ``smoothing`` span
-    (:data:`~spotfree.classify.smoothing.VOTE_SECONDS` for a model without one), an odd number of samples."""
-    return vote_samples(float(model.parameters.get("smoothing", VOTE_SECONDS)), model.rate)
+    """Samples of that vote (:func:`vote_seconds`), an odd number."""
+    return vote_samples(vote_seconds(model), model.rate)
 
 
 def alignment_offset(model: DictionaryModel, centred: bool) -> int:

@@ -48,8 +48,8 @@ import numpy as np
 import pandas as pd
 from sklearn.base import clone
 
+from spotfree.classify.batch import vote_seconds
 from spotfree.classify.runs import RunEvent
-from spotfree.classify.smoothing import VOTE_SECONDS
 from spotfree.evaluation.peers import Peer
 from spotfree.hand.commands import COMMANDS, command_latencies
 from spotfree.hand.features import FEATURES
@@ -189,7 +189,7 @@ def evaluate_hand(train_people: int = TRAINING_PEOPLE, test_people: int = 6, see
                   "channels": {s: list(m.channels) for s, m in model.stages().items()}, "rate": model.state.rate,
                   "event_samples": gesture_samples(model)},
         peers={name: _peer_scores(peer, [rec for rec, _ in sessions], feats, gesture_samples(model),
-                                  float(model.state.parameters.get("smoothing", VOTE_SECONDS)), say)
+                                  vote_seconds(model.state), say)
                for name, peer in (peers or {}).items()},
     )
 
