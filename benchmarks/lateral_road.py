@@ -2,8 +2,8 @@
 
 Protocol (:mod:`spotfree.evaluation.lateral_road`): per model, the training rides of its spec are trained on
 spotting-free (each declares the classes that occur in it), experiments 5-7 of its own scenario (three held-out
-riders) are labelled and scored per true class. The grid runs on ``--dev-seeds`` only (causal labels, then the same
-after the offline segment vote at the spec's penalty, :mod:`spotfree.votes.segments`; every sample, strict). The
+riders) are labelled and scored per true class. The grid runs on ``--dev-seeds`` only (causal labels, then the centred
+labels after the offline votes of the spec, :mod:`spotfree.votes`; every sample, strict). The
 chosen :data:`~spotfree.evaluation.lateral_road.MODELS` are then scored on each of ``--test-seeds``, which the grid
 never sees (``spotfree evaluate`` reports one of them): per label stream (live, centred, offline vote) and class the
 accuracy away from true label changes (+-0.5 s) with the strict figure beside, the spec's short classes as detected
@@ -41,7 +41,7 @@ def row(name: str, seed: int, channels, window: int, result, seconds: float) -> 
     classes = " ".join(f"{s.rate:.3f}" for s in result.per_class("live").values())
     voted = " ".join(f"{s.rate:.3f}" for s in result.per_class("offline vote").values())
     return (f"{name:8s} {seed:4d}  {','.join(channels):22s} {window:3d}  {classes}  overall "
-            f"{result.overall('live').rate:.3f}  | segment vote {voted}  overall "
+            f"{result.overall('live').rate:.3f}  | offline vote {voted}  overall "
             f"{result.overall('offline vote').rate:.3f}  ({seconds:.0f} s)")
 
 

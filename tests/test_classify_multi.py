@@ -120,7 +120,7 @@ def test_the_segment_and_event_votes_run_per_model_with_only_the_classes_each_ha
         own = lambda names: tuple(c for c in names if c in model.classes)  # noqa: E731
         alone = voted_labels(model, ride, Votes(4.0, own(("kerb",)), own(("straight", "smooth"))))
         np.testing.assert_array_equal(table[name].to_numpy(), alone.label)
-    plain, events = classify_models(models, ride), voted(models, ride, events=("straight",))
+    plain, events = classify_models(models, ride, centred=True), voted(models, ride, events=("straight",))
     assert not np.array_equal(events["lateral"], plain["lateral"])
     np.testing.assert_array_equal(events[["braking", "road"]], plain[["braking", "road"]])
     for option in ("keep", "events"):
@@ -166,7 +166,7 @@ def test_cli_segments_per_model_vote_each_model_at_its_own_penalty(models, ride,
     expected = voted(models, ride, segments={"lateral": 4.0, "road": 8.0}, keep=("kerb",))
     for name in models:
         np.testing.assert_array_equal(table[name].astype(str).to_numpy(), expected[name].to_numpy())
-    np.testing.assert_array_equal(expected["braking"], classify_models(models, ride)["braking"])
+    np.testing.assert_array_equal(expected["braking"], classify_models(models, ride, centred=True)["braking"])
     assert not np.array_equal(expected["road"], voted(models, ride, segments=4.0, keep=("kerb",))["road"])
     bad = run("bad.csv", "--segments", "latral=4")
     assert bad.exit_code == 2 and "no model is named latral" in bad.output

@@ -114,12 +114,14 @@ def test_labels_stop_at_a_gap_and_resume_after_it_and_say_so(folder):
     assert (labels.loc[inside, "label"] == "").all() and (labels.loc[~inside, "label"].iloc[19:] != "").all()
 
 
-def test_the_segment_vote_is_said_and_keeps_the_labelled_samples(folder):
-    assert invoke("classify", folder / "model.npz", folder / "ride.csv", "-o", folder / "plain.csv").exit_code == 0
+def test_the_segment_vote_is_said_and_keeps_the_labelled_samples_of_the_centred_windows_it_implies(folder):
+    assert invoke("classify", folder / "model.npz", folder / "ride.csv", "-o", folder / "plain.csv",
+                  "--centred").exit_code == 0
     result = invoke("classify", folder / "model.npz", folder / "ride.csv", "-o", folder / "voted.csv",
                     "--segments", "4", "--keep", "sudden-braking")
     assert result.exit_code == 0, result.output
     assert "segment vote at penalty 4, sudden-braking kept" in result.output
+    assert "centred on it" in " ".join(result.output.split())
     events = invoke("classify", folder / "model.npz", folder / "ride.csv", "-o", folder / "events.csv",
                     "--events", "cruising")
     assert events.exit_code == 0 and "; event vote outside cruising" in events.output, events.output

@@ -96,7 +96,7 @@ def test_a_bad_penalty_is_refused(bad):
 
 def test_the_vote_labels_only_labelled_samples_changes_less_and_is_in_the_meta(model, raw):
     ride = with_gap(raw.select_experiment(2), 400, 440)
-    plain = classify_recording(model, ride)
+    plain = classify_recording(model, ride, centred=True)
     voted = voted_labels(model, ride, Votes(segments=4.0))
     np.testing.assert_array_equal(voted.labelled(), plain.labelled())
     flips = lambda lab: int(np.sum(lab[1:] != lab[:-1]))  # noqa: E731
@@ -104,13 +104,13 @@ def test_the_vote_labels_only_labelled_samples_changes_less_and_is_in_the_meta(m
     assert voted.meta["segments"] == 4.0 and voted.meta["keep"] == [] and "segments" not in plain.meta
     truth = ride.truth["label"]
     right = lambda lab: np.mean(lab.label[lab.labelled()] == truth[lab.labelled()])  # noqa: E731
-    print(f"causal {right(plain):.3f}, segment vote {right(voted):.3f}")
+    print(f"centred {right(plain):.3f}, segment vote {right(voted):.3f}")
     assert right(voted) >= right(plain) - 0.02
 
 
 def test_kept_classes_keep_their_labels_and_an_unknown_class_is_refused(model, raw):
     ride = raw.select_experiment(2)
-    plain = classify_recording(model, ride)
+    plain = classify_recording(model, ride, centred=True)
     kept = voted_labels(model, ride, Votes(segments=4.0, keep=("sudden-braking",)))
     was = plain.label == "sudden-braking"
     assert was.any()
@@ -149,7 +149,7 @@ def test_event_edges_move_labels_only_within_a_window_of_an_event_edge_and_are_i
 
 def test_votes_on_labels_already_made_equal_the_votes_of_one_classification(model, raw):
     ride = with_gap(raw.select_experiment(2), 400, 440)
-    plain = classify_recording(model, ride)
+    plain = classify_recording(model, ride, centred=True)
     votes = Votes(segments=4.0, keep=("sudden-braking",), events=("cruising",), edges={"lean": 0.04})
     once = voted_labels(model, ride, votes)
     again = apply_votes(model, ride, plain, votes)

@@ -80,7 +80,7 @@ def test_cli_stores_shows_uses_and_clears_the_votes_and_bad_input_keeps_the_file
                "--offline")
     assert both.exit_code == 0 and "braking none, lateral --segments 4" in " ".join(both.output.split())
     table = pd.read_csv(tmp_path / "both.csv", keep_default_na=False)
-    expected = classify_models(models, ride)
+    expected = classify_models(models, ride, centred=True)  # offline: the model without votes labels centred too
     np.testing.assert_array_equal(table["lateral"].astype(str).to_numpy(), explicit)
     np.testing.assert_array_equal(table["braking"].astype(str).to_numpy(), expected["braking"].to_numpy())
     mixed = run("classify", path, tmp_path / "ride.csv", "-o", tmp_path / "x.csv", "--offline", "--segments", "4")

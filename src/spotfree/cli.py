@@ -509,7 +509,8 @@ def classify(
                                "CRC_RLS, amplitude-aware, the default; crc: the paper's CRC_RLS; kcrc and nearest are "
                                "not in the paper)"),
     centred: bool = typer.Option(False, "--centred", help="label each sample by the window centred on it "
-                                 "(offline); default: the window ending at it, as a live stream does"),
+                                 "(offline; implied by the offline votes and --offline); default: the window ending "
+                                 "at it, as a live stream does"),
     smooth: Optional[int] = typer.Option(None, "--smooth", help="majority vote over N samples (0: none; default "
                                          "with --centred: the model's smoothing span, 11 samples at 20 Hz for the "
                                          "learner's 0.5 s; none live)"),
@@ -527,8 +528,8 @@ def classify(
                                     help="offline, after the event vote: move each event's start and end, by at most "
                                     "a window, to where CHANNEL's distance from its background median crosses LEVEL "
                                     "(its units; yaw_rate=0.09 for the lateral model)"),
-    offline: bool = typer.Option(False, "--offline", help="each model's offline votes stored in its file ('spotfree "
-                                 "votes'), instead of the vote options"),
+    offline: bool = typer.Option(False, "--offline", help="centred windows and each model's offline votes stored "
+                                 "in its file ('spotfree votes'), instead of the vote options"),
     mount: str = MOUNT,
     quiet: bool = QUIET,
     as_json: bool = _json_option('{"output", "samples", "method", "alignment" (causal | centred), '
@@ -548,6 +549,7 @@ def classify(
     if offline and (segments or keep or events or edges):
         raise InputError("--offline takes the votes stored in the model files; give either --offline or the vote "
                          "options --segments, --keep, --events, --edges")
+    centred = centred or offline or bool(segments or keep or events or edges)  # the votes run on offline labels
     penalties = model_penalties(segments, names)
     vote = {"segments": penalties if len(names) > 1 else penalties[names[0]], "keep": tuple(keep),
             "events": tuple(events), "edges": edge_levels(edges)}

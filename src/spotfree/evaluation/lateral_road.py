@@ -10,7 +10,7 @@ amount to (:data:`EVENT_CLASSES`: a road ride's gentle turns, a lateral ride's s
 with ``one_kind`` (both models now) trains instead, as the paper does, on one recording per manoeuvre: each training
 rider rides once per kind of manoeuvre or road event and once without any (:data:`KIND_RIDES`). Tests are labelled
 by :func:`~spotfree.classify.batch.classify_recording` in the streams of :data:`STREAMS`: causal windows (live),
-centred windows, and the causal labels after the offline votes (:mod:`spotfree.votes`: the segment vote at the
+centred windows, and the centred labels after the offline votes (:mod:`spotfree.votes`: the segment vote at the
 spec's penalty, and the event vote and edges where the spec asks for them); supervised peers trained on the same
 rides with every label may label them beside. Each stream is scored per true class
 (:func:`~spotfree.evaluation.metrics.class_accuracy`), strictly and away from true label changes
@@ -93,7 +93,7 @@ STANDING_SPEED = 0.3
 """True speed (m/s) under which the vehicle stands still (:attr:`ModelSpec.moving_only`)."""
 STREAMS = ("live", "centred", "offline vote")
 """A model's own label streams: causal windows (what a live ride shows), centred windows (offline, half a window
-later) and the causal labels after the spec's offline votes (:func:`spec_votes`; they see the whole ride)."""
+later) and the centred labels after the spec's offline votes (:func:`spec_votes`; they see the whole ride)."""
 
 
 KIND_RIDES = {"lateral": (("gentle",), ("sharp",), ("slalom",), ()),
@@ -206,7 +206,7 @@ def split(scenario: str, seed: int, repeats: int = 7, n_train: int = 4, rate: fl
 
 def score(model: DictionaryModel, test: Recording, scenario: str,
           votes: Votes = Votes()) -> tuple[dict[str, Score], Score]:
-    """Per-class and overall accuracy of the causal labels of ``test`` (every labelled sample), after ``votes``
+    """Per-class and overall accuracy of the centred labels of ``test`` (every labelled sample), after ``votes``
     (:func:`spec_votes`; the default runs none)."""
     return score_labels(voted_labels(model, test, votes).label, test, scenario)
 
@@ -238,9 +238,9 @@ def train_and_score(spec: ModelSpec, data: Split, seed: int, peers: dict[str, Pe
     recordings, sets = zip(*data.training)
     learner = spec.learner(seed, **params).fit(list(recordings), list(sets))
     model = learner.model_
-    causal = classify_recording(model, data.test)
-    streams = {"live": causal.label, "centred": classify_recording(model, data.test, centred=True).label,
-               "offline vote": apply_votes(model, data.test, causal, spec_votes(spec, model)).label}
+    centred = classify_recording(model, data.test, centred=True)
+    streams = {"live": classify_recording(model, data.test).label, "centred": centred.label,
+               "offline vote": apply_votes(model, data.test, centred, spec_votes(spec, model)).label}
     scored = ModelScore(spec, model, data.test, {name: scored_labels(spec, label, data)
                                                 for name, label in streams.items()}, list(learner.warnings_))
     for name, peer in (peers or {}).items():

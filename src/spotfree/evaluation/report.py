@@ -604,7 +604,7 @@ Each model is trained spotting-free on this seed's simulated rides of four train
 manoeuvre or road event and one without any, each declaring only the classes it holds
 (`spotfree.evaluation.lateral_road`); it labels the rides of three held-out riders with kernel CRC_RLS. Streams:
 **live**, causal windows (what a live ride shows); **centred**, centred windows (offline); **offline vote**, the
-causal labels after the model's offline votes (they see the whole ride): the segment vote (`spotfree classify
+centred labels after the model's offline votes (they see the whole ride): the segment vote (`spotfree classify
 --segments`) cuts each ride where the model's channels change (PELT) and gives every segment the label most of its
 samples carry; the lateral model's event vote (`--events straight`) then gives each run of turn labels, one turn or
 slalom, the label most of its samples carry, and its event edges (`--edges yaw_rate=0.09`) move each turn's start

@@ -3,7 +3,8 @@ labels, and stored in its file.
 
 :class:`Votes` holds the options of one model: the segment vote's penalty, the classes the votes keep, the event
 vote's background class and the event edges (``spotfree classify --segments --keep --events --edges``). They run on
-labels made without them (:func:`apply_votes`), per gap-free stretch, in that order. Their settings are chosen per
+labels made without them (:func:`apply_votes`), per gap-free stretch, in that order; being offline, by default on the
+centred labels (:func:`voted_labels`, :func:`voted_models`). Their settings are chosen per
 model by whoever trained it, who may store them in the model file, ``parameters["votes"]`` of
 :class:`~spotfree.model.DictionaryModel` (JSON: ``{"segments": P, "keep": [CLASS...], "events": [CLASS], "edges":
 {CHANNEL: LEVEL}}``, checked against the model when stored), so that whoever labels with the model need not know
@@ -168,12 +169,13 @@ def apply_votes(model: DictionaryModel, rec: Recording, labels: Labels, votes: V
     return replace(labels, label=label, meta=meta)
 
 
-def voted_labels(model: DictionaryModel, rec: Recording, votes: Votes, **options) -> Labels:
-    """:func:`~spotfree.classify.batch.classify_recording` of ``rec`` by ``model`` (``options``: its keyword
-    arguments) after :func:`apply_votes`; the votes are checked first and the features computed once."""
+def voted_labels(model: DictionaryModel, rec: Recording, votes: Votes, centred: bool = True, **options) -> Labels:
+    """:func:`~spotfree.classify.batch.classify_recording` of ``rec`` by ``model`` (``centred`` windows by default,
+    the offline labels; ``options``: its other keyword arguments) after :func:`apply_votes`; the votes are checked
+    first and the features computed once."""
     votes.plan(model)
     feats = classifiable_features(model, rec)
-    return apply_votes(model, feats, classify_recording(model, feats, **options), votes)
+    return apply_votes(model, feats, classify_recording(model, feats, centred=centred, **options), votes)
 
 
 def votes_per_model(models: Mapping[str, DictionaryModel], segments: float | Mapping[str, float] | None = None,
@@ -197,13 +199,14 @@ def votes_per_model(models: Mapping[str, DictionaryModel], segments: float | Map
 
 
 def voted_models(models: Mapping[str, DictionaryModel], rec: Recording, votes: Mapping[str, Votes],
-                 **options) -> pd.DataFrame:
-    """:func:`~spotfree.classify.multi.classify_models` of ``rec`` (``options``: its keyword arguments) with each
-    model's labels after its ``votes`` (by name; a model not named runs none); one feature pass."""
+                 centred: bool = True, **options) -> pd.DataFrame:
+    """:func:`~spotfree.classify.multi.classify_models` of ``rec`` (``centred`` windows by default, the offline
+    labels; ``options``: its other keyword arguments) with each model's labels after its ``votes`` (by name; a model
+    not named runs none); one feature pass."""
     for name, model in models.items():
         votes.get(name, Votes()).plan(model)
     feats = shared_features(models, rec)
-    labels = model_labels(models, feats, **options)
+    labels = model_labels(models, feats, centred=centred, **options)
     return label_table({name: apply_votes(models[name], feats, labels[name], votes.get(name, Votes()))
                         for name in models})
 
