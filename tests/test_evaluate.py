@@ -14,7 +14,7 @@ import spotfree.evaluation.run
 from spotfree.cli import app
 from spotfree.errors import InputError
 from spotfree.evaluation.lateral_road import MODELS, STREAMS, ModelSpec, Split, scored_labels
-from spotfree.evaluation.measure import MINIROCKET
+from spotfree.evaluation.measure import MINIROCKET, MINIROCKET_OFFLINE
 from spotfree.evaluation.report import CONFUSION_FIGURES, GOALS, TIMELINES
 from spotfree.sim.scenarios import CLASSES
 from spotfree.evaluation.metrics import (
@@ -197,7 +197,7 @@ def _rate(cell: str) -> float:
 def test_quick_run_report_scores_every_lateral_and_road_class_in_every_stream_and_times_the_three_models(quick_run):
     folder, _ = quick_run
     report = (folder / "report.md").read_text()
-    streams = [*STREAMS, *([MINIROCKET] if HAS_AEON else [])]
+    streams = [*STREAMS, *([MINIROCKET, MINIROCKET_OFFLINE] if HAS_AEON else [])]
     for scenario in ("lateral", "road"):
         section = report.split(f"### {scenario}\n", 1)[1].split("\n### ", 1)[0]
         header = "| true class | scored samples (live) | " + " | ".join(
@@ -238,15 +238,15 @@ def test_quick_run_summary_gives_one_line_per_model_with_its_goal_verdict(quick_
     glance = report.split("## Goals at a glance", 1)[1].split("\n## ", 1)[0]
     cell = r"(\d+\.\d\d) \(([a-z-]+)\)"
     for model in ("braking (kernel CRC_RLS)", "lateral (offline: the votes)", "road (offline: the votes)"):
-        row = re.search(rf"\| {re.escape(model)} \| {cell} \| {cell} \| (?:{cell}|-) \| [^|]+ \| (yes|no) \| "
-                        r"(yes|no|-) \|", glance)
+        row = re.search(rf"\| {re.escape(model)} \| {cell} \| {cell} \| (?:{cell}|-) \| (?:{cell}|-) \| [^|]+ \| "
+                        r"(yes|no) \| (yes|no|-) \|", glance)
         assert row, model
         offline, live = float(row[1]), float(row[3])
-        assert row[7] == ("yes" if offline >= 100 * GOALS["offline"] and live >= 100 * GOALS["live"] else "no")
-        if HAS_AEON:
-            assert row[8] == ("yes" if min(offline, live) >= float(row[5]) else "no")
+        assert row[9] == ("yes" if offline >= 100 * GOALS["offline"] and live >= 100 * GOALS["live"] else "no")
+        if HAS_AEON:  # each mode against the peer's same mode
+            assert row[10] == ("yes" if offline >= float(row[5]) and live >= float(row[7]) else "no")
         else:
-            assert row[5] is None and row[8] == "-"
+            assert row[5] is None and row[7] is None and row[10] == "-"
     found = {}
     for model in ("sudden stops", "kerb strikes"):
         row = re.search(rf"\| {model} \| F1 ([\d.]+|-), (\d+) / (\d+), (\d+) false alarms \(([\d.]+) per hour\) \|"
@@ -262,17 +262,18 @@ def test_quick_run_summary_gives_one_line_per_model_with_its_goal_verdict(quick_
     # the assistant merges label runs into stops and drops runs too short to warn: never more detections or alarms
     assert warned and warned[3] == raw[3] and int(warned[2]) <= int(raw[2]) and int(warned[4]) <= int(raw[4])
     assert int(warned[7]) <= int(raw[7]) and int(warned[9]) <= int(raw[9])
-    postures = re.search(r"\| hand postures \(per frame\) \| (\d+\.\d\d) \| (\d+\.\d\d) \| (\d+\.\d\d|-) \| 100 % \| "
-                         r"(yes|no) \| (yes|no|-) \|", glance)
-    assert postures and postures[4] == ("yes" if float(postures[1]) == float(postures[2]) == 100.0 else "no")
+    postures = re.search(r"\| hand postures \(per frame\) \| (\d+\.\d\d) \| (\d+\.\d\d) \| (\d+\.\d\d|-) \| "
+                         r"(\d+\.\d\d|-) \| 100 % \| (yes|no) \| (yes|no|-) \|", glance)
+    assert postures and postures[5] == ("yes" if float(postures[1]) == float(postures[2]) == 100.0 else "no")
     gestures = re.search(r"\| hand gestures \(from 10 % of peak speed, 0.1 s collar\) \| (\d+\.\d\d) \| "
-                         r"(\d+\.\d\d) \| (\d+\.\d\d|-) \| [^|]+ \| (yes|no) \| (yes|no|-) \|", glance)
-    assert gestures and gestures[4] == ("yes" if float(gestures[1]) >= 99.0 and float(gestures[2]) >= 95.0 else "no")
-    for row in (postures, gestures):  # the hand's MiniRocket peer, live, when aeon is there
+                         r"(\d+\.\d\d) \| (\d+\.\d\d|-) \| (\d+\.\d\d|-) \| [^|]+ \| (yes|no) \| (yes|no|-) \|",
+                         glance)
+    assert gestures and gestures[5] == ("yes" if float(gestures[1]) >= 99.0 and float(gestures[2]) >= 95.0 else "no")
+    for row in (postures, gestures):  # the hand's MiniRocket peer offline and live, when aeon is there
         if HAS_AEON:
-            assert row[5] == ("yes" if min(float(row[1]), float(row[2])) >= float(row[3]) else "no")
+            assert row[6] == ("yes" if float(row[1]) >= float(row[3]) and float(row[2]) >= float(row[4]) else "no")
         else:
-            assert row[3] == "-" and row[5] == "-"
+            assert row[3] == row[4] == row[6] == "-"
     assert re.search(r"\| hand gestures \| F1 [\d.]+, \d+ / \d+, \d+ false detections \| F1 [\d.]+, \d+ / \d+, ",
                      glance)
 

@@ -21,7 +21,7 @@ asks it; the spec's short classes (kerbs) are scored as detected events too
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -234,7 +234,8 @@ def train_and_score(spec: ModelSpec, data: Split, seed: int, peers: dict[str, Pe
                     **params) -> ModelScore:
     """Train ``spec`` on ``data.training`` (``params`` override the learner's parameters), label ``data.test`` in
     every stream of :data:`STREAMS`; each of ``peers`` is fitted on the same training rides with their ground truth
-    and labels the tests too (under its name)."""
+    and labels the tests too (under its name), a peer on centred windows (offline) after the spec's votes, as the
+    model's offline labels are."""
     recordings, sets = zip(*data.training)
     learner = spec.learner(seed, **params).fit(list(recordings), list(sets))
     model = learner.model_
@@ -245,6 +246,9 @@ def train_and_score(spec: ModelSpec, data: Split, seed: int, peers: dict[str, Pe
                                                 for name, label in streams.items()}, list(learner.warnings_))
     for name, peer in (peers or {}).items():
         predicted = peer.fit(list(recordings)).predict(data.test)
+        if getattr(peer, "alignment", None) == "centred":
+            predicted = apply_votes(model, data.test, replace(centred, label=predicted, meta={}),
+                                    spec_votes(spec, model)).label
         scored.labels[name] = scored_labels(spec, predicted, data)
         scored.peer_seconds[name] = peer.fit_time_ + peer.predict_time_
     return scored

@@ -115,18 +115,21 @@ def check_peers() -> None:
 
 
 MINIROCKET = "MiniRocket (supervised)"
-"""The name of the MiniRocket peer, the supervised peer of every ride model."""
+"""The name of the MiniRocket peer, the supervised peer of every ride model (causal windows: live)."""
+MINIROCKET_OFFLINE = "MiniRocket (supervised, centred)"
+"""The name of the same peer on centred windows (offline), with the majority vote every offline label gets."""
 NEAREST = "1-NN (supervised)"
 """The name of the 1-nearest-neighbour peer."""
 
 
 def make_peers(channels, window: int, protocol: Protocol, train_step: int = 1) -> dict[str, Peer]:
-    """The peers on ``channels`` and ``window`` (samples), window classifiers aligned as :data:`HEADLINE` and fitted
-    on every ``train_step``-th training window."""
+    """The peers on ``channels`` and ``window`` (samples), window classifiers aligned as :data:`HEADLINE` (and
+    MiniRocket once more on centred windows) and fitted on every ``train_step``-th training window."""
     common = {"channels": tuple(channels), "window": int(window)}
+    minirocket = {"n_kernels": protocol.minirocket_kernels, "random_state": protocol.seed, "train_step": train_step}
     return {
-        MINIROCKET: MiniRocketPeer(**common, alignment=HEADLINE, n_kernels=protocol.minirocket_kernels,
-                                   random_state=protocol.seed, train_step=train_step),
+        MINIROCKET: MiniRocketPeer(**common, alignment=HEADLINE, **minirocket),
+        MINIROCKET_OFFLINE: MiniRocketPeer(**common, alignment="centred", **minirocket),
         NEAREST: NearestNeighbourPeer(**common, alignment=HEADLINE, train_step=train_step),
         "ClaSP (segments named by class centroids)": ClaspPeer(**common),
     }

@@ -23,8 +23,8 @@ from spotfree.errors import InputError
 from spotfree.evaluation.figures import confusion_figure, event_timeline, results_figure, training_figure
 from spotfree.evaluation.hand import PEER_CHANNELS, PEER_WINDOW, evaluate_hand
 from spotfree.evaluation.metrics import naming_scores
-from spotfree.evaluation.measure import HEADLINE, MINIROCKET, NEAREST, check_peers, crc_runs, make_peers, method_runs, \
-    peer_runs
+from spotfree.evaluation.measure import HEADLINE, MINIROCKET, MINIROCKET_OFFLINE, NEAREST, check_peers, crc_runs, \
+    make_peers, method_runs, peer_runs
 from spotfree.evaluation.protocol import SCENARIOS, Protocol, simulate, train_dictionary
 from spotfree.evaluation.report import Evaluation, confusion_panels, event_rides, render
 from spotfree.evaluation.ride_models import evaluate_ride_models
@@ -52,12 +52,12 @@ def evaluate(output: str | Path, seed: int = 0, quick: bool = False, progress: P
     kcrc = crc_runs(model, data, "kcrc")
     say("CRC_RLS vs SRC vs B_SRC on a subsample of windows")
     methods = method_runs(model, data, protocol.method_windows)
-    say("peers: MiniRocket, 1-NN, ClaSP")
+    say("peers: MiniRocket (causal and centred), 1-NN, ClaSP")
     peers = peer_runs(make_peers(model.channels, model.window, protocol), data)
     say("lateral and road models beside their MiniRocket peers, and the three models on one stream")
     ride_models = evaluate_ride_models(model, seed, lambda spec: {
         name: peer for name, peer in make_peers(spec.channels, spec.window, protocol, protocol.ride_train_step).items()
-        if name == MINIROCKET})
+        if name in (MINIROCKET, MINIROCKET_OFFLINE)})
     say(f"the hand: trained on {protocol.hand_people[0]} people, tested on {protocol.hand_people[1]}, beside its peers")
     hand = evaluate_hand(*protocol.hand_people, seed=seed, peers={
         name: peer for name, peer in make_peers(PEER_CHANNELS, PEER_WINDOW, protocol, protocol.hand_train_step).items()
