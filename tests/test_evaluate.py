@@ -262,6 +262,11 @@ def test_quick_run_summary_gives_one_line_per_model_with_its_goal_verdict(quick_
     # the assistant merges label runs into stops and drops runs too short to warn: never more detections or alarms
     assert warned and warned[3] == raw[3] and int(warned[2]) <= int(raw[2]) and int(warned[4]) <= int(raw[4])
     assert int(warned[7]) <= int(raw[7]) and int(warned[9]) <= int(raw[9])
+    stops = report.split("## Sudden stops as events", 1)[1].split("\n## ", 1)[0]
+    for alignment, (detected, alarms) in (("centred", (2, 4)), ("causal", (7, 9))):  # the goals' offline, live cells
+        detail = re.search(rf"\| spotfree kernel CRC_RLS \({alignment}\), as the rider is warned \| (\d+) / \d+ \| "
+                           r"(\d+) \|", stops)
+        assert detail and (detail[1], detail[2]) == (warned[detected], warned[alarms]), alignment
     postures = re.search(r"\| hand postures \(per frame\) \| (\d+\.\d\d) \| (\d+\.\d\d) \| (\d+\.\d\d|-) \| "
                          r"(\d+\.\d\d|-) \| 100 % \| (yes|no) \| (yes|no|-) \|", glance)
     assert postures and postures[5] == ("yes" if float(postures[1]) == float(postures[2]) == 100.0 else "no")
