@@ -239,16 +239,15 @@ def train_and_score(spec: ModelSpec, data: Split, seed: int, peers: dict[str, Pe
     recordings, sets = zip(*data.training)
     learner = spec.learner(seed, **params).fit(list(recordings), list(sets))
     model = learner.model_
-    centred = classify_recording(model, data.test, centred=True)
+    centred, votes = classify_recording(model, data.test, centred=True), spec_votes(spec, model)
     streams = {"live": classify_recording(model, data.test).label, "centred": centred.label,
-               "offline vote": apply_votes(model, data.test, centred, spec_votes(spec, model)).label}
+               "offline vote": apply_votes(model, data.test, centred, votes).label}
     scored = ModelScore(spec, model, data.test, {name: scored_labels(spec, label, data)
                                                 for name, label in streams.items()}, list(learner.warnings_))
     for name, peer in (peers or {}).items():
         predicted = peer.fit(list(recordings)).predict(data.test)
         if getattr(peer, "alignment", None) == "centred":
-            predicted = apply_votes(model, data.test, replace(centred, label=predicted, meta={}),
-                                    spec_votes(spec, model)).label
+            predicted = apply_votes(model, data.test, replace(centred, label=predicted, meta={}), votes).label
         scored.labels[name] = scored_labels(spec, predicted, data)
         scored.peer_seconds[name] = peer.fit_time_ + peer.predict_time_
     return scored

@@ -240,7 +240,7 @@ def goals(ev: Evaluation) -> list[Goal]:
                             _peer(lambda runs: _worst(braking_classes(ev, runs)), peers)))
     for name, result in ev.ride_models.scores.items():
         rows.append(_class_goal(f"{name} (offline: the votes)", result.worst("offline vote"), result.worst("live"),
-                                _peer(result.worst, {m: n for m, n in PEER_MODES.items() if n in result.labels})))
+                                _peer(result.worst, _peer_streams(result))))
     hand, peer = hand_goals(ev.hand), hand_peer_goals(ev.hand)
     for key, name, target, off_goal, live_goal in (
             ("postures", "hand postures (per frame)", f"{100 * GOALS['postures']:g} %", GOALS["postures"],
@@ -262,8 +262,7 @@ def goals(ev: Evaluation) -> list[Goal]:
     for name, result in ev.ride_models.scores.items():
         for c in MODELS[name].detections:
             events.append((f"{c} strikes", result.events(c, "offline vote"), result.events(c, "live"),
-                           _peer(partial(result.events, c), {m: n for m, n in PEER_MODES.items()
-                                                             if n in result.labels})))
+                           _peer(partial(result.events, c), _peer_streams(result))))
     for name, off, on, theirs in events:
         meets = all(e.f1 >= GOALS["event_f1"] and e.false_alarms_per_hour <= GOALS["alarms_per_hour"]
                     for e in (off, on))
@@ -290,6 +289,11 @@ def _peer(figure, runs: dict):
     """``(offline, live)`` of ``figure`` applied to the peer's run of each mode in ``runs`` (by mode, the runs or
     their stream names); None unless both modes ran."""
     return None if len(runs) < len(PEER_MODES) else tuple(figure(runs[mode]) for mode in PEER_MODES)
+
+
+def _peer_streams(result: ModelScore) -> dict[str, str]:
+    """Per mode of :data:`PEER_MODES`, the name of the peer's label stream in ``result`` (the modes it ran)."""
+    return {mode: name for mode, name in PEER_MODES.items() if name in result.labels}
 
 
 def _above(offline: float, live: float, peer: tuple[float, float] | None) -> bool | None:
@@ -731,7 +735,8 @@ def _sudden_stops(ev: Evaluation) -> str:
     rows = [[name, *_event_cells(sudden_stops(ev, runs))] for name, runs in methods]
     rows += [[f"{name}, as the rider is warned", *_event_cells(sudden_stops(ev, runs, as_warned=True))]
              for name, runs in methods
-             if name in ("spotfree kernel CRC_RLS (causal)", "spotfree kernel CRC_RLS (centred)", *PEER_MODES.values())]
+             if name in ("spotfree kernel CRC_RLS (causal)", "spotfree kernel CRC_RLS (centred)",
+                         *PEER_MODES.values())]
     return f"""## Sudden stops as events
 
 Each run of true `sudden-braking` samples in a test ride is one sudden stop, detected when a run of
