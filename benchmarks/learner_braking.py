@@ -9,7 +9,9 @@ changes over all tests, as the goals table of ``spotfree evaluate`` reads one se
 evaluate`` and the shipped default model do: on the normal-braking and sudden-braking rides only (no cruising ride),
 so that a single ride declares sudden braking and a single one does not. Every spotfree row is the ``braking`` preset's
 learner (:func:`spotfree.presets.preset_learner`: its channels, window and column share), with the representation or
-the prior its name says.
+the prior its name says. The "true names" row is that learner with every training window named by the true label at
+its centre (``real_har.TrueNames``): the same windows, columns and classifier, so what the dictionary and kernel
+CRC_RLS reach on these rides when the naming is perfect.
 
     python benchmarks/learner_braking.py [--seeds 0 1 2 3 4]
 
@@ -26,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from machine import describe
+from real_har import TrueNames, named_right
 from spotfree.evaluation.metrics import near_transitions
 from spotfree.evaluation.peers import MiniRocketPeer
 from spotfree.presets import preset_learner
@@ -47,6 +50,7 @@ def methods():
         "spotfree, hankel, ride prior, two rides (as spotfree evaluate)": (hankel, SCENARIOS[:2]),
         "spotfree, summary, ride prior": (lambda: preset_learner("braking", representation="summary"), SCENARIOS),
         "spotfree, hankel, no prior": (lambda: preset_learner("braking", prior=None), SCENARIOS),
+        "spotfree, hankel, ride prior, true names": (lambda: TrueNames(**hankel().get_params()), SCENARIOS),
         "MiniRocket (every label)": (lambda: MiniRocketPeer(channels=CHANNELS, alignment="centred"), SCENARIOS),
     }
 
@@ -57,6 +61,7 @@ def main() -> None:
     args = parser.parse_args()
     hits = {m: {s: np.zeros(4) for s in SCENARIOS} for m in methods()}
     lowest = {m: [] for m in methods()}  # per seed: (class, accuracy) of the class labelled worst
+    right = {m: [] for m in methods()}  # per seed: share of the learner's training windows named right
     for seed in args.seeds:
         feats = {s: ride_features(simulate_scenario(s, repeats=7, seed=seed), derived=True) for s in SCENARIOS}
         for name, (make, trained_on) in methods().items():
@@ -65,6 +70,8 @@ def main() -> None:
                 model.fit(train)
             else:
                 model.set_params(seed=seed).fit(train, [CLASSES[s] for s in trained_on])
+                if not isinstance(model, TrueNames):
+                    right[name].append(100 * named_right(model, train))
             per_class: dict[str, np.ndarray] = {}
             for s in SCENARIOS:
                 for k in range(2, 8):
@@ -95,6 +102,12 @@ def main() -> None:
     for name, per_seed in lowest.items():
         lines.append(f"| {name} | " + " | ".join(f"{a:.1f} % ({c})" for c, a in per_seed)
                      + f" | {np.mean([a for _, a in per_seed]):.1f} % |")
+    lines += ["", "Training windows named right (the learner's final names against the true label at each window's centre, "
+              "which the learner never sees), per seed:", "",
+              "| method | " + " | ".join(f"seed {seed}" for seed in args.seeds) + " | mean |",
+              "|---|" + "---|" * (len(args.seeds) + 1)]
+    lines += [f"| {name} | " + " | ".join(f"{a:.1f} %" for a in shares) + f" | {np.mean(shares):.1f} % |"
+              for name, shares in right.items() if shares]
     RESULTS.parent.mkdir(exist_ok=True)
     RESULTS.write_text("\n".join(lines) + "\n")
     print("\n".join(lines))

@@ -126,7 +126,7 @@ def centre_truth(recording: Recording, ends: np.ndarray, window: int) -> np.ndar
 class TrueNames(SetSupervisedLearner):
     """:class:`SetSupervisedLearner` whose windows are named by the true label at their centre instead of by its
     rounds and decoding (its private step ``_decide``): what its dictionary and classifier reach with perfect names.
-    For this benchmark only; it reads the clips' ``truth``, which the learner never does."""
+    For the benchmarks only; it reads the recordings' ``truth``, which the learner never does."""
 
     def fit(self, recordings, class_sets):
         self.recordings_ = list(recordings)
