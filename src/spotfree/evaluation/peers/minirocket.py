@@ -10,8 +10,8 @@ pattern boundaries marked by hand.
 
 from __future__ import annotations
 
-from spotfree.errors import InputError
 from spotfree.classify.smoothing import VOTE_SECONDS
+from spotfree.errors import InputError
 from spotfree.evaluation.peers.base import DEFAULT_CHANNELS, WindowClassifierPeer, from_aeon
 
 MIN_WINDOW = 9
