@@ -288,6 +288,34 @@ def test_a_missing_value_in_a_resampled_file_is_dropped_and_logged(tmp_path):
                                                     rate=20.0).meta["repairs"])
 
 
+def test_a_speed_of_minus_one_or_nan_is_an_unknown_speed_and_a_note_says_how_many(tmp_path):
+    columns = {k: v.astype(object) for k, v in imu_table(n=100).items()}
+    columns["lat"], columns["lon"] = [35.7] * 100, [139.7] * 100
+    columns["speed"] = [3.0] * 100
+    for row in range(10):
+        columns["speed"][row] = -1  # iOS Core Location writes -1 for an unknown speed
+    columns["speed"][20], columns["speed"][21] = "NaN", "nan"
+    columns["speed"][30] = ""  # no fix: not an unknown speed
+    columns["lat"][30] = columns["lon"][30] = ""
+    rec = read_csv(write_table(tmp_path / "ios.csv", columns))
+    assert np.isnan(rec.channels["speed"][[*range(10), 20, 21, 30]]).all()
+    assert (rec.channels["speed"][11:20] == 3.0).all()
+    assert [r for r in rec.meta["repairs"] if "speed" in r] == [
+        f"{tmp_path / 'ios.csv'}: -1 (iOS's mark for an unknown speed) in 10 and NaN in 2 speed cell(s), "
+        f"read as missing GPS speed samples"]
+
+
+def test_another_negative_speed_is_refused_with_a_plain_number(tmp_path):
+    from spotfree.limits import check_recording
+
+    columns = imu_table(n=100)
+    columns["speed"] = np.where(np.arange(100) == 5, -0.5, 3.0)
+    rec = read_csv(write_table(tmp_path / "neg.csv", columns))
+    with pytest.raises(InputError, match=r"channel 'speed', sample 6 \(t = 0\.250 s\): -0\.5 is outside") as error:
+        check_recording(rec)
+    assert "np." not in str(error.value)
+
+
 # ---------------------------------------------------------------- time
 
 

@@ -59,4 +59,4 @@ def check_recording(rec) -> None:
         if bad.any():
             k = int(np.flatnonzero(bad)[0])
             raise InputError(f"{rec.source}: channel {name!r}, sample {k + 1} (t = {rec.time[k]:.3f} s): "
-                             f"{column[k]!r} is outside what a phone records; give {fix}")
+                             f"{float(column[k]):g} is outside what a phone records; give {fix}")

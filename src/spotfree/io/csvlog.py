@@ -31,6 +31,8 @@ Reading rules (every repair is logged in ``meta['repairs']``, every doubt in ``m
   ``rate`` Hz grid by :func:`~spotfree.io.resample.merge_streams` (anti-aliased; ground truth: the nearest row),
   and a note says so: logs of several rates go onto one grid.
 * ``ax ay az`` whose median magnitude is near 1 are in g and refused with the factor to apply.
+* a ``speed`` of exactly -1 (iOS's mark for an unknown speed) or NaN is a missing sample, and a note says how
+  many; any other negative speed is refused.
 
 Writing uses ``%.10g`` for channels (about 1e-10 relative), the shortest exact form of the time rounded to the
 nanosecond, empty cells for NaN, and replaces the target only once the whole file is written.
@@ -104,6 +106,8 @@ def read_csv(path: str | Path, rate: float = 20.0, max_gap: float = 0.5) -> Reco
     empty = [c for c, column in zip(channel_names, values.T) if np.isnan(column).all() and c not in GPS_CHANNELS]
     if empty:
         raise InputError(f"{source}: column {empty[0]!r} holds no numbers; fill it or drop the column")
+    if "speed" in channel_names:
+        _unknown_speed(table["speed"], values[:, channel_names.index("speed")], source, repairs)
     truth = {c: table[c].to_numpy(dtype=str) for c in truth_names}
     experiment = _experiments(table, source, decimal) if "experiment" in table.columns else None
 
@@ -226,6 +230,21 @@ def _channel(table: pd.DataFrame, column: str, source: str, decimal: str) -> np.
                 f"{source}: column {column!r} holds text; only 'label' and 'event' may hold text, drop or rename it"
             ) from None
         raise
+
+
+def _unknown_speed(cells: pd.Series, speed: np.ndarray, source: str, repairs: list[str]) -> None:
+    """Speeds (m/s) of exactly -1 (iOS Core Location's mark for an unknown speed) set to NaN in place, and a note
+    of how many speeds were unknown: the -1 cells and the cells that spell NaN (an empty cell is no fix, not told).
+
+    Any other negative speed stays and is refused downstream (:func:`spotfree.limits.check_recording`).
+    """
+    marked = speed == -1.0
+    spelt = np.isnan(speed) & (cells.astype(str).str.strip() != "").to_numpy()
+    speed[marked] = np.nan
+    if marked.any() or spelt.any():
+        kinds = [f"-1 (iOS's mark for an unknown speed) in {int(marked.sum())}"] if marked.any() else []
+        kinds += [f"NaN in {int(spelt.sum())}"] if spelt.any() else []
+        repairs.append(f"{source}: {' and '.join(kinds)} speed cell(s), read as missing GPS speed samples")
 
 
 def _experiments(table: pd.DataFrame, source: str, decimal: str) -> np.ndarray:
