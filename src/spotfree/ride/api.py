@@ -21,9 +21,10 @@ Pages: ``/`` the phone page (streams DeviceMotion and Geolocation), ``/rider`` a
   ``{"type": "error", "status", "message"}`` (``seq`` too for a batch, ``retry_after`` s for a 429) and changes
   nothing; a binary frame is answered by closing the socket (code 1003, with the reason);
 * ``POST /push?platform=android|ios`` the Sensor Logger app's HTTP push (:mod:`spotfree.ride.sensorpush`): one
-  ride per ``sessionId``; parsed in a thread, in time linear in its size. The answer counts the samples stored
-  (``count``) and the readings ``dropped`` (a slot only one motion sensor filled); a refused message (4xx) changes
-  nothing and may be sent again.
+  ride per ``sessionId`` (freed when the ride ends or idles); parsed and resampled in a thread, in time linear in
+  its size. The answer counts the samples stored (``count``) and the readings ``dropped`` (a slot only one motion
+  sensor filled, within :data:`~spotfree.ride.sensorpush.STALE_SECONDS`); a refused message (4xx) changes nothing
+  and may be sent again.
 
 Operator: ``POST /api/enrolments`` ``{"uses"?, "ttl"?}`` -> ``{"code", "expires", "uses"}``. Views (the operator;
 a device for its own rides): ``GET /api/rides``, ``GET /api/rides/{id}`` (samples, features, labels, events, for
@@ -53,7 +54,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import copy
 import inspect
 import math
 import re
@@ -69,7 +69,7 @@ from starlette.websockets import WebSocketState
 
 from spotfree.errors import InputError, SpotfreeError
 from spotfree.ride import validation
-from spotfree.ride.sensorpush import PushResampler, parse_push
+from spotfree.ride.sensorpush import PushResampler, PushSessions, parse_push
 from spotfree.ride.service import OPERATOR, Identity, RateError, RideService, UnavailableError
 from spotfree.ride.store import AccessError, ForbiddenError, NotFoundError
 from spotfree.ride.tokens import token_hash
@@ -264,8 +264,7 @@ def create_app(service: RideService) -> FastAPI:
     app = FastAPI(title="spotfree ride assistant", docs_url=None, redoc_url=None)
     app.add_middleware(SecurityHeaders)
     app.mount("/static", StaticFiles(directory=STATIC), name="static")
-    sessions: dict[tuple[str, str], tuple[str, PushResampler]] = {}
-    locks: dict[tuple[str, str], asyncio.Lock] = {}
+    sessions = app.state.push_sessions = PushSessions(service)
 
     for route, page in (("/", "phone.html"), ("/rider", "rider.html"), ("/operator", "operator.html")):
         app.add_api_route(route, lambda page=page: FileResponse(STATIC / page), methods=["GET"],
@@ -347,25 +346,32 @@ def create_app(service: RideService) -> FastAPI:
         except InputError as exc:
             raise HTTPException(400, _one_line(exc)) from None
         key = (token_hash(token), session)
-        async with locks.setdefault(key, asyncio.Lock()):  # one message of a session at a time, in order
-            if key not in sessions:
+        held = sessions.get(key)
+        async with held.lock:  # one message of a session at a time, in order
+            if held.ride_id is None:
                 device = body.get("deviceId")
                 device = device if isinstance(device, str) and device.isprintable() else "unknown"
-                ride_id = await _call(service.start_ride, token, "sensor-logger", device[:validation.MAX_TEXT])
-                sessions[key] = (ride_id, PushResampler(service.model.rate))
-            ride_id, resampler = sessions[key]
-            # the message is resampled on a copy, kept only once its samples are stored: a refused message
+                try:
+                    ride_id = await _call(service.start_ride, token, "sensor-logger", device[:validation.MAX_TEXT])
+                except HTTPException:
+                    sessions.forget(key, held)
+                    raise
+                sessions.started(key, held, ride_id, PushResampler(service.model.rate))
+            resampler, before = held.resampler, held.resampler.dropped
+            # resampled in place, in a thread, and undone unless its samples are stored: a refused message
             # leaves the session as it was, and the app may send it again
-            trial = copy.deepcopy(resampler)
             try:
-                columns = trial.add(readings)
+                columns = await run_in_threadpool(resampler.add, readings)
             except InputError as exc:
                 raise HTTPException(400, _one_line(exc)) from None
             ack = {"count": 0}
-            if columns["time"]:
-                ack = await _call(service.ingest_async, token, ride_id, columns)
-            sessions[key] = (ride_id, trial)
-        return {"ride_id": ride_id, **ack, "dropped": trial.dropped - resampler.dropped}
+            try:
+                if columns["time"]:
+                    ack = await _call(service.ingest_async, token, held.ride_id, columns)
+            except BaseException:
+                resampler.rollback()
+                raise
+        return {"ride_id": held.ride_id, **ack, "dropped": resampler.dropped - before}
 
     @app.websocket("/ws/ride")
     async def stream(websocket: WebSocket):

@@ -171,6 +171,7 @@ class RideService:
         self._operator_hash = store.operator_token_hash()
         self._restoring = threading.Lock()
         self._stopping = threading.Event()
+        self._end_listeners: list[Callable[[str], None]] = []
 
     # ------------------------------------------------------------ credentials
 
@@ -249,6 +250,19 @@ class RideService:
                 SampleBucket(BACKLOG_SECONDS * self.model.rate, RATE_FACTOR * self.model.rate))
         return ride_id
 
+    def on_end(self, listener: Callable[[str], None]) -> None:
+        """Call ``listener(ride_id)`` once a ride of this process's service has ended (:meth:`end_ride`) or was
+        closed idle (:meth:`close_idle_rides`), in the thread that ended it; it must not raise or block."""
+        self._end_listeners.append(listener)
+
+    def _ended(self, ride_id: str, events: list[dict]) -> None:
+        """Tell the views and the end listeners that ``ride_id`` ended with ``events``."""
+        self._publish({"type": "end", "ride_id": ride_id, "events": events}, ride_id)
+        with self._lock:
+            self._owners.pop(ride_id, None)
+        for listener in self._end_listeners:
+            listener(ride_id)
+
     def set_destination(self, token: str, ride_id: str, lat: float, lon: float) -> None:
         """The rider's destination (WGS-84 degrees) for the time-to-arrival; kept in the store, so that a ride
         rebuilt after a restart (:meth:`_replay`) goes on with it."""
@@ -268,10 +282,7 @@ class RideService:
 
     def end_ride(self, token: str, ride_id: str) -> None:
         """Close the ride: its open episodes become events, and the store refuses later samples."""
-        events = self._close_ride(token, ride_id)
-        self._publish({"type": "end", "ride_id": ride_id, "events": events}, ride_id)
-        with self._lock:
-            self._owners.pop(ride_id, None)
+        self._ended(ride_id, self._close_ride(token, ride_id))
 
     def _close_ride(self, token: str, ride_id: str) -> list[dict]:
         ride = self._own(token, ride_id)
@@ -433,9 +444,7 @@ class RideService:
         stale = [(ride_id, last) for ride_id, last in self.store.open_ride_activity() if now - last > idle]
         closed = self._close_stale(stale)
         for ride_id, events in closed.items():
-            self._publish({"type": "end", "ride_id": ride_id, "events": events}, ride_id)
-            with self._lock:
-                self._owners.pop(ride_id, None)
+            self._ended(ride_id, events)
         return list(closed)
 
     def _close_stale(self, stale: list[tuple[str, float]]) -> dict[str, list[dict]]:

@@ -1,0 +1,103 @@
+"""One client cannot exhaust the ride service for the others (issue 72): push sessions bounded and freed, quotas
+per device, limits for the unauthenticated; FastAPI's TestClient and the service's own objects, in seconds."""
+
+import math
+
+import numpy as np
+import pytest
+
+pytest.importorskip("fastapi")
+
+from service_fixtures import bearer, enrol, model, raw  # noqa: E402,F401
+from test_ride_service import client  # noqa: E402,F401 (fixture)
+from spotfree.ride.sensorpush import STALE_SECONDS, PushResampler  # noqa: E402
+
+T0 = 1_700_000_000_000_000_000
+"""A push message's UNIX time origin, ns."""
+
+
+def _motion(second: int, rate: int = 100, gyroscope: bool = False) -> list[dict]:
+    """One second (``second`` s after T0) of Sensor Logger readings at ``rate`` Hz: accelerometer without
+    gravity and gravity (a phone with the gyroscope off), and the gyroscope when asked."""
+    payload = []
+    for k in range(rate):
+        t = T0 + second * 1_000_000_000 + k * (1_000_000_000 // rate)
+        payload.append({"name": "accelerometer", "time": t, "values": {"x": 0.1, "y": 0.0, "z": 0.0}})
+        payload.append({"name": "gravity", "time": t, "values": {"x": 0.0, "y": 0.0, "z": 9.81}})
+        if gyroscope:
+            payload.append({"name": "gyroscope", "time": t + 1000, "values": {"x": 0.0, "y": 0.01, "z": 0.0}})
+    return payload
+
+
+def _readings(seconds: range, rate: int = 100, gyroscope: bool = True) -> list[tuple]:
+    out = []
+    for s in seconds:
+        for k in range(rate):
+            t = 1.7e9 + s + k / rate
+            out.append(("acc", t, (0.1 * k, 0.0, 9.81)))
+            if gyroscope:
+                out.append(("gyr", t + 1e-6, (0.0, 0.01 * k, 0.0)))
+            if k == 50:
+                out.append(("fix", t, (35.0 + s * 1e-5, 139.0, 3.0)))
+    return sorted(out, key=lambda r: r[1])
+
+
+def test_push_resampler_bounds_unmatched_readings():
+    resampler = PushResampler(20.0)
+    for s in range(60):  # a minute of accelerometer readings at 100 Hz, no gyroscope
+        out = resampler.add(_readings(range(s, s + 1), gyroscope=False))
+        assert out["time"] == []
+        assert resampler.held() <= STALE_SECONDS * 20 + 2 + 60  # slots of 3 s, the fixes of 3 s at most
+    assert resampler.dropped >= 100 * (60 - STALE_SECONDS - 1)
+
+
+def test_push_resampler_rollback_undoes_one_message():
+    messages = [_readings(range(s, s + 1)) for s in range(4)]
+    kept, undone = PushResampler(20.0), PushResampler(20.0)
+    want = [kept.add(m) for m in messages]
+    got = []
+    for m in messages:
+        undone.add(m)
+        undone.rollback()  # the message's samples were refused by the store: the app sends it again
+        got.append(undone.add(m))
+    for a, b in zip(want, got):
+        assert a.keys() == b.keys()
+        for name in a:
+            np.testing.assert_array_equal(np.array(a[name], dtype=float), np.array(b[name], dtype=float))
+    assert kept.dropped == undone.dropped and kept.held() == undone.held()
+    assert sum(len(w["time"]) for w in want) == 80
+    assert [w["lat"].index(next(v for v in w["lat"] if not math.isnan(v))) for w in want] == [10] * 4
+
+
+def test_push_sessions_without_gyroscope_stay_bounded_and_are_freed(client):
+    headers = bearer(enrol(client, client.operator))
+    dropped = []
+    for s in range(12):
+        answer = client.post("/push", json={"sessionId": "gyro-off", "payload": _motion(s)}, headers=headers)
+        assert answer.status_code == 200, answer.text
+        assert answer.json()["count"] == 0
+        dropped.append(answer.json()["dropped"])
+    sessions = client.app.state.push_sessions
+    assert len(sessions) == 1
+    (session,) = sessions._sessions.values()
+    assert session.resampler.held() <= STALE_SECONDS * 20 + 2
+    assert dropped[0] == 0 and sum(dropped) >= 100 * (12 - STALE_SECONDS - 1)  # counted, not kept
+    # the ride ends (its device ends it; the service's idle check does the same): the session is freed, and the
+    # session's next message starts a new ride
+    assert client.post(f"/api/rides/{answer.json()['ride_id']}/end", headers=headers).status_code == 200
+    assert len(sessions) == 0
+    again = client.post("/push", json={"sessionId": "gyro-off", "payload": _motion(20, gyroscope=True)},
+                        headers=headers)
+    assert again.status_code == 200 and again.json()["ride_id"] != answer.json()["ride_id"]
+    assert again.json()["count"] == 20  # slots 0-19 of a second; slot 20 waits for a later reading
+
+
+def test_push_sessions_idle_are_freed(client):
+    headers = bearer(enrol(client, client.operator))
+    sessions = client.app.state.push_sessions
+    sessions.idle = sessions.sweep = 0.0
+    for name in ("a", "b", "c"):
+        assert client.post("/push", json={"sessionId": name, "payload": _motion(0, gyroscope=True)},
+                           headers=headers).status_code == 200
+    assert len(sessions) == 1  # each message swept the sessions idle before it
+
