@@ -12,6 +12,7 @@ from spotfree.signal.features import (
     FEATURE_CHANNELS,
     LEAN_BIAS_TIME_CONSTANT,
     LEAN_TIME_CONSTANT,
+    NO_SPEED_NOTE,
     ROUGH_SPEED,
     VIB_TIME_CONSTANT,
     FeatureStream,
@@ -225,6 +226,33 @@ def test_roughness_is_the_vibration_over_the_root_of_the_held_speed(speed):
     if speed is not None:  # carried as it is, for the ride prior (spotfree.ride_prior.RidePrior)
         np.testing.assert_array_equal(feats.channels["speed"], rec.channels["speed"])
         assert tuple(feats.names) == FEATURE_CHANNELS + DERIVED_CHANNELS + ("speed",)
+
+
+def test_roughness_never_divides_by_a_speed_no_gps_fix_measured():
+    """Without a GPS speed the speed-aided filter's speed is the integrated acceleration (here 0.5 m/s^2 forward for
+    20 s, far past 1 m/s): the road channels are then the vibration itself, batch and stream, and a note says so;
+    from the first fix on they are normalised by the speed."""
+    n = 400
+    t = np.arange(n) / RATE
+    acc = np.column_stack([np.full(n, 0.5), np.zeros(n), GRAVITY + 2.0 * np.sin(2 * np.pi * 8.0 * t)])
+    rec = device_recording(acc, np.zeros((n, 3)), source="no-gps.csv")
+    feats = ride_features(rec, derived=True)
+    levels = ("vib_x", "vib_y", "vib_z")
+    assert np.array_equal(feats.array(["rough_x", "rough_y", "rough_z"]), feats.array(levels))
+    assert rec.meta["repairs"] == [f"no-gps.csv: {NO_SPEED_NOTE}"]
+    ride_features(rec, derived=True)
+    assert len(rec.meta["repairs"]) == 1  # said once per log
+    fix = 200
+    gps = device_recording(acc, np.zeros((n, 3)))
+    gps.channels["speed"] = np.where(np.arange(n) == fix, 4.0, np.nan)
+    stream = FeatureStream(RATE, derived=True)
+    streamed = np.array([stream.update(a, w, v) for a, w, v in zip(
+        gps.array(["ax", "ay", "az"]), gps.array(["gx", "gy", "gz"]), gps.channels["speed"])])
+    feats = ride_features(gps, derived=True)
+    rough, vib = feats.array(["rough_x", "rough_y", "rough_z"]), feats.array(levels)
+    assert np.array_equal(rough[:fix], vib[:fix]) and np.all(rough[fix:, 2] < vib[fix:, 2])
+    np.testing.assert_allclose(streamed, feats.array(FEATURE_CHANNELS + DERIVED_CHANNELS), atol=1e-12)
+    assert "repairs" not in gps.meta
 
 
 def test_stream_with_derived_channels_equals_batch_and_keeps_six_by_default():

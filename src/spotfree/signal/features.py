@@ -38,12 +38,15 @@ Derived channels (``derived=True``), :data:`DERIVED_CHANNELS`:
 * ``rough_x, rough_y, rough_z`` (m/s^2 per sqrt(m/s)): the vibration levels over the square root of the forward
   speed ``u`` of the speed-aided filter (its state ``v``, held to :data:`ROUGH_SPEED`),
 
-      rough[n] = vib[n] / sqrt(clip(u[n], u_min, u_max)).
+      rough[n] = vib[n] / sqrt(clip(u[n], u_min, u_max))   from the segment's first GPS speed fix on,
+      rough[n] = vib[n]                                     before it.
 
   On a road of ISO 8608 displacement density ``Gd(n) = Gd(n0) (n / n0)^-2`` ridden at ``u``, the vertical
   acceleration density is ``(2 pi f)^4 Gd(n0) n0^2 u / f^2``, so in a fixed frequency band the RMS grows as
-  ``sqrt(Gd(n0) u)``: ``rough`` estimates the road's class, whatever the speed. Without GPS the speed is the
-  integrated acceleration and drifts; the clip bounds it.
+  ``sqrt(Gd(n0) u)``: ``rough`` estimates the road's class, whatever the speed. Before any fix the filter's speed
+  is the integrated acceleration, which drifts without bound: a speed nothing measured, so ``rough`` is then the
+  vibration not normalised by speed, and a log without GPS speed gets a note saying so
+  (:data:`NO_SPEED_NOTE`).
 """
 
 from __future__ import annotations
@@ -117,10 +120,18 @@ def vibration(residual: np.ndarray, rate: float) -> np.ndarray:
     return np.sqrt(lfilter([1.0 - c], [1.0, -c], np.asarray(residual, dtype=float) ** 2, axis=0))
 
 
-def roughness(vib: np.ndarray, speed: np.ndarray) -> np.ndarray:
-    """``rough`` (m/s^2 per sqrt(m/s)): ``vib`` ``(n, 3)`` (m/s^2) over the square root of ``speed`` ``(n,)`` (m/s)
-    held to :data:`ROUGH_SPEED`."""
-    return vib / np.sqrt(np.clip(speed, *ROUGH_SPEED))[:, None]
+NO_SPEED_NOTE = ("no GPS speed: the road channels rough_x, rough_y, rough_z are the vibration not normalised by "
+                 "speed (vib_x, vib_y, vib_z), so a model trained on rides with GPS speed reads them at another "
+                 "scale; record with location on")
+"""The note of a log without GPS speed whose ride features include the derived channels (module docstring)."""
+
+
+def roughness(vib: np.ndarray, speed: np.ndarray, measured: np.ndarray) -> np.ndarray:
+    """``rough`` (m/s^2 per sqrt(m/s)) of one segment: ``vib`` ``(n, 3)`` (m/s^2) over the square root of the
+    filter's ``speed`` ``(n,)`` (m/s) held to :data:`ROUGH_SPEED` where ``measured`` (from the segment's first GPS
+    speed fix on), ``vib`` itself before it."""
+    measured = np.maximum.accumulate(np.asarray(measured, dtype=bool))
+    return np.where(measured[:, None], vib / np.sqrt(np.clip(speed, *ROUGH_SPEED))[:, None], vib)
 
 
 def lean_coefficients(rate: float, tau: float = LEAN_TIME_CONSTANT,
@@ -145,6 +156,8 @@ def ride_features(rec: Recording, orientation: str = "default", zero_phase: bool
     followed by the :data:`DERIVED_CHANNELS` when ``derived``, and the log's GPS ``speed`` (m/s, NaN between fixes)
     as it is when it has one (the ride prior reads it: :class:`spotfree.ride_prior.RidePrior`); ``meta`` says
     ``features="ride"`` and the ``orientation``, so that a model trained on them knows how to make them from a raw log.
+    With ``derived`` and no GPS speed in ``rec``, :data:`NO_SPEED_NOTE` is added to ``rec.meta['repairs']`` (the
+    log's notes), once.
 
     ``mount``: the device-to-vehicle rotation, a ``(3, 3)`` matrix (``v_vehicle = mount @ v_device``) or a choice
     of :func:`~spotfree.signal.mount.estimate_mount` (``auto``, ``estimate``, ``flat``, ``upright``); None takes
@@ -175,9 +188,14 @@ def ride_features(rec: Recording, orientation: str = "default", zero_phase: bool
             speed = None if speed_all is None else speed_all[start:stop]
             a_t, _, forward = speed_aided_acceleration(acc, gyr, roll, pitch, speed, rec.rate).T
             vib = vibration(raw_level - level, rec.rate)
+            fixed = np.zeros(stop - start, bool) if speed is None else np.isfinite(speed)
             columns += [leaky_lean(gyr[:, 1], rec.rate), lowpass(a_t[:, None], long_sos)[:, 0], gyr[:, 0],
-                        gyr[:, 2], vib, roughness(vib, forward)]
+                        gyr[:, 2], vib, roughness(vib, forward, fixed)]
         out[start:stop] = np.column_stack(columns)
+    if derived and (speed_all is None or not np.isfinite(speed_all).any()):
+        notes = rec.meta.get("repairs", [])  # the log's notes: told with what was read, once
+        if f"{rec.source}: {NO_SPEED_NOTE}" not in notes:
+            rec.meta["repairs"] = [*notes, f"{rec.source}: {NO_SPEED_NOTE}"]
     carried = {"speed": speed_all} if speed_all is not None else {}
     feats = rec.with_channels({**dict(zip(names, out.T)), **carried})
     feats.meta.update(features="ride", orientation=orientation, mount=mount_note, mount_warnings=mount_warnings,

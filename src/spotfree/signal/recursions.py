@@ -365,8 +365,11 @@ def ride_features_step(p, s, start, a0, a1, a2, w0, w1, w2, speed, roll, pitch, 
     out[0], out[1], out[2], out[3], out[4], out[5] = roll, pitch, gy, level[0], level[1], level[2]
     out[6], out[7], out[8], out[9] = s.lean, s.acc_long[0], gx, gz
     out[10], out[11], out[12] = math.sqrt(vib[0]), math.sqrt(vib[1]), math.sqrt(vib[2])
-    speed_root = math.sqrt(min(max(s.speed_aided.x[2], p.rough_speed[0]), p.rough_speed[1]))
-    out[13], out[14], out[15] = out[10] / speed_root, out[11] / speed_root, out[12] / speed_root
+    if s.speed_aided.has_speed:  # a GPS fix has set the speed; before it, the vibration not normalised by speed
+        speed_root = math.sqrt(min(max(s.speed_aided.x[2], p.rough_speed[0]), p.rough_speed[1]))
+        out[13], out[14], out[15] = out[10] / speed_root, out[11] / speed_root, out[12] / speed_root
+    else:
+        out[13], out[14], out[15] = out[10], out[11], out[12]
 
 
 @numba.njit(cache=True, nogil=True)
