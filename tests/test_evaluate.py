@@ -140,7 +140,8 @@ HAS_AEON = find_spec("aeon") is not None
 
 @pytest.fixture(scope="module")
 def quick_run(tmp_path_factory):
-    """One `spotfree evaluate --quick` into a folder that already holds a file of the user's.
+    """One `spotfree evaluate --quick` into a folder that already holds a file of the user's (minutes: the tests that
+    read it are marked slow).
 
     Without aeon (it is in the `eval` extra, not in `test`), the run keeps the one peer that needs no aeon, 1-NN, so
     that everything else is still run; the aeon peers themselves are tested in test_peers.py.
@@ -159,6 +160,7 @@ def quick_run(tmp_path_factory):
     return folder, result
 
 
+@pytest.mark.slow
 def test_quick_run_writes_report_with_every_section_and_the_figures(quick_run):
     folder, result = quick_run
     assert result.exit_code == 0, result.output
@@ -172,6 +174,7 @@ def test_quick_run_writes_report_with_every_section_and_the_figures(quick_run):
     assert not [p for p in folder.parent.iterdir() if p.name.startswith(".out.")]
 
 
+@pytest.mark.slow
 def test_quick_run_report_quotes_the_paper_beside_measured_figures(quick_run):
     folder, result = quick_run
     report = (folder / "report.md").read_text()
@@ -194,6 +197,7 @@ def _rate(cell: str) -> float:
     return float("nan") if cell == "-" else float(cell)
 
 
+@pytest.mark.slow
 def test_quick_run_report_scores_every_lateral_and_road_class_in_every_stream_and_times_the_three_models(quick_run):
     folder, _ = quick_run
     report = (folder / "report.md").read_text()
@@ -232,6 +236,7 @@ def test_quick_run_report_scores_every_lateral_and_road_class_in_every_stream_an
     assert "- stream labels unlike the batch labels of the same rides: 0." in report
 
 
+@pytest.mark.slow
 def test_quick_run_summary_gives_one_line_per_model_with_its_goal_verdict(quick_run):
     folder, _ = quick_run
     report = (folder / "report.md").read_text()
@@ -283,6 +288,7 @@ def test_quick_run_summary_gives_one_line_per_model_with_its_goal_verdict(quick_
                      glance)
 
 
+@pytest.mark.slow
 def test_quick_run_hand_section_calls_the_hand_evaluation(quick_run):
     folder, _ = quick_run
     report = (folder / "report.md").read_text()
