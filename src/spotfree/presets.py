@@ -50,6 +50,15 @@ PRESETS = {
 """Per preset: channels, window (samples at 20 Hz), representation, prior name, column share and most columns per
 class (module docstring)."""
 
+PRESET_ROLES = {
+    "braking": {"cruising": "none", "normal-braking": "slowing", "sudden-braking": "slowing"},
+    "lateral": {"straight": "none", "gentle-turn": "turn", "sharp-turn": "turn", "slalom": "turn"},
+    "road": {"smooth": "none", "rough-asphalt": "none", "cobblestone": "none", "kerb": "none"},
+}
+"""Per preset, what each of its classes is to the ride prior (:data:`spotfree.ride_prior.ROLES`): a user's class
+of another name is given its role with ``spotfree train --role CLASS=ROLE``
+(:func:`spotfree.ride_prior.with_roles`)."""
+
 
 def prior_named(name: str | None):
     """A fresh prior of :data:`PRIORS` by name; None for None."""
