@@ -101,3 +101,54 @@ def test_push_sessions_idle_are_freed(client):
                            headers=headers).status_code == 200
     assert len(sessions) == 1  # each message swept the sessions idle before it
 
+
+def _rides(raw):
+    from spotfree.ride.sources import recording_rows
+
+    return recording_rows(raw.select_experiment(2))
+
+
+def test_open_rides_are_capped_per_device(client):
+    from spotfree.ride.service import MAX_OPEN_RIDES
+
+    phone, other = bearer(enrol(client, client.operator)), bearer(enrol(client, client.operator, "other"))
+    start = {"vehicle": "v", "rider_id": "r"}
+    rides = [client.post("/api/rides", json=start, headers=phone).json()["ride_id"] for _ in range(MAX_OPEN_RIDES)]
+    refused = client.post("/api/rides", json=start, headers=phone)
+    assert refused.status_code == 429 and f"{MAX_OPEN_RIDES} open rides" in refused.json()["detail"]
+    assert "end one" in refused.json()["detail"] and "\n" not in refused.json()["detail"]
+    with client.websocket_connect("/ws/ride") as ws:
+        ws.send_json({"type": "start", "token": phone["Authorization"][7:], **start})
+        assert ws.receive_json()["status"] == 429
+    assert client.post("/push", json={"sessionId": "s", "payload": _motion(0, gyroscope=True)},
+                       headers=phone).status_code == 429
+    assert len(client.app.state.push_sessions) == 0  # the refused session is not kept
+    assert client.post("/api/rides", json=start, headers=other).status_code == 200  # another device is not hurt
+    assert client.post(f"/api/rides/{rides[0]}/end", headers=phone).status_code == 200
+    assert client.post("/api/rides", json=start, headers=phone).status_code == 200
+
+
+def test_rate_bucket_is_per_device_and_ride_state_is_lazy(client, raw):
+    from spotfree.ride.service import BACKLOG_SECONDS
+    from test_ride_service import _columns
+
+    phone = bearer(enrol(client, client.operator))
+    start = {"vehicle": "v", "rider_id": "r"}
+    first, second = (client.post("/api/rides", json=start, headers=phone).json()["ride_id"] for _ in range(2))
+    held = client.service._open[second]
+    assert held._live is None and held._assistant is None  # nothing made before the first batch
+    rows, backlog = _rides(raw), int(BACKLOG_SECONDS * client.service.model.rate)
+    for k in range(0, backlog, 400):
+        assert client.post(f"/api/rides/{first}/samples", json={"samples": _columns(rows[k:k + 400])},
+                           headers=phone).status_code == 200
+    # the device's second ride shares the bucket the first one emptied
+    refused = client.post(f"/api/rides/{second}/samples", json={"samples": _columns(rows[:40])}, headers=phone)
+    assert refused.status_code == 429 and int(refused.headers["retry-after"]) >= 1
+    assert held._live is None
+    other = bearer(enrol(client, client.operator, "other"))
+    ride = client.post("/api/rides", json=start, headers=other).json()["ride_id"]
+    assert client.post(f"/api/rides/{ride}/samples", json={"samples": _columns(rows[:40])},
+                       headers=other).status_code == 200
+    assert client.service._open[ride]._live is not None
+    assert client.post(f"/api/rides/{ride}/end", headers=other).status_code == 200
+    assert ride not in client.service._open  # freed with its ride

@@ -67,12 +67,17 @@ def test_pool_acknowledges_as_one_process_does(pool, model, raw, tmp_path):
         pool.ingest(other, second, _columns(rows[:5]))
     with pytest.raises(InputError, match="destination"):
         pool.set_destination(token, second, 91.0, 0.0)
+    # the rate bucket is the device's, in the server's process: its two rides, on two workers, share it
+    _, fresh = pool.register_device("fast phone")
+    one, two = pool.start_ride(fresh, "v", "r"), pool.start_ride(fresh, "v", "r")
+    while pool._home[two] is pool._home[one]:
+        two = pool.start_ride(fresh, "v", "r")
     backlog = int(BACKLOG_SECONDS * model.rate)
     for k in range(0, backlog, 200):
-        pool.ingest(token, second, _columns(rows[k % 1200:k % 1200 + 200]) | {
+        pool.ingest(fresh, one, _columns(rows[k % 1200:k % 1200 + 200]) | {
             "time": list(k / model.rate + rows[:200, 0])})
     with pytest.raises(RateError) as refused:  # unless the 1200 samples above took over 5 s to send
-        pool.ingest(token, second, _columns(rows[:400]) | {"time": list(backlog / model.rate + rows[:400, 0])})
+        pool.ingest(fresh, two, _columns(rows[:400]))
     assert refused.value.retry_after > 0
 
 

@@ -46,7 +46,7 @@ load and connect only to this server and not be framed. A body with a credential
 Refusals (one line in ``detail``): 400 bad input, 401 no or unknown credential, 403 a ride of another device, a
 view without the operator token or a bad enrolment code, 404 unknown ride, 413 a body over :data:`MAX_BODY` bytes
 (refused while it is read), 415 a body that is not JSON, 429 samples sent faster than the service takes them
-(``Retry-After``; see :mod:`spotfree.ride.service`), 503 a ride worker being replaced (``Retry-After``: send
+(``Retry-After``) or a start beyond the device's open rides (see :mod:`spotfree.ride.service`), 503 a ride worker being replaced (``Retry-After``: send
 again).
 """
 
@@ -71,7 +71,7 @@ from spotfree.errors import InputError, SpotfreeError
 from spotfree.ride import validation
 from spotfree.ride.sensorpush import PushResampler, PushSessions, parse_push
 from spotfree.ride.service import OPERATOR, Identity, RateError, RideService, UnavailableError
-from spotfree.ride.store import AccessError, ForbiddenError, NotFoundError
+from spotfree.ride.store import AccessError, ForbiddenError, NotFoundError, QuotaError
 from spotfree.ride.tokens import token_hash
 
 MAX_BODY = 2_000_000
@@ -122,7 +122,7 @@ class SecurityHeaders:
 def _status(exc: Exception) -> int:
     if isinstance(exc, NotFoundError):
         return 404
-    if isinstance(exc, RateError):
+    if isinstance(exc, (RateError, QuotaError)):
         return 429
     if isinstance(exc, UnavailableError):
         return 503

@@ -33,6 +33,7 @@ from spotfree.ride.assistant import RideAssistant
 from spotfree.ride.live import LiveRide
 from spotfree.ride.service import RideService, UnavailableError
 from spotfree.ride.store import ForbiddenError, RideStore
+from spotfree.ride.tokens import token_hash
 from spotfree.units import GRAVITY
 
 
@@ -188,7 +189,26 @@ class RideServicePool(RideService):
 
     def _submit(self, token: str, ride_id: str, samples: Mapping[str, Sequence[float]], check_rate: bool,
                 describe: bool) -> Future:
-        return self._worker(ride_id).call("submit", token, ride_id, samples, check_rate, describe)
+        """The batch goes to the ride's worker; the device's rate bucket is this process's (a device's rides may
+        live in different workers), its samples given back when the worker refuses the batch."""
+        worker = self._worker(ride_id)
+        rows = samples.get("time") if isinstance(samples, Mapping) else None
+        if not (check_rate and isinstance(token, str) and isinstance(rows, Sequence)):
+            return worker.call("submit", token, ride_id, samples, check_rate, describe)
+        n = len(rows)
+        bucket = self._take(token_hash(token), n, f"ride {ride_id} (its device's rides together)")
+        try:
+            answer = worker.call("submit", token, ride_id, samples, False, describe)
+        except BaseException:
+            bucket.give(n)
+            raise
+
+        def refused(done: Future) -> None:
+            if done.exception() is not None:
+                with self._lock:
+                    bucket.give(n)
+        answer.add_done_callback(refused)
+        return answer
 
     def _worker(self, ride_id: str) -> "_Worker":
         """The worker holding ``ride_id``; an open ride of the store that no worker holds (after a restart, or

@@ -19,10 +19,13 @@ Credentials (:meth:`RideService.identify`): the operator token (its hash in the 
 such a code (:meth:`RideService.enrol_device`), writes and reads only the rides it started, and a device's view
 (:meth:`RideService.watch`) is sent only the messages of those rides.
 
-Rate: each ride has a bucket of ``BACKLOG_SECONDS * rate`` samples (``rate`` the model's, Hz) refilled at
-``RATE_FACTOR * rate`` samples/s; a batch of ``n`` samples takes ``n`` from it or is refused whole (HTTP 429,
-with the seconds to wait). A phone streaming at ``rate`` keeps the bucket full, so the backlog of a disconnect of
-up to ``BACKLOG_SECONDS`` goes through at once; a longer one is taken at ``RATE_FACTOR`` times real time.
+Quotas per device: a device holds at most :data:`MAX_OPEN_RIDES` open rides (a further start is refused with 429
+and what to do, :class:`~spotfree.ride.store.QuotaError`), and its rides share one bucket of ``BACKLOG_SECONDS *
+rate`` samples (``rate`` the model's, Hz) refilled at ``RATE_FACTOR * rate`` samples/s; a batch of ``n`` samples
+takes ``n`` from it or is refused whole (HTTP 429, with the seconds to wait). A phone streaming at ``rate`` keeps
+the bucket full, so the backlog of a disconnect of up to ``BACKLOG_SECONDS`` goes through at once; a longer one is
+taken at ``RATE_FACTOR`` times real time. A ride's filters and assistant are made at its first batch (or first
+destination) and freed when it ends; a device's bucket is freed once full again.
 """
 
 from __future__ import annotations
@@ -59,6 +62,9 @@ BACKLOG_SECONDS = 60.0
 IDLE_SECONDS = 3600.0
 """Seconds without a sample after which an open ride is closed (:meth:`RideService.close_idle_rides`): the
 longest pause within a ride (:data:`spotfree.limits.MAX_STEP`)."""
+MAX_OPEN_RIDES = 8
+"""Rides one device may hold open at once (a phone rides one at a time; a ride it left open closes after
+:data:`IDLE_SECONDS`)."""
 DANGEROUS_CLASSES = ("sudden-braking", "sharp-turn", "cobblestone")
 """Classes the rider is warned of when the model has them: a hard stop, a sharp turn, a surface to slow down on."""
 
@@ -102,6 +108,14 @@ class SampleBucket:
                             f"{wait:.2f} s", retry_after=wait)
         self.level -= n
 
+    def give(self, n: int) -> None:
+        """Give back ``n`` samples taken for a batch that was then refused for another reason."""
+        self.level = min(self.capacity, self.level + n)
+
+    def full(self, now: float) -> bool:
+        """Whether the bucket is full again at ``now`` (``time.monotonic`` s): it holds nothing worth keeping."""
+        return self.level + self.refill * (now - self.last) >= self.capacity
+
 
 def assistant_factory(model: DictionaryModel) -> Callable[[], RideAssistant]:
     """Makes one :class:`RideAssistant` per ride, warning of the model's classes in :data:`DANGEROUS_CLASSES`
@@ -125,13 +139,28 @@ class Identity:
 
 @dataclass
 class _OpenRide:
+    """An open ride held by this process: its filters and assistant are made when first used."""
+
     ride_id: str
     token_hash: str
-    live: LiveRide
-    assistant: RideAssistant
-    bucket: SampleBucket
+    new_live: Callable[[], LiveRide]
+    new_assistant: Callable[[], RideAssistant]
     last_time: float | None = None
     lock: threading.Lock = field(default_factory=threading.Lock)
+    _live: LiveRide | None = None
+    _assistant: RideAssistant | None = None
+
+    @property
+    def live(self) -> LiveRide:
+        if self._live is None:
+            self._live = self.new_live()
+        return self._live
+
+    @property
+    def assistant(self) -> RideAssistant:
+        if self._assistant is None:
+            self._assistant = self.new_assistant()
+        return self._assistant
 
 
 class RideService:
@@ -172,6 +201,8 @@ class RideService:
         self._restoring = threading.Lock()
         self._stopping = threading.Event()
         self._end_listeners: list[Callable[[str], None]] = []
+        self._buckets: dict[str, SampleBucket] = {}
+        self._buckets_swept = clock.monotonic()
 
     # ------------------------------------------------------------ credentials
 
@@ -243,12 +274,30 @@ class RideService:
         return ride_id
 
     def _open_ride(self, token: str, vehicle: str, rider_id: str, meta: dict) -> str:
-        ride_id = self.store.start_ride(token, vehicle, rider_id, model=self.model_name, **meta)
+        ride_id = self.store.start_ride(token, vehicle, rider_id, model=self.model_name, max_open=MAX_OPEN_RIDES,
+                                        **meta)
         with self._lock:
-            self._open[ride_id] = _OpenRide(
-                ride_id, token_hash(token), LiveRide(self.model, self.classifier), self.assistant(),
-                SampleBucket(BACKLOG_SECONDS * self.model.rate, RATE_FACTOR * self.model.rate))
+            self._open[ride_id] = self._new_ride(ride_id, token_hash(token))
         return ride_id
+
+    def _new_ride(self, ride_id: str, owner: str) -> _OpenRide:
+        return _OpenRide(ride_id, owner, functools.partial(LiveRide, self.model, self.classifier), self.assistant)
+
+    def _take(self, owner: str, n: int, what: str) -> SampleBucket:
+        """Take ``n`` samples from the bucket of the device whose token hash is ``owner`` (:class:`RateError`
+        when they do not fit); the bucket, for :meth:`SampleBucket.give`. Buckets full again are freed, checked
+        at most every ``BACKLOG_SECONDS``."""
+        now = clock.monotonic()
+        with self._lock:
+            if now - self._buckets_swept > BACKLOG_SECONDS:
+                self._buckets_swept = now
+                self._buckets = {k: b for k, b in self._buckets.items() if not b.full(now)}
+            bucket = self._buckets.get(owner)
+            if bucket is None:
+                bucket = self._buckets[owner] = SampleBucket(BACKLOG_SECONDS * self.model.rate,
+                                                             RATE_FACTOR * self.model.rate)
+            bucket.take(n, what)
+        return bucket
 
     def on_end(self, listener: Callable[[str], None]) -> None:
         """Call ``listener(ride_id)`` once a ride of this process's service has ended (:meth:`end_ride`) or was
@@ -352,7 +401,7 @@ class RideService:
         with ride.lock:
             table = validation.sample_batch(samples, ride.last_time, f"ride {ride_id}")
             if check_rate:
-                ride.bucket.take(len(table), f"ride {ride_id}")
+                self._take(ride.token_hash, len(table), f"ride {ride_id} (its device's rides together)")
             n = len(table)
             feats, labels = ride.live.update_block(table)
             warnings = [vars(w) for w in ride.assistant.update_block(table[:, _ASSISTED].tolist(), labels)]
@@ -417,11 +466,10 @@ class RideService:
         """The state of an open ride rebuilt from the store: its stored samples run through a new
         :class:`LiveRide` and assistant in blocks (the same mount, labels and episodes as when they came, since
         blocks and single samples give the same results); the events that ended then are already stored and are
-        dropped. The rate bucket starts full; the destination kept in the store is set again."""
+        dropped. The device's rate bucket is the service's; the destination kept in the store is set again."""
         columns = self.store.samples(ride_id)
         table = np.column_stack([np.asarray(columns[c], dtype=float) for c in SAMPLE_COLUMNS])
-        ride = _OpenRide(ride_id, owner, LiveRide(self.model, self.classifier), self.assistant(),
-                         SampleBucket(BACKLOG_SECONDS * self.model.rate, RATE_FACTOR * self.model.rate))
+        ride = self._new_ride(ride_id, owner)
         for start in range(0, len(table), validation.MAX_BATCH):
             block = table[start:start + validation.MAX_BATCH]
             _, labels = ride.live.update_block(block)

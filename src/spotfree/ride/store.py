@@ -82,6 +82,10 @@ class NotFoundError(InputError, LookupError):
     """A ride id that the store does not hold."""
 
 
+class QuotaError(InputError):
+    """A device asking for more than its share: more open rides than it may hold at once."""
+
+
 class RideStore:
     """Record rides and read them back (see the module docstring).
 
@@ -208,11 +212,14 @@ class RideStore:
 
     def start_ride(self, token: str, vehicle: str, rider_id: str, *, model: str | None = None,
                    age_band: str | None = None, gender: str | None = None, skill: str | None = None,
-                   started: float | None = None, continues_from: str | None = None) -> str:
+                   started: float | None = None, continues_from: str | None = None,
+                   max_open: int | None = None) -> str:
         """Open a ride for the token's device; returns its id. ``started`` is UNIX seconds (now by default);
         ``continues_from`` the id of this device's earlier ride that this one continues (one that could not go
         on: ended, or closed while the device was away), so that the pieces of a ride can be joined
-        (:meth:`continuation`); NotFoundError for an unknown ride, ForbiddenError for another device's."""
+        (:meth:`continuation`); NotFoundError for an unknown ride, ForbiddenError for another device's.
+        ``max_open``: refuse (:class:`QuotaError`) when the device already has that many open rides (counted in
+        the same transaction as the insert)."""
         device_id = self.authenticate(token)
         where = "new ride"
         previous = validation.text(continues_from, where, "continues_from", required=False)
@@ -228,6 +235,13 @@ class RideStore:
         names = ("ride_id", "device_id", "started", "continues_from", *fields)
 
         def write(db) -> None:
+            if max_open is not None:
+                (held,) = db.execute("SELECT COUNT(*) FROM rides WHERE device_id = ? AND ended IS NULL",
+                                     (device_id,)).fetchone()
+                if held >= max_open:
+                    raise QuotaError(f"{where}: this device has {held} open rides, the most it may hold; end one "
+                                     "(POST /api/rides/{id}/end, or the 'end' message) before starting another "
+                                     "(a ride without samples for an hour is closed)")
             if previous is not None:
                 row = db.execute("SELECT device_id FROM rides WHERE ride_id = ?", (previous,)).fetchone()
                 if row is None:
