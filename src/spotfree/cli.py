@@ -317,6 +317,9 @@ def train(
                                "paper's recipe, literally: a baseline)"),
     prior: Optional[str] = typer.Option(None, "--prior",
                                         help="ride: braking loses GPS speed, a turn yaws (sets learner only)"),
+    role: list[str] = typer.Option([], "--role", metavar="CLASS=ROLE", help="what a declared class is to the ride "
+                                   "prior: slowing (loses GPS speed: a braking, a stop), turn (yaws) or none; a "
+                                   "preset's own classes have theirs; repeat for several"),
     representation: str = typer.Option("summary", "--representation", help="sets learner: summary (level, spread, "
                                        "their change and band powers of each window) | hankel (the paper's raw "
                                        "windows)"),
@@ -360,7 +363,7 @@ def train(
     given = [p.opts[0] for p in ctx.command.params
              if p.name and getattr(ctx.get_parameter_source(p.name), "name", "") == "COMMANDLINE"]
     misplaced = [o for o in given if o in ("--prior", "--representation", "--column-share", "--share-power",
-                                           "--figure", "--preset")
+                                           "--figure", "--preset", "--role")
                  and recipe != "sets"]
     if misplaced:
         raise InputError(f"{misplaced[0]} is an option of --recipe sets; leave it out with --recipe {recipe}")
@@ -375,18 +378,19 @@ def train(
     declared = [_parse_experiment(spec) for spec in experiment] + (read_class_sets(sets) if sets else [])
     if not declared:
         raise InputError("no training recording: give --experiment PATH=CLASS[,CLASS...] or --sets FILE")
-    summary = _train(output, declared, orientation, features, recipe, preset, params, figure, mount)
+    summary = _train(output, declared, orientation, features, recipe, preset, params, figure, mount, role)
     if as_json:
         _print_json(summary)
 
 
 def _train(output: Path, declared: list, orientation: str, features: str, recipe: str, preset: Optional[str],
-           params: dict, figure: Optional[Path], mount: str) -> dict:
+           params: dict, figure: Optional[Path], mount: str, roles: list[str] = ()) -> dict:
     """``spotfree train``: :class:`~spotfree.learner.SetSupervisedLearner` (``recipe`` sets; of ``preset``'s
     settings when given, :func:`~spotfree.presets.preset_learner`, ``params`` overriding them) or
     :class:`~spotfree.paper_recipe.PaperRecipe` (``recipe`` paper) on the ``declared`` recordings and their sets
     (:class:`~spotfree.io.class_sets.Declared`: each log read and turned into features once, then cut into its
-    spans); prints the summary and returns it (the document of ``--json``)."""
+    spans), the ride prior's ``roles`` (``--role CLASS=ROLE``: :func:`_prior_roles`); prints the summary and returns
+    it (the document of ``--json``)."""
     from collections import Counter
 
     from spotfree.learner import SetSupervisedLearner
@@ -408,6 +412,9 @@ def _train(output: Path, declared: list, orientation: str, features: str, recipe
         learner = PaperRecipe(**{k: params[k] for k in ("channels", "window", "step", "max_columns", "seed")})
     else:
         learner = preset_learner(preset, **params) if preset else SetSupervisedLearner(**params)
+    roled, unroled = "", []
+    if recipe == "sets":
+        roled, learner.prior, unroled = _prior_roles(learner.prior, preset, sets, roles)
     learner.fit(recordings, sets)
     model = learner.model_
     model.save(output)
@@ -426,13 +433,15 @@ def _train(output: Path, declared: list, orientation: str, features: str, recipe
                               for rec in model.summary.get("recordings", [])],
                "rounds_changed": model.summary.get("rounds_changed", []),
                "read": said["read"], "notes": said["notes"], "mounts": said["mounts"],
-               "warnings": said["warnings"] + model.summary.get("warnings", []), "figure": figure}
+               "warnings": said["warnings"] + unroled + model.summary.get("warnings", []), "figure": figure}
     if recipe == "paper":
         out.print(f"learner: the paper's recipe (hankel of {_channels_said(model)})")
         out.print("columns per class: " + ", ".join(f"{c} {counts[c]}" for c in model.classes))
         return summary
     out.print(f"learner: sets ({model.representation} of {_channels_said(model)}; "
-              f"prior: {prior_name(learner.prior) or 'none'}; column share {learner.column_share:g})")
+              f"prior: {prior_name(learner.prior) or 'none'}{roled}; column share {learner.column_share:g})")
+    for warning in unroled:
+        err.print(f"[bold yellow]warning:[/] {escape(warning)}", markup=True)
     out.print(_naming_table(model.summary["recordings"], f"{output}: {model.dictionary.shape[1]} columns, window "
                             f"{model.window} samples"))
     out.print("columns per class: " + ", ".join(f"{c} {k}" for c, k in model.summary["columns_per_class"].items()))
@@ -445,6 +454,34 @@ def _train(output: Path, declared: list, orientation: str, features: str, recipe
         shown = training_figure(learner, recordings, figure, [item.recording for item in declared])
         out.print(f"figure: {figure} ({shown})")
     return summary
+
+
+def _prior_roles(prior, preset: Optional[str], sets: list, given: list[str]) -> tuple[str, object, list[str]]:
+    """``(said, prior, warnings)``: the learner's ``prior`` with the declared classes of ``sets`` matched to their
+    roles (:func:`spotfree.ride_prior.with_roles`: the ``--role CLASS=ROLE`` options ``given``, then ``preset``'s
+    classes, or every preset's without one), the roles given as the learner line says them, and a warning naming
+    any class of no role; a prior other than the ride prior is kept as it is."""
+    from spotfree.presets import PRESET_ROLES
+    from spotfree.ride_prior import ROLES, RidePrior, with_roles
+
+    classes = list(dict.fromkeys(c for classes in sets for c in classes))
+    roles = {}
+    for spec in given:
+        name, sep, role = spec.rpartition("=")
+        if not sep or role not in ROLES:
+            raise InputError(f"--role '{spec}': write CLASS=ROLE with ROLE one of {', '.join(ROLES)}")
+        if name not in classes:
+            raise InputError(f"--role '{spec}': no recording declares class '{name}'; declared: {', '.join(classes)}")
+        roles[name] = role
+    if not isinstance(prior, RidePrior):
+        if roles:
+            raise InputError("--role gives classes their role in the ride prior: add --prior ride, or train with "
+                             "--preset braking or lateral")
+        return "", prior, []
+    known = PRESET_ROLES[preset] if preset else {c: r for table in PRESET_ROLES.values() for c, r in table.items()}
+    prior, warnings = with_roles(prior, classes, known, roles)
+    said = "; ".join(f"{r}: {','.join(c for c, x in roles.items() if x == r)}" for r in ROLES if r in roles.values())
+    return f" ({said})" if said else "", prior, warnings
 
 
 TABLE_ROWS = 20

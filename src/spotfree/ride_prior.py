@@ -18,15 +18,24 @@ where the vehicle turns. With ``y`` the largest ``|yaw_rate|`` (rad/s) within ``
 
 Each part engages only for the classes it names (``braking``, ``turning``) and only in recordings that carry its
 channel (``speed``, ``yaw_rate``), and only where that channel has a value: for any other data the prior is zero.
+Which classes those are is what each class is to the prior, its role (:data:`ROLES`), not its spelling: a preset
+gives its own classes their roles (:data:`spotfree.presets.PRESET_ROLES`), a user gives theirs
+(``spotfree train --role CLASS=ROLE``), and :func:`with_roles` makes the prior of a training from both, with a
+warning for each declared class whose role neither gives.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.ndimage
 
+
+ROLES = {"slowing": "loses GPS speed: a braking, a stop", "turn": "yaws: a turn, a slalom",
+         "none": "neither: cruising, straight riding, a road surface"}
+"""What a class can be to :class:`RidePrior`: its ``slowing`` classes are ``braking``, its ``turn`` classes
+``turning``."""
 
 SPAN = 1.5
 """Half-width (s) of the stretch of GPS fixes the speed trend is fitted over (three fixes of a 1 Hz receiver)."""
@@ -96,3 +105,31 @@ class RidePrior:
         that are ``known``."""
         out[(known & holds)[:, None] & named[None, :]] += self.weight
         out[(known & ~holds)[:, None] & ~named[None, :]] += self.weight
+
+
+def with_roles(prior: RidePrior, classes, known: dict[str, str], given: dict[str, str]) -> tuple[RidePrior, list[str]]:
+    """``prior`` for a training on the declared ``classes``, each class's role (:data:`ROLES`) taken from ``given``
+    (the user's), else ``known`` (a preset's, :data:`spotfree.presets.PRESET_ROLES`), else ``prior``'s own names;
+    and one warning, naming the classes of no role and what to do, when there are any (the prior takes them as
+    neither slowing nor turning).
+
+    A ``slowing`` class joins ``braking`` and leaves ``turning``, a ``turn`` class the other way round, a ``none``
+    class leaves both; ``prior``'s other names stay, so a training on a preset's own classes gets ``prior`` itself.
+    """
+    role = {c: given.get(c) or known.get(c) or ("slowing" if c in prior.braking else "turn" if c in prior.turning
+                                                else None) for c in classes}
+    braking = [c for c in prior.braking if role.get(c, "slowing") == "slowing"]
+    turning = [c for c in prior.turning if role.get(c, "turn") == "turn"]
+    braking += [c for c in classes if role[c] == "slowing" and c not in braking]
+    turning += [c for c in classes if role[c] == "turn" and c not in turning]
+    if (braking, turning) != (list(prior.braking), list(prior.turning)):
+        prior = replace(prior, braking=tuple(braking), turning=tuple(turning))
+    unknown = [c for c in classes if role[c] is None]
+    if not unknown:
+        return prior, []
+    one = len(unknown) == 1
+    idle = "" if any(role[c] in ("slowing", "turn") for c in classes) else "; it engages for no class of this training"
+    return prior, [f"the ride prior does not know what class{'' if one else 'es'} {', '.join(map(repr, unknown))} "
+                   f"{'is' if one else 'are'} and takes {'it' if one else 'them'} as neither slowing nor turning{idle}; "
+                   f"give {'it' if one else 'each'} a role: --role {unknown[0]}=slowing (loses GPS speed: a braking, "
+                   f"a stop), --role {unknown[0]}=turn (yaws) or --role {unknown[0]}=none"]
