@@ -92,6 +92,20 @@ def test_models_that_cannot_share_one_feature_pass_are_refused(models):
         model_names(["a/braking.npz", "b/braking.npz"])
 
 
+@pytest.mark.parametrize("change, said", [
+    ({"rate": 50.0}, "road is of 20 Hz, other of 50 Hz; train them at one rate"),
+    ({"features": "body"}, "road is of ride features, other of body features; classify the log with each model in "
+                           "its own call, or train both with the same --features"),
+    ({"orientation": "paper"}, "road is of --orientation default, other of --orientation paper; train them with the "
+                               "same --orientation"),
+])
+def test_models_that_cannot_share_a_feature_pass_are_refused_naming_what_differs(models, change, said):
+    pair = {"road": models["road"], "other": models["road"].__class__(**{**vars(models["road"]), **change})}
+    with pytest.raises(InputError) as refused:
+        MultiModelStream(pair)
+    assert str(refused.value) == f"models road and other cannot share one feature pass: {said}"
+
+
 def test_cli_classify_with_several_models_writes_a_column_per_model_and_keeps_the_single_contract(
         models, ride, tmp_path):
     for name, model in models.items():

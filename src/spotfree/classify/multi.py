@@ -49,13 +49,18 @@ def _check_models(models: Mapping[str, DictionaryModel]) -> None:
     for name, model in models.items():
         if name in ("time", "experiment"):
             raise InputError(f"a model may not be named '{name}' (a column of the output); rename its file")
-        if abs(model.rate - first.rate) > 1e-6 * first.rate or model.features != first.features or (
-                model.features == "ride" and model.orientation != first.orientation):
-            raise InputError(
-                f"models {first_name} ({first.rate:g} Hz, {first.features}, {first.orientation}) and {name} "
-                f"({model.rate:g} Hz, {model.features}, {model.orientation}) cannot share one feature pass; train "
-                "them at one rate with the same --orientation"
-            )
+        if abs(model.rate - first.rate) > 1e-6 * first.rate:
+            (own, other), fix = (f"{m.rate:g} Hz" for m in (first, model)), "train them at one rate"
+        elif model.features != first.features:
+            own, other = (f"{m.features} features" for m in (first, model))
+            fix = "classify the log with each model in its own call, or train both with the same --features"
+        elif model.features == "ride" and model.orientation != first.orientation:
+            own, other = (f"--orientation {m.orientation}" for m in (first, model))
+            fix = "train them with the same --orientation"
+        else:
+            continue
+        raise InputError(f"models {first_name} and {name} cannot share one feature pass: {first_name} is of {own}, "
+                         f"{name} of {other}; {fix}")
 
 
 def shared_features(models: Mapping[str, DictionaryModel], rec: Recording) -> Recording:
