@@ -152,3 +152,86 @@ def test_rate_bucket_is_per_device_and_ride_state_is_lazy(client, raw):
     assert client.service._open[ride]._live is not None
     assert client.post(f"/api/rides/{ride}/end", headers=other).status_code == 200
     assert ride not in client.service._open  # freed with its ride
+
+
+def test_enrolment_body_is_small_before_anyone_is_known(client):
+    from spotfree.ride.api import MAX_UNAUTHENTICATED_BODY
+
+    big = {"code": "guessed", "name": "x" * MAX_UNAUTHENTICATED_BODY}
+    refused = client.post("/api/devices", json=big)
+    assert refused.status_code == 413 and str(MAX_UNAUTHENTICATED_BODY) in refused.json()["detail"]
+    assert client.post("/api/devices", json={"code": "guessed", "name": "x"}).status_code == 403
+
+
+def test_ride_socket_must_start_within_the_auth_deadline(client, monkeypatch):
+    import time
+
+    from starlette.websockets import WebSocketDisconnect
+
+    from spotfree.ride import api
+
+    monkeypatch.setattr(api, "AUTH_SECONDS", 0.2)
+    with client.websocket_connect("/ws/ride") as ws:
+        time.sleep(0.4)
+        ws.send_text("[]")  # too late: the socket was closed at the deadline
+        with pytest.raises(WebSocketDisconnect) as closed:
+            ws.receive_json()
+    assert closed.value.code == 1008 and "within 0.2 s" in closed.value.reason
+    with client.websocket_connect("/ws/ride") as ws:
+        ws.send_text('{"type": "start", "pad": "' + "x" * api.MAX_UNAUTHENTICATED_BODY + '"}')
+        with pytest.raises(WebSocketDisconnect) as closed:
+            ws.receive_json()
+    assert closed.value.code == 1009
+    phone = enrol(client, client.operator)
+    with client.websocket_connect("/ws/ride") as ws:  # a ride started in time goes on past the deadline
+        ws.send_json({"type": "start", "token": phone, "vehicle": "v", "rider_id": "r"})
+        assert ws.receive_json()["type"] == "started"
+        time.sleep(0.3)
+        ws.send_json({"type": "destination", "lat": 35.0, "lon": 139.0})
+        assert ws.receive_json()["type"] == "destination"
+
+
+def test_server_runs_under_uvicorns_own_limits(client):
+    import socket
+    import threading
+    import time
+
+    import uvicorn
+
+    from spotfree.ride.server import MAX_HEADER_BYTES, uvicorn_limits
+
+    limits = uvicorn_limits()
+    assert 16 <= limits["limit_concurrency"]
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    server = uvicorn.Server(uvicorn.Config(client.app, host="127.0.0.1", port=port, log_level="critical",
+                                           **{**limits, "limit_concurrency": 3}))
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    while not server.started:
+        time.sleep(0.02)
+    try:
+        def ask(extra: bytes = b"") -> bytes:
+            with socket.create_connection(("127.0.0.1", port), timeout=5) as conn:
+                conn.sendall(b"GET /api/health HTTP/1.1\r\nHost: x\r\n" + extra)
+                time.sleep(0.05)  # what came so far is read before the rest
+                try:
+                    conn.sendall(b"\r\n")
+                except OSError:  # the server answered and closed before the rest was sent
+                    pass
+                return conn.recv(64)
+        assert ask().startswith(b"HTTP/1.1 200")
+        # unfinished headers are buffered up to MAX_HEADER_BYTES, then refused
+        assert ask(b"X-Pad: " + b"x" * MAX_HEADER_BYTES + b"\r\n").startswith(b"HTTP/1.1 400")
+        idle = [socket.create_connection(("127.0.0.1", port)) for _ in range(3)]  # connections that say nothing
+        try:
+            time.sleep(0.1)
+            assert ask().startswith(b"HTTP/1.1 503")  # answered at once, not left to hang
+        finally:
+            for conn in idle:
+                conn.close()
+    finally:
+        server.should_exit = True
+        thread.join(5)
+

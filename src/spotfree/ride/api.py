@@ -19,7 +19,9 @@ Pages: ``/`` the phone page (streams DeviceMotion and Geolocation), ``/rider`` a
   "ride_id"}``, then ``{"type": "batch", "seq", "samples"}`` (answered ``{"type": "ack", "seq", ...}``),
   ``{"type": "destination", "lat", "lon"}``, ``{"type": "end"}``; a refused message is answered
   ``{"type": "error", "status", "message"}`` (``seq`` too for a batch, ``retry_after`` s for a 429) and changes
-  nothing; a binary frame is answered by closing the socket (code 1003, with the reason);
+  nothing; a binary frame is answered by closing the socket (code 1003, with the reason); a socket that has not
+  started or resumed a ride within :data:`AUTH_SECONDS` is closed (1008), and one that sends a message over
+  :data:`MAX_UNAUTHENTICATED_BODY` bytes before it has (1009);
 * ``POST /push?platform=android|ios`` the Sensor Logger app's HTTP push (:mod:`spotfree.ride.sensorpush`): one
   ride per ``sessionId`` (freed when the ride ends or idles); parsed and resampled in a thread, in time linear in
   its size. The answer counts the samples stored (``count``) and the readings ``dropped`` (a slot only one motion
@@ -45,7 +47,7 @@ load and connect only to this server and not be framed. A body with a credential
 
 Refusals (one line in ``detail``): 400 bad input, 401 no or unknown credential, 403 a ride of another device, a
 view without the operator token or a bad enrolment code, 404 unknown ride, 413 a body over :data:`MAX_BODY` bytes
-(refused while it is read), 415 a body that is not JSON, 429 samples sent faster than the service takes them
+(:data:`MAX_UNAUTHENTICATED_BODY` for an enrolment; refused while it is read), 415 a body that is not JSON, 429 samples sent faster than the service takes them
 (``Retry-After``) or a start beyond the device's open rides (see :mod:`spotfree.ride.service`), 503 a ride worker being replaced (``Retry-After``: send
 again).
 """
@@ -76,8 +78,12 @@ from spotfree.ride.tokens import token_hash
 
 MAX_BODY = 2_000_000
 """Bytes in one request body or WebSocket message."""
+MAX_UNAUTHENTICATED_BODY = 4096
+"""Bytes in a body or WebSocket message read before its sender is known: an enrolment, a ride socket's ``start``
+or ``resume``, a watcher's ``auth``."""
 AUTH_SECONDS = 10.0
-"""Seconds a watcher has to send its credential (``{"type": "auth", "token"}``) once connected."""
+"""Seconds a socket has to give its credential once connected: a watcher its ``{"type": "auth", "token"}``, a ride
+socket a ``start`` or ``resume`` that is taken (else it is closed, 1008)."""
 STATIC = Path(str(files("spotfree.ride") / "static"))
 SECURITY_HEADERS = (
     (b"x-content-type-options", b"nosniff"),
@@ -166,17 +172,17 @@ async def _identify(service: RideService, request: Request, operator: bool = Fal
     return await _call(check, token), token
 
 
-async def _body(request: Request) -> dict:
-    """The JSON object of the body, read at most :data:`MAX_BODY` bytes far (413 as soon as it is over: the
-    declared length, or the bytes read so far); 415 unless it is ``application/json``."""
+async def _body(request: Request, limit: int = MAX_BODY) -> dict:
+    """The JSON object of the body, read at most ``limit`` bytes far (413 as soon as it is over: the declared
+    length, or the bytes read so far); 415 unless it is ``application/json``."""
     declared = request.headers.get("content-length")
-    if declared is not None and (not declared.isdigit() or int(declared) > MAX_BODY):
-        raise HTTPException(413, f"body of {declared} bytes; send at most {MAX_BODY}")
+    if declared is not None and (not declared.isdigit() or int(declared) > limit):
+        raise HTTPException(413, f"body of {declared:.20} bytes; send at most {limit}")
     chunks, size = [], 0
     async for chunk in request.stream():
         size += len(chunk)
-        if size > MAX_BODY:
-            raise HTTPException(413, f"body over {MAX_BODY} bytes; send at most {MAX_BODY}")
+        if size > limit:
+            raise HTTPException(413, f"body over {limit} bytes; send at most {limit}")
         chunks.append(chunk)
     raw = b"".join(chunks)
     if raw and request.headers.get("content-type", "").split(";")[0].strip().lower() != "application/json":
@@ -281,7 +287,7 @@ def create_app(service: RideService) -> FastAPI:
 
     @app.post("/api/devices", openapi_extra=_BODIES["devices"])
     async def register(request: Request):
-        body = await _body(request)
+        body = await _body(request, MAX_UNAUTHENTICATED_BODY)
         device_id, token = await _call(service.enrol_device, body.get("code"), body.get("name", ""))
         return {"device_id": device_id, "token": token}
 
@@ -377,9 +383,23 @@ def create_app(service: RideService) -> FastAPI:
     async def stream(websocket: WebSocket):
         await websocket.accept()
         token = ride_id = None
+        deadline = asyncio.get_running_loop().time() + AUTH_SECONDS
         try:
             while True:
-                raw = await _receive_text(websocket)
+                if ride_id is None:  # before a start or resume is taken: a deadline, small messages
+                    try:
+                        raw = await asyncio.wait_for(_receive_text(websocket),
+                                                     deadline - asyncio.get_running_loop().time())
+                    except asyncio.TimeoutError:
+                        await _close(websocket, 1008, f"no ride started or resumed within {AUTH_SECONDS:g} s; "
+                                                      "send a 'start' or 'resume' message first")
+                        return
+                    if raw is not None and len(raw) > MAX_UNAUTHENTICATED_BODY:
+                        await _close(websocket, 1009, f"message of {len(raw)} bytes before a ride is started; "
+                                                      f"send at most {MAX_UNAUTHENTICATED_BODY}")
+                        return
+                else:
+                    raw = await _receive_text(websocket)
                 if raw is None:
                     return
                 reply = await _ws_message(service, raw, token, ride_id)
@@ -452,7 +472,7 @@ async def _watcher(service: RideService, websocket: WebSocket) -> Identity | Non
         if raw is None:
             return None
         try:
-            message = _json(raw) if len(raw) <= MAX_BODY else None
+            message = _json(raw) if len(raw) <= MAX_UNAUTHENTICATED_BODY else None
         except InputError:
             message = None
         token = message.get("token") if isinstance(message, dict) and message.get("type") == "auth" else None

@@ -57,6 +57,33 @@ def build_service(database: str, model_path: Path | None, synchronous: str = "fu
     return RideService(model, store, model_name=name)
 
 
+MAX_HEADER_BYTES = 16_384
+"""Bytes of a request's line and headers that uvicorn buffers before answering 400 (h11's incomplete event)."""
+KEEP_ALIVE_SECONDS = 5
+"""Seconds an idle keep-alive HTTP connection stays open after its last answer."""
+SPARE_DESCRIPTORS = 64
+"""File descriptors kept out of the connection cap: the store, the ride workers' pipes, the certificate."""
+
+
+def uvicorn_limits() -> dict:
+    """uvicorn's own limits for the server: ``limit_concurrency`` (connections and requests at once; beyond it a new
+    request is answered 503 rather than the process running out of file descriptors), ``timeout_keep_alive``,
+    ``h11_max_incomplete_event_size`` and ``ws_max_size``; ``http="h11"``, the HTTP parser that bounds a request's
+    headers (httptools buffers them without a limit). The soft limit of open files is raised to the hard one
+    first, and the cap is that limit less :data:`SPARE_DESCRIPTORS`."""
+    import resource
+
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    if hard == resource.RLIM_INFINITY or hard > soft:
+        wanted = 65_536 if hard == resource.RLIM_INFINITY else min(hard, 65_536)
+        if wanted > soft:
+            with contextlib.suppress(ValueError, OSError):
+                resource.setrlimit(resource.RLIMIT_NOFILE, (wanted, hard))
+                soft = wanted
+    return {"limit_concurrency": max(16, soft - SPARE_DESCRIPTORS), "timeout_keep_alive": KEEP_ALIVE_SECONDS,
+            "h11_max_incomplete_event_size": MAX_HEADER_BYTES, "ws_max_size": MAX_BODY, "http": "h11"}
+
+
 SHUTDOWN_SECONDS = 10
 """Seconds a SIGTERM or Ctrl-C waits for open requests and sockets before the server stops anyway (the store is
 closed after them: every acknowledged sample is committed)."""
@@ -137,7 +164,7 @@ def run_server(host: str, port: int, database: str, https: bool, replay: str | N
     signal.signal(signal.SIGTERM, _stop)
     try:
         uvicorn.run(app, host=host, port=port, log_level="warning", ws_per_message_deflate=False,
-                    ws_max_size=MAX_BODY, timeout_graceful_shutdown=SHUTDOWN_SECONDS, **tls)
+                    timeout_graceful_shutdown=SHUTDOWN_SECONDS, **uvicorn_limits(), **tls)
     except _Stopped:
         pass
     finally:
