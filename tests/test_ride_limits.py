@@ -235,3 +235,18 @@ def test_server_runs_under_uvicorns_own_limits(client):
         server.should_exit = True
         thread.join(5)
 
+
+@pytest.mark.parametrize("fix", [{"latitude": 1000.0, "longitude": 139.0}, {"latitude": 35.0, "longitude": -181.0},
+                                 {"latitude": 35.0, "longitude": 139.0, "speed": 1e6}])
+def test_push_fix_out_of_range_is_refused_and_does_not_poison_the_session(client, fix):
+    headers = bearer(enrol(client, client.operator))
+    first = client.post("/push", json={"sessionId": "s", "payload": _motion(0, gyroscope=True)}, headers=headers)
+    assert first.status_code == 200
+    # a fix at the session's last (pending) slot: once accepted, it went on a later message's first sample
+    bad = _motion(1, gyroscope=True) + [{"name": "location", "time": T0 + 1_995_000_000, "values": fix}]
+    refused = client.post("/push", json={"sessionId": "s", "payload": bad}, headers=headers)
+    assert refused.status_code == 400 and "values." in refused.json()["detail"]
+    for s in (1, 2, 3):  # the session goes on as if the refused message never came
+        answer = client.post("/push", json={"sessionId": "s", "payload": _motion(s, gyroscope=True)},
+                             headers=headers)
+        assert answer.status_code == 200 and answer.json()["count"] == 20, answer.text

@@ -4,7 +4,8 @@ A message (the app's HTTP push and MQTT schema) is ``{"messageId": n, "sessionId
 "payload": [{"name": "accelerometer", "time": <UNIX ns>, "values": {"x": .., "y": .., "z": ..}}, ...]}``; the
 names used here are ``totalacceleration`` (m/s^2, gravity included, Android), ``accelerometer`` + ``gravity``
 (m/s^2, without gravity and gravity alone: their sum is the specific force), ``gyroscope`` (rad/s) and
-``location`` (``latitude``, ``longitude`` degrees, ``speed`` m/s, negative = invalid). Other sensors are ignored.
+``location`` (``latitude``, ``longitude`` degrees, ``speed`` m/s, negative = invalid; a fix outside the limits of
+:mod:`spotfree.limits` refuses its message before anything is kept). Other sensors are ignored.
 Without "Standardise Units & Frames", iOS accelerations have the opposite sign of Android's (CoreMotion); the
 push carries no platform, so the sender says ``platform=ios`` and they are negated here.
 
@@ -29,6 +30,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from spotfree.errors import InputError
+from spotfree.limits import DEGREE_BOUNDS, MAX_SPEED
 
 MAX_READINGS = 20000
 """Readings in one push message (the app's 1 s default batch at 500 Hz from every sensor is far below)."""
@@ -90,6 +92,14 @@ def parse_push(message: object, platform: str = "android") -> tuple[str, list[tu
             lat = _number(values.get("latitude"), f"{where}.values.latitude")
             lon = _number(values.get("longitude"), f"{where}.values.longitude")
             speed = _number(values.get("speed", -1.0), f"{where}.values.speed")
+            for name, value in (("latitude", lat), ("longitude", lon)):
+                bound = DEGREE_BOUNDS[name[:3]]
+                if abs(value) > bound:
+                    raise InputError(f"{where}.values.{name}: {value:g} is not degrees within +-{bound:g}; send "
+                                     "WGS-84 degrees")
+            if speed > MAX_SPEED:
+                raise InputError(f"{where}.values.speed: {speed:g} m/s is over {MAX_SPEED:g}; send m/s (negative: "
+                                 "unknown)")
             readings.append(("fix", t, (lat, lon, speed if speed >= 0 else math.nan)))
         elif name == "gyroscope":
             readings.append(("gyr", t, _xyz(reading, where)))
