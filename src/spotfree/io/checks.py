@@ -15,6 +15,7 @@ import io
 import os
 import re
 import secrets
+import stat
 import zipfile
 import zlib
 from pathlib import Path, PurePosixPath
@@ -143,25 +144,59 @@ def base_suffix(path: Path) -> str:
 
 @contextlib.contextmanager
 def replacing(path: str | Path, suffix: str = ".tmp") -> Iterator[Path]:
-    """A new empty file beside ``path`` (its name ends in ``suffix``) to write in the ``with`` block; it then replaces
-    ``path`` at once, so ``path`` is never half written, or is removed when the block fails. It is created as any
-    file the user writes, with mode ``0o666`` less the user's umask."""
+    """The path to write ``path`` through in the ``with`` block.
+
+    For a regular file (new or existing): a new empty file beside it (its name ends in ``suffix``), which then
+    replaces it at once, so ``path`` is never half written, or is removed when the block fails; it is created as any
+    file the user writes, with mode ``0o666`` less the user's umask. A symbolic link is followed: the file it names
+    is the one replaced (the link stays). A character device or a FIFO (``/dev/null``, ``/dev/stdout``, a named pipe
+    read by another program) is written in place: ``path`` itself is yielded. A folder, a block device or a socket is
+    refused (InputError, one line); an operating-system error while writing becomes one line naming ``path``."""
     path = Path(path)
-    folder = path.parent
+    try:
+        kind = os.stat(path).st_mode
+    except FileNotFoundError:  # a new file, or a link to one
+        kind = None
+    except OSError as exc:
+        raise InputError(f"{path}: cannot be written ({exc.strerror}); give another file name") from None
+    if kind is not None and stat.S_ISDIR(kind):
+        raise InputError(f"{path}: is a folder; give the name of a file to write in it")
+    if kind is not None and not stat.S_ISREG(kind):
+        if not (stat.S_ISCHR(kind) or stat.S_ISFIFO(kind)):
+            raise InputError(f"{path}: is a block device or a socket, not a file; give the name of a file")
+        with _one_line_errors(path):
+            yield path
+        return
+    target = Path(os.path.realpath(path)) if path.is_symlink() else path
+    folder = target.parent
     if not folder.is_dir():
         raise InputError(f"{path}: folder '{folder}' does not exist; create it first")
     while True:
-        temporary = folder / f".{path.name}.{secrets.token_hex(6)}{suffix}"
+        temporary = folder / f".{target.name}.{secrets.token_hex(6)}{suffix}"
         try:
             os.close(os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
             break
         except FileExistsError:
             continue
+        except OSError as exc:
+            raise InputError(f"{path}: cannot be written in '{folder}' ({exc.strerror}); give another folder") \
+                from None
     try:
-        yield temporary
-        os.replace(temporary, path)
+        with _one_line_errors(path):
+            yield temporary
+            os.replace(temporary, target)
     finally:
         temporary.unlink(missing_ok=True)
+
+
+@contextlib.contextmanager
+def _one_line_errors(path: Path) -> Iterator[None]:
+    """An operating-system error in the block as InputError naming ``path`` (a full disk, a closed pipe)."""
+    try:
+        yield
+    except OSError as exc:
+        raise InputError(f"{path}: cannot be written ({exc.strerror or exc}); check the disk or give another file") \
+            from None
 
 
 def write_text(path: Path, text: str) -> None:
@@ -359,12 +394,18 @@ def check_acceleration_units(acc: np.ndarray, source: str, columns: str) -> None
     """Specific force ``(n, 3)`` (device frame, gravity included) must be in m/s^2, not g.
 
     The median norm of a phone's specific force is close to g = 9.81 m/s^2; a median in
-    :data:`G_RANGE` means the numbers are in g.
+    :data:`G_RANGE` means the numbers are in g. When their mean points out of the screen's back or the bottom edge
+    (a phone screen down or upside down), they are most likely minus the specific force, as iOS reports its
+    acceleration, and the factor said is -9.81.
     """
     norm = np.linalg.norm(acc, axis=1)
     norm = norm[np.isfinite(norm)]
     if len(norm) and G_RANGE[0] <= float(np.median(norm)) <= G_RANGE[1]:
+        mean = np.nanmean(acc, axis=0) / np.linalg.norm(np.nanmean(acc, axis=0))
+        flipped = max(-mean[1], -mean[2]) > 0.7  # "up" out of the screen's back or the bottom edge
         raise InputError(
             f"{source}: columns {columns} have a median magnitude of {float(np.median(norm)):.3f}, i.e. they are "
-            f"in g; multiply them by {GRAVITY} to get m/s^2"
+            f"in g; " + (f"multiply them by {-GRAVITY} to get m/s^2 (they read minus the specific force, as iOS's "
+                         f"acceleration does; by {GRAVITY} if the phone lay screen down or top edge down)"
+                         if flipped else f"multiply them by {GRAVITY} to get m/s^2")
         )
