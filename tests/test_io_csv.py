@@ -383,6 +383,15 @@ def test_accelerations_in_g_are_refused_with_the_factor(tmp_path):
         read_csv(write_table(tmp_path / "g.csv", columns))
 
 
+def test_accelerations_in_g_of_ios_sign_are_refused_with_minus_g(tmp_path):
+    columns = imu_table()
+    for c in ("ax", "ay", "az"):
+        columns[c] = -columns[c] / 9.80665  # iOS: minus the specific force, in g; face up reads z = -1
+    with pytest.raises(InputError, match=r"in g; multiply them by -9\.80665 to get m/s\^2 \(they read minus the "
+                                         r"specific force, as iOS's acceleration does"):
+        read_csv(write_table(tmp_path / "ios.csv", columns))
+
+
 def test_gravity_free_accelerations_are_reported(tmp_path):
     columns = imu_table()
     columns["az"] = columns["az"] - 9.81

@@ -103,3 +103,48 @@ def test_the_command_reports_the_mount_and_takes_the_override(tmp_path, ride):
     bad = runner.invoke(app, ["features", str(path), "-o", str(tmp_path / "h.csv"), "--mount", "sideways"])
     assert bad.exit_code == 2 and bad.stderr.count("error:") == 1
     assert FEATURE_CHANNELS[0] in (tmp_path / "f.csv").read_text().splitlines()[0]
+
+
+def with_accelerations(rec, acc, keep_track=True):
+    channels = {**rec.channels, **dict(zip(["ax", "ay", "az"], acc.T))}
+    if not keep_track:
+        channels = {c: v for c, v in channels.items() if c not in ("lat", "lon")}
+    return rec.with_channels(channels)
+
+
+def test_a_constant_accelerometer_bias_is_not_reported_as_a_tilt(ride):
+    """3.5 m/s^2 on the phone's y axis turns the mean specific force by 20 deg, as a tilt would; its magnitude
+    (10.4 m/s^2, not g) is all that tells them apart, so the report says either may be."""
+    biased = estimate_mount(with_accelerations(ride, ride.array(["ax", "ay", "az"]) + [0.0, 3.5, 0.0]))
+    assert biased.biased and 10.2 < biased.force < 10.7
+    assert np.degrees(biased.angle_from_nominal) > 15
+    assert "deg from flat with the top edge forward or an accelerometer bias (its mean specific force is" \
+        in biased.describe()
+    assert any("a bias across the vertical tilts the estimate by up to" in w and "cannot tell from a tilt" in w
+               for w in biased.warnings)
+    assert not any("the phone is mounted" in w for w in biased.warnings)
+    sound = estimate_mount(ride)
+    assert not sound.biased and "bias" not in sound.describe() and not any("bias" in w for w in sound.warnings)
+
+
+@pytest.fixture(scope="module")
+def turning_ride():
+    return simulate_scenario("lateral", repeats=2, seed=4)
+
+
+def test_an_accelerometer_of_flipped_sign_is_told_by_the_gps_track(turning_ride):
+    """Minus the specific force (iOS's sign) with a right gyroscope is a mirror image of the ride: the mount cues
+    all agree with it, but the gyroscope then turns against the GPS track."""
+    right = estimate_mount(turning_ride)
+    assert not any("GPS track" in w or "upside down" in w for w in right.warnings)
+    flipped = estimate_mount(with_accelerations(turning_ride, -turning_ride.array(["ax", "ay", "az"])))
+    told = [w for w in flipped.warnings if "the gyroscope turns against the GPS track" in w]
+    assert len(told) == 1 and "multiply ax, ay, az by -1, or by -9.81 when they are in g" in told[0]
+    assert not any("the phone is mounted" in w for w in flipped.warnings)
+
+
+def test_without_a_track_a_phone_upside_down_names_both_readings(turning_ride):
+    flipped = estimate_mount(with_accelerations(turning_ride, -turning_ride.array(["ax", "ay", "az"]), False))
+    said = [w for w in flipped.warnings if "upside down" in w]
+    assert len(said) == 1 and "either it is, or the accelerometer reads minus the specific force" in said[0]
+    assert said[0].endswith("the GPS track would tell, and the log has none")

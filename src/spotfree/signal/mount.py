@@ -23,6 +23,19 @@ up axes written in device coordinates.
   forward is the phone's top edge, or its back when it stands upright (the horizontal part of ``y - z``): the
   phone faces the rider, top edge forward or up.
 
+Two things the samples cannot tell are said, not guessed:
+
+* **A bias or a tilt.** A constant accelerometer bias ``b`` across the vertical turns the mean specific force as a
+  tilt of the mount does; only the magnitude shows it: with ``m`` the magnitude of the mean specific force,
+  a bias across the vertical gives ``m = sqrt(g^2 + |b|^2)``, i.e. a tilt of up to ``acos(g / m)``. When ``m``
+  differs from g by more than :data:`FORCE_TOLERANCE`, the report says that the tilt may be the accelerometer's.
+* **A flipped accelerometer.** An accelerometer that reads minus the specific force (iOS's acceleration, in g)
+  with a right gyroscope is the mirror image of a right ride: every cue above agrees with it, and the estimate
+  says the phone is upside down. The GPS track breaks the symmetry: the gyroscope's rotation about the estimated
+  vertical must turn the way the track turns (:func:`track_turns`). When it significantly turns the other way the
+  flip is reported with its fix; when the track cannot tell and the phone seems upside down, both readings are
+  named.
+
 All of it rests on running sums (:class:`MountStatistics`), so the same numbers come from a whole log
 (:func:`estimate_mount`) and from a live ride sample by sample (:class:`MountTracker`, whose twin in the phone page
 is ``MountTracker`` in ``ride/static/pipeline.js``).
@@ -73,6 +86,19 @@ MIN_SPEED_CHANGE = 0.1
 USUAL_ANGLE = np.deg2rad(15.0)
 """An estimate within this angle of the nominal mount is usual: the nominal mount is used."""
 
+FORCE_TOLERANCE = 0.25
+"""Largest difference (m/s^2) between the magnitude of the mean specific force over a log and g of a sound
+accelerometer; beyond it a bias or a scale error is reported (module docstring)."""
+
+TRACK_CHORD = 3
+"""Fixes spanned by each chord of the GPS track whose bearings give the track's turns (:func:`track_turns`)."""
+
+TRACK_MIN_CHORD = 6.0
+"""Shortest chord (m) whose bearing counts: a phone's position error moves it by about half a metre per second."""
+
+EARTH_RADIUS = 6371000.0
+"""Mean Earth radius (m), for the local east and north of GPS fixes."""
+
 LEAN_TIME_CONSTANT = 2.0
 """Time constant (s) of the leaky integral that turns rotation rate into lean."""
 
@@ -114,6 +140,18 @@ class MountEstimate:
     correlation: float
     warnings: list[str] = field(default_factory=list)
     choice: str = "auto"
+    force: float = GRAVITY
+    """Magnitude (m/s^2) of the mean specific force over the log: g, give or take what the rider's accelerations
+    leave in the mean, for a sound accelerometer."""
+
+    @property
+    def biased(self) -> bool:
+        """Whether :attr:`force` is more than :data:`FORCE_TOLERANCE` from g: a tilt may be the accelerometer's."""
+        return abs(self.force - GRAVITY) > FORCE_TOLERANCE
+
+    def _bias_said(self) -> str:
+        """What the accelerometer reads, when :attr:`biased`, as the reports say it."""
+        return f"its mean specific force is {self.force:.2f} m/s^2, not g = {GRAVITY:.2f}"
 
     @property
     def angle_from_nominal(self) -> float:
@@ -126,8 +164,9 @@ class MountEstimate:
         tilt = np.degrees(np.arccos(np.clip(up[2], -1, 1)))
         forward = self.estimated[0]
         return (f"mount: up is {_axes(up)}, forward is {_axes(forward)} (device frame; {tilt:.0f} deg from "
-                f"screen-up), {np.degrees(self.angle_from_nominal):.0f} deg from flat with the top edge forward; "
-                f"forward from {self.source}"
+                f"screen-up), {np.degrees(self.angle_from_nominal):.0f} deg from flat with the top edge forward"
+                + (f" or an accelerometer bias ({self._bias_said()})" if self.biased else "")
+                + f"; forward from {self.source}"
                 + (f" (correlation {self.correlation:.2f}); " if self.source != TOP_EDGE_SOURCE else "; ")
                 + (f"using the --mount {self.choice} choice" if self.choice != "auto" else
                    "using the nominal mount" if np.allclose(self.used, MOUNT) else "using the estimate"))
@@ -270,13 +309,25 @@ class MountStatistics:
                 warnings.append(f"{where}the GPS speed changes do not tell the direction of travel; assumed the "
                                 f"phone's top edge (or back) points forward")
         estimated = np.vstack([forward, np.cross(up, forward), up])
-        result = MountEstimate(estimated, estimated, source, fraction, r, warnings, choice)
+        s = self.state_[0]
+        force = float(np.linalg.norm(s["force"] / max(s["valid"], 1)))  # the quiet samples' would be held near g
+        result = MountEstimate(estimated, estimated, source, fraction, r, warnings, choice, force)
+        if result.biased:
+            tilt = (f"a bias across the vertical tilts the estimate by up to "
+                    f"{np.degrees(np.arccos(GRAVITY / force)):.0f} deg" if force > GRAVITY else "a bias also tilts "
+                    "the estimate")
+            warnings.append(f"{where}the accelerometer's {result._bias_said().removeprefix('its ')}: it has a bias "
+                            f"or a scale error, and {tilt}, which the data cannot tell from a tilt of the mount; "
+                            f"calibrate the accelerometer, or give --mount flat|upright if you know how the phone sits")
         if choice == "auto":
             unusual = result.angle_from_nominal > USUAL_ANGLE
             result.used = estimated if unusual else MOUNT
             if unusual:
-                warnings.append(f"{where}the phone is mounted {np.degrees(result.angle_from_nominal):.0f} deg from "
-                                f"flat with its top edge forward; features use the estimated mount"
+                mounted = (f"the estimate is {np.degrees(result.angle_from_nominal):.0f} deg from flat with the top "
+                           f"edge forward (a tilt of the phone or the accelerometer's bias)" if result.biased else
+                           f"the phone is mounted {np.degrees(result.angle_from_nominal):.0f} deg from flat with its "
+                           f"top edge forward")
+                warnings.append(f"{where}{mounted}; features use the estimated mount"
                                 + (" (override with --mount flat|upright|estimate)" if override else ""))
         elif choice != "estimate":
             result.used = PRESETS[choice]
@@ -387,7 +438,56 @@ def estimate_mount(rec: Recording, choice: str = "auto") -> MountEstimate:
     speed = rec.channels.get("speed")
     speeds = np.full(len(rec), np.nan) if speed is None else speed
     stats.update_block(np.column_stack([rec.time, rec.array(ACC_CHANNELS), rec.array(GYRO_CHANNELS), speeds]))
-    return stats.estimate(choice, f"{rec.source}: ", speed_given=speed is not None)
+    result = stats.estimate(choice, f"{rec.source}: ", speed_given=speed is not None)
+    turns, r = track_turns(rec, result.estimated[2])
+    told = turns >= MIN_INTERVALS and (1.0 - r * r) ** ((turns - 2) / 2) < SIGNIFICANCE
+    flip = "multiply ax, ay, az by -1, or by -9.81 when they are in g"
+    if told and r < 0:  # the mount estimated is the mirror image's: not a claim to repeat
+        result.warnings[:] = [w for w in result.warnings if not w.startswith(f"{rec.source}: the phone is mounted")]
+        result.warnings.append(
+            f"{rec.source}: the gyroscope turns against the GPS track (correlation {r:.2f} over {turns} turns): the "
+            f"accelerometer reads minus the specific force, as iOS's acceleration does; {flip}")
+    elif not told and max(-result.estimated[2, 1], -result.estimated[2, 2]) > 0.7:
+        result.warnings.append(
+            f"{rec.source}: the accelerometer says the phone is upside down (screen or top edge towards the ground); "
+            f"either it is, or the accelerometer reads minus the specific force, as iOS's acceleration does (then "
+            f"{flip}): the GPS track "
+            + ("is too short or straight to tell" if "lat" in rec.channels else "would tell, and the log has none"))
+    return result
+
+
+def track_turns(rec: Recording, up: np.ndarray) -> tuple[int, float]:
+    """``(n, r)``: how many turns of the GPS track of ``rec`` were compared with its gyroscope, and their
+    correlation (NaN for fewer than three).
+
+    The track is cut into chords of :data:`TRACK_CHORD` fixes (``lat``, ``lon`` in degrees, as local east and north
+    metres); at each joint of two chords of at least :data:`TRACK_MIN_CHORD` m the track turns by the difference
+    of their bearings (counter-clockwise seen from above), and the gyroscope by the integral of its rotation rate
+    about ``up`` (a device-frame unit vector) from the middle of the first chord to the middle of the second. A
+    right accelerometer and gyroscope give ``r`` near 1; an accelerometer of flipped sign turns ``up`` over, and
+    ``r`` near -1."""
+    if "lat" not in rec.channels or "lon" not in rec.channels:
+        return 0, math.nan
+    track, gyro = [], []
+    for _, part in rec.experiments():
+        lat, lon = part.channels["lat"], part.channels["lon"]
+        fix = np.flatnonzero(np.isfinite(lat) & np.isfinite(lon))
+        if len(fix) < 2 * TRACK_CHORD + 1:
+            continue
+        east = np.radians(lon[fix]) * np.cos(np.radians(np.mean(lat[fix]))) * EARTH_RADIUS
+        north = np.radians(lat[fix]) * EARTH_RADIUS
+        turned = np.r_[0.0, np.cumsum(np.nan_to_num(part.array(GYRO_CHANNELS) @ up)) / part.rate]
+        for b in range(TRACK_CHORD, len(fix) - TRACK_CHORD, TRACK_CHORD):
+            a, c = b - TRACK_CHORD, b + TRACK_CHORD
+            first, second = (east[b] - east[a], north[b] - north[a]), (east[c] - east[b], north[c] - north[b])
+            if min(math.hypot(*first), math.hypot(*second)) < TRACK_MIN_CHORD:
+                continue
+            bearing = math.atan2(*second) - math.atan2(*first)  # clockwise from north
+            track.append(-math.remainder(bearing, 2 * math.pi))
+            gyro.append(turned[(fix[b] + fix[c]) // 2] - turned[(fix[a] + fix[b]) // 2])
+    if len(track) < 3 or np.std(track) == 0 or np.std(gyro) == 0:
+        return len(track), math.nan
+    return len(track), float(np.corrcoef(track, gyro)[0, 1])
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
