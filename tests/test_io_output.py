@@ -60,6 +60,9 @@ def test_a_write_error_names_the_target(tmp_path, no_replace):
     full = "/dev/full"
     if not os.path.exists(full):
         pytest.skip("no /dev/full")
-    with pytest.raises(InputError, match="/dev/full: cannot be written"):
+    with pytest.raises(OSError) as failed:
         write_text(full, "x\n")
+    assert failed.value.filename == full and failed.value.strerror == os.strerror(28)  # ENOSPC
+    result = runner.invoke(app, ["simulate", "normal-braking", "--repeats", "1", "-o", full])
+    assert result.exit_code == 2 and f"{full}: {os.strerror(28)}" in result.output
     assert stat.S_ISCHR(os.stat(full).st_mode)

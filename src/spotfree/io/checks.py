@@ -151,7 +151,7 @@ def replacing(path: str | Path, suffix: str = ".tmp") -> Iterator[Path]:
     file the user writes, with mode ``0o666`` less the user's umask. A symbolic link is followed: the file it names
     is the one replaced (the link stays). A character device or a FIFO (``/dev/null``, ``/dev/stdout``, a named pipe
     read by another program) is written in place: ``path`` itself is yielded. A folder, a block device or a socket is
-    refused (InputError, one line); an operating-system error while writing becomes one line naming ``path``."""
+    refused (InputError, one line); an operating-system error while writing is an OSError naming ``path``."""
     path = Path(path)
     try:
         kind = os.stat(path).st_mode
@@ -191,12 +191,12 @@ def replacing(path: str | Path, suffix: str = ".tmp") -> Iterator[Path]:
 
 @contextlib.contextmanager
 def _one_line_errors(path: Path) -> Iterator[None]:
-    """An operating-system error in the block as InputError naming ``path`` (a full disk, a closed pipe)."""
+    """An operating-system error in the block (a full disk, a closed pipe) raised again as an OSError of the same
+    errno naming ``path``, not the temporary file, so that the command line says ``path: reason`` in one line."""
     try:
         yield
     except OSError as exc:
-        raise InputError(f"{path}: cannot be written ({exc.strerror or exc}); check the disk or give another file") \
-            from None
+        raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
 
 
 def write_text(path: Path, text: str) -> None:
