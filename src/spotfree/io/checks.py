@@ -39,8 +39,8 @@ MIN_MOTION_RATE = 2.0
 GZIP_MAGIC = b"\x1f\x8b"
 """First bytes of a gzip-compressed file."""
 MAX_UNPACKED = 2 << 30
-"""Most bytes a gzip-compressed log may hold (2 GiB, a day of 100 Hz motion and GPS as CSV): a few kilobytes of gzip
-can inflate to gigabytes."""
+"""Most bytes of one file read whole: a log, a gzip-compressed log once uncompressed, a member of a zip export (2
+GiB, a day of 100 Hz motion and GPS as CSV; a few kilobytes of gzip or zip can inflate to gigabytes)."""
 
 G_RANGE = (0.7, 1.3)
 """A median specific-force magnitude in this range means the numbers are in g (about 1), not m/s^2 (about 9.81)."""
@@ -60,10 +60,12 @@ class Archive:
                 p.relative_to(self.path).as_posix() for p in self.path.rglob("*") if p.is_file()
             )
         else:
+            stream = open_regular(self.path)
             try:
-                self._zip = zipfile.ZipFile(self.path)
+                self._zip = zipfile.ZipFile(stream)
                 self.members = sorted(n for n in self._zip.namelist() if not n.endswith("/"))
             except (zipfile.BadZipFile, OSError, EOFError, ValueError) as exc:
+                stream.close()
                 raise InputError(f"{self.path}: not a readable zip archive ({exc}); export it again") from None
 
     def __enter__(self) -> "Archive":
@@ -71,7 +73,10 @@ class Archive:
 
     def __exit__(self, *exc) -> None:
         if self._zip is not None:
+            stream = self._zip.fp
             self._zip.close()
+            if stream is not None:
+                stream.close()
 
     def find(self, name: str) -> str | None:
         """The member whose file name (any folder, any case) is ``name``, or None; the shallowest one wins."""
@@ -91,14 +96,27 @@ class Archive:
         return self._read(member, size).decode("utf-8-sig", errors="replace")
 
     def _read(self, member: str, size: int = -1) -> bytes:
+        """The first ``size`` bytes of a member (all for -1), at most :data:`MAX_UNPACKED` (refused beyond, by
+        the size a zip declares before anything is read)."""
+        wanted = MAX_UNPACKED + 1 if size < 0 else min(size, MAX_UNPACKED + 1)
         try:
             if self._zip is None:
-                with open(self.path / member, "rb") as stream:
-                    return stream.read(size)
-            with self._zip.open(member) as stream:
-                return stream.read(size)
+                with open_regular(self.path / member) as stream:
+                    raw = stream.read(wanted)
+            else:
+                declared = self._zip.getinfo(member).file_size
+                if size < 0 and declared > MAX_UNPACKED:
+                    raise InputError(f"{self.label(member)}: holds {declared} bytes once uncompressed, more than "
+                                     f"{_size(MAX_UNPACKED)}; split the log")
+                with self._zip.open(member) as stream:
+                    raw = stream.read(wanted)
+        except InputError:
+            raise
         except (zipfile.BadZipFile, OSError, EOFError, ValueError, NotImplementedError, RuntimeError) as exc:
             raise InputError(f"{self.label(member)}: cannot be read ({exc}); export it again") from None
+        if len(raw) > MAX_UNPACKED:
+            raise InputError(f"{self.label(member)}: holds more than {_size(MAX_UNPACKED)}; split the log")
+        return raw
 
 
 def decode(raw: bytes, source: str) -> str:
@@ -109,20 +127,47 @@ def decode(raw: bytes, source: str) -> str:
         raise InputError(f"{source}: not UTF-8 text (byte {exc.start}); save the file as UTF-8 CSV") from None
 
 
-def read_bytes(path: Path, size: int = -1) -> bytes:
-    """The first ``size`` bytes of a file (all of it for -1); a gzip-compressed file (``log.csv.gz``) is read as the
-    file it holds, up to :data:`MAX_UNPACKED` bytes. A missing, unreadable, truncated or overlong file is an
-    InputError."""
+def _size(n: int) -> str:
+    """Bytes in GiB, as the limits are said: ``2 GiB``."""
+    return f"{n / 2 ** 30:g} GiB"
+
+
+def open_regular(path: Path):
+    """A regular file opened for reading in binary; a folder, device, FIFO or socket is refused (InputError) without
+    waiting for a FIFO's writer or reading a device."""
     try:
-        with open(path, "rb") as stream:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    except FileNotFoundError:
+        raise InputError(f"{path}: file not found; check the path") from None
+    except OSError as exc:
+        raise InputError(f"{path}: cannot be read ({exc.strerror}); check the file") from None
+    mode = os.fstat(fd).st_mode
+    if not stat.S_ISREG(mode):
+        os.close(fd)
+        what = "a folder" if stat.S_ISDIR(mode) else "not a regular file (a device, a FIFO or a socket)"
+        raise InputError(f"{path}: is {what}; give a log file saved on disk")
+    os.set_blocking(fd, True)
+    return os.fdopen(fd, "rb")
+
+
+def read_bytes(path: Path, size: int = -1) -> bytes:
+    """The first ``size`` bytes of a regular file (all of it for -1); a gzip-compressed file (``log.csv.gz``) is read
+    as the file it holds. At most :data:`MAX_UNPACKED` bytes either way. A missing, unreadable, truncated or overlong
+    file, or one that is not a regular file (:func:`open_regular`), is an InputError."""
+    wanted = MAX_UNPACKED + 1 if size < 0 else min(size, MAX_UNPACKED + 1)
+    try:
+        with open_regular(path) as stream:
             compressed = stream.read(len(GZIP_MAGIC)) == GZIP_MAGIC
             stream.seek(0)
             if not compressed:
-                return stream.read(size)
-            with gzip.GzipFile(fileobj=stream) as unpacked:
-                raw = unpacked.read(MAX_UNPACKED + 1 if size < 0 else min(size, MAX_UNPACKED + 1))
+                if size < 0 and os.fstat(stream.fileno()).st_size > MAX_UNPACKED:
+                    raise InputError(f"{path}: is over {_size(MAX_UNPACKED)}; split the log")
+                raw = stream.read(wanted)
+            else:
+                with gzip.GzipFile(fileobj=stream) as unpacked:
+                    raw = unpacked.read(wanted)
         if len(raw) > MAX_UNPACKED:
-            raise InputError(f"{path}: holds more than {MAX_UNPACKED / 2 ** 30:g} GiB once uncompressed; split the log")
+            raise InputError(f"{path}: holds more than {_size(MAX_UNPACKED)} once uncompressed; split the log")
         return raw
     except FileNotFoundError:
         raise InputError(f"{path}: file not found; check the path") from None
