@@ -537,7 +537,8 @@ def _parse_experiment(spec: str):
 @user_errors
 def classify(
     paths: list[str] = typer.Argument(..., metavar="MODEL.npz [MODEL2.npz ...] IN [IN2 ...]",
-                                      help="model file(s) written by 'spotfree train', then any supported log(s) "
+                                      help="model file(s) written by 'spotfree train' or the name of a model "
+                                      "shipped with spotfree (braking), then any supported log(s) "
                                       "(PATH@K selects experiment K)"),
     output: Path = typer.Option(..., "-o", "--output", help="CSV file to write: time, label (and experiment); "
                                 "with several models one label column per model, named by its file stem; with "
@@ -597,6 +598,11 @@ def classify(
 
     targets = _log_outputs(sources, output)
     models = {name: DictionaryModel.load(path) for name, path in zip(names, model_paths)}  # once for every log
+    from spotfree.ride.default_model import shipped_models, trained_on
+
+    for name, path in zip(names, model_paths):
+        if Path(path) in shipped_models().values():
+            out.print(f"model {name}: shipped with spotfree, {trained_on(models[name])}")
     if offline:
         votes = {name: stored_votes(model) for name, model in models.items()}
     else:
@@ -619,21 +625,33 @@ def classify(
 
 
 def _models_and_logs(paths: list[str]) -> tuple[list[str], list[str]]:
-    """``classify``'s paths split into the model files (the leading ``.npz`` files; with none, all but the last
+    """``classify``'s paths split into the model files (the leading ``.npz`` files or names of shipped models,
+    :func:`~spotfree.ride.default_model.shipped_models`, which become their files; with none, all but the last
     path) and the logs after them."""
+    from spotfree.ride.default_model import shipped_models
+
     if len(paths) < 2:
         raise InputError("classify needs MODEL.npz [MODEL2.npz ...] IN: at least one model file and the log")
+    shipped = {name: str(path) for name, path in shipped_models().items() if not Path(name).exists()}
+
+    def is_model(path: str) -> bool:
+        return path.lower().endswith(".npz") or path in shipped
+
     models = 0
-    while models < len(paths) and paths[models].lower().endswith(".npz"):
+    while models < len(paths) and is_model(paths[models]):
         models += 1
     if models == 0:
         models = len(paths) - 1
+        missing = next((p for p in paths[:models] if not Path(p).exists()), None)
+        if missing is not None and not any(is_model(p) for p in paths[models:]):
+            raise InputError(f"classify: {missing} is neither a model file nor a shipped model ("
+                             f"{', '.join(shipped_models())}); give a file written by 'spotfree train' or that name")
     if models == len(paths):
         raise InputError(f"classify: {paths[-1]} is a model file; give the log to label after the model files")
-    stray = [p for p in paths[models:] if p.lower().endswith(".npz")]
+    stray = [p for p in paths[models:] if is_model(p)]
     if stray:
         raise InputError(f"classify: {stray[0]} is a model file among the logs; give the model files first")
-    return paths[:models], paths[models:]
+    return [shipped.get(p, p) for p in paths[:models]], paths[models:]
 
 
 def _log_outputs(sources: list[str], output: Path) -> dict[str, Path]:
