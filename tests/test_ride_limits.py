@@ -250,3 +250,20 @@ def test_push_fix_out_of_range_is_refused_and_does_not_poison_the_session(client
         answer = client.post("/push", json={"sessionId": "s", "payload": _motion(s, gyroscope=True)},
                              headers=headers)
         assert answer.status_code == 200 and answer.json()["count"] == 20, answer.text
+
+
+@pytest.mark.parametrize("column", ["ax", "time", "lat"])
+def test_a_dict_typed_sample_column_is_a_400_not_a_500(client, column):
+    phone = enrol(client, client.operator)
+    ride = client.post("/api/rides", json={"vehicle": "v", "rider_id": "r"}, headers=bearer(phone)).json()["ride_id"]
+    samples = {c: [0.0, 0.05] for c in ("time", "ax", "ay", "az", "gx", "gy", "gz", "lat", "lon")}
+    samples[column] = {"a": 1.0, "b": 2.0}  # as long as the other columns
+    answer = client.post(f"/api/rides/{ride}/samples", json={"samples": samples}, headers=bearer(phone))
+    assert answer.status_code == 400 and f"field '{column}' must be a list of numbers" in answer.json()["detail"]
+    with client.websocket_connect("/ws/ride") as ws:
+        ws.send_json({"type": "resume", "token": phone, "ride_id": ride})
+        assert ws.receive_json()["type"] == "resumed"
+        ws.send_json({"type": "batch", "seq": 1, "samples": samples})
+        assert ws.receive_json()["status"] == 400  # answered, and the socket stays open
+        ws.send_json({"type": "end"})
+        assert ws.receive_json()["type"] == "ended"

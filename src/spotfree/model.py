@@ -234,7 +234,7 @@ def check_model_file(path: Path) -> None:
         raise InputError(f"{where} ({reason}); {fix}") from None
     try:
         meta = json.loads(str(meta))
-    except (json.JSONDecodeError, RecursionError):
+    except (ValueError, RecursionError):  # not JSON, an integer of thousands of digits, nesting thousands deep
         meta = None
     if not isinstance(meta, dict):
         raise InputError(f"{where} (its metadata is not a JSON object); {fix}")

@@ -71,7 +71,10 @@ def parse_log(text: str, source: str) -> tuple[list[HandFrame], list[int], list[
             continue
         try:
             message = json.loads(line)
-        except json.JSONDecodeError as exc:
+        except (ValueError, RecursionError) as exc:  # also an integer of thousands of digits, deep nesting
+            if not isinstance(exc, json.JSONDecodeError):
+                reason = "nested too deeply" if isinstance(exc, RecursionError) else "a number too long"
+                raise InputError(f"{source}, line {number}: not a frame of the tracking service ({reason})") from None
             if number == len(rows) and frames:
                 repairs.append(f"{source}: dropped the unfinished last line {number} (the log was cut while written)")
                 break

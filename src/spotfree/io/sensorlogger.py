@@ -124,6 +124,9 @@ def _json_sensors(path: Path) -> dict[str, _Sensor]:
         records = json.loads(checks.read_text(path))
     except json.JSONDecodeError as exc:
         raise InputError(f"{path}: not valid JSON (line {exc.lineno}: {exc.msg}); export the recording again") from None
+    except (ValueError, RecursionError) as exc:  # an integer of thousands of digits, arrays nested thousands deep
+        reason = "nested too deeply" if isinstance(exc, RecursionError) else "a number too long"
+        raise InputError(f"{path}: not a Sensor Logger JSON export ({reason}); export the recording again") from None
     if not isinstance(records, list) or not records or not all(isinstance(r, dict) and "sensor" in r for r in records):
         raise InputError(f"{path}: not a Sensor Logger JSON export (an array of records with a 'sensor' field)")
     frame = pd.DataFrame.from_records(records)

@@ -265,7 +265,7 @@ def _length(columns: Mapping[str, Sequence], where: str, what: str) -> int:
 
 
 def _len(values: Sequence, where: str, name: str) -> int:
-    if isinstance(values, (str, bytes)) or not hasattr(values, "__len__"):
+    if isinstance(values, (str, bytes, Mapping, set, frozenset)) or not hasattr(values, "__len__"):
         raise InputError(f"{where}: field {name!r} must be a list of numbers")
     return len(values)
 
