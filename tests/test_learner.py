@@ -399,6 +399,7 @@ def test_a_class_that_looks_like_another_is_warned_about():
     assert not any("class slow" in w or "class still" in w for w in learner.warnings_)
 
 
+@pytest.mark.slow
 def test_thousands_of_short_recordings():
     rng = np.random.default_rng(9)
     train, sets = [], []
@@ -411,6 +412,7 @@ def test_thousands_of_short_recordings():
     assert set(learner.model_.summary["columns_per_class"]) == {"still", "slow", "fast"}
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(data=st.data())
 def test_any_input_trains_or_is_refused_with_an_input_error(data):
