@@ -267,3 +267,25 @@ def test_a_dict_typed_sample_column_is_a_400_not_a_500(client, column):
         assert ws.receive_json()["status"] == 400  # answered, and the socket stays open
         ws.send_json({"type": "end"})
         assert ws.receive_json()["type"] == "ended"
+
+
+def test_a_new_sqlite_store_and_its_side_files_are_the_owners_only(tmp_path):
+    import os
+    import stat
+
+    from ride_fixtures import batch
+    from spotfree.ride.store import RideStore
+
+    path = tmp_path / "rides.db"
+    previous = os.umask(0o022)
+    try:
+        with RideStore(path, synchronous="normal") as store:
+            _, token = store.register_device("phone")
+            ride = store.start_ride(token, "v", "r")
+            store.append_samples(token, ride, batch(0.0, 20))
+            made = sorted(p.name for p in tmp_path.iterdir())
+            modes = {p.name: stat.S_IMODE(p.stat().st_mode) for p in tmp_path.iterdir()}
+    finally:
+        os.umask(previous)
+    assert "rides.db-wal" in made and set(modes.values()) == {0o600}, modes
+

@@ -39,6 +39,7 @@ One store object may be shared between threads: its calls are serialised on one 
 from __future__ import annotations
 
 import contextlib
+import os
 import sqlite3
 import threading
 import time as clock
@@ -547,10 +548,15 @@ def _write_together(db, writes: list[_SampleWrite]) -> list[tuple[bool, object]]
 
 
 class SQLiteConnection:
-    """One SQLite connection in WAL mode; :meth:`transaction` is ``BEGIN IMMEDIATE`` ... ``COMMIT``."""
+    """One SQLite connection in WAL mode; :meth:`transaction` is ``BEGIN IMMEDIATE`` ... ``COMMIT``. A new file is
+    created readable and writable by its owner only (mode 0600: GPS tracks and riders' descriptors), and SQLite
+    gives its ``-wal`` and ``-shm`` files the same mode."""
 
     def __init__(self, path: str, synchronous: str):
         self.path = path
+        if path != ":memory:" and not path.startswith("file:"):
+            with contextlib.suppress(OSError):  # an existing file keeps its mode; SQLite names any other failure
+                os.close(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
         try:
             self._connection = sqlite3.connect(path, isolation_level=None, check_same_thread=False, timeout=30.0)
             self._connection.execute("PRAGMA journal_mode = WAL")
