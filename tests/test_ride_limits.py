@@ -289,3 +289,18 @@ def test_a_new_sqlite_store_and_its_side_files_are_the_owners_only(tmp_path):
         os.umask(previous)
     assert "rides.db-wal" in made and set(modes.values()) == {0o600}, modes
 
+
+def test_serve_on_a_port_in_use_says_so_in_one_line(tmp_path):
+    import socket
+
+    from typer.testing import CliRunner
+
+    from spotfree.cli import app
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        result = CliRunner().invoke(app, ["serve", "--port", str(port), "--database", str(tmp_path / "r.db")])
+    assert result.exit_code == 2 and f"127.0.0.1:{port} is in use by another program" in result.output
+    assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "r.db").exists()

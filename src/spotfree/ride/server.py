@@ -12,8 +12,10 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import errno
 import os
 import signal
+import socket
 from pathlib import Path
 from typing import Callable
 
@@ -114,6 +116,32 @@ def provide_operator_token(service: RideService, path: Path, renew: bool, say: C
         say(f"operator token: {path} is gone; start once with --new-operator-token to issue a new one")
 
 
+def check_address(host: str, port: int) -> None:
+    """Refuse (InputError, one line) an address this process cannot listen on, before anything is loaded: a port
+    another program listens on, a port below 1024 without the privilege, a host that is not this machine's. Port 0
+    (any free port) is not checked. The probe binds as uvicorn does (``SO_REUSEADDR``) and closes at once."""
+    if port == 0:
+        return
+    try:
+        family = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)[0][0]
+    except socket.gaierror as exc:
+        raise InputError(f"--host {host}: not an address of this machine ({exc.strerror}); give an IP address, "
+                         "e.g. 127.0.0.1 or 0.0.0.0") from None
+    with socket.socket(family, socket.SOCK_STREAM) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            probe.bind((host, port))
+        except OSError as exc:
+            if exc.errno == errno.EADDRINUSE:
+                raise InputError(f"--port {port}: {host}:{port} is in use by another program; stop it or give "
+                                 "another --port (0: any free port)") from None
+            if exc.errno == errno.EACCES:
+                raise InputError(f"--port {port}: ports below 1024 need administrator rights; give a port from "
+                                 "1024") from None
+            raise InputError(f"--host {host} --port {port}: cannot listen there ({exc.strerror}); give an "
+                             "address of this machine") from None
+
+
 def run_server(host: str, port: int, database: str, https: bool, replay: str | None, simulate: str | None,
                model_path: Path | None, speed: float, seed: int, say: Callable[[str], None],
                synchronous: str = "full", workers: int = 0, new_operator_token: bool = False,
@@ -124,6 +152,7 @@ def run_server(host: str, port: int, database: str, https: bool, replay: str | N
 
     if not 0 <= port <= 65535:
         raise InputError(f"--port {port}: give a port from 1 to 65535 (0: any free port)")
+    check_address(host, port)
     if certificate is not None:
         from spotfree.ride.tls import user_certificate
 
