@@ -304,3 +304,16 @@ def test_serve_on_a_port_in_use_says_so_in_one_line(tmp_path):
         result = CliRunner().invoke(app, ["serve", "--port", str(port), "--database", str(tmp_path / "r.db")])
     assert result.exit_code == 2 and f"127.0.0.1:{port} is in use by another program" in result.output
     assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "r.db").exists()
+
+
+@pytest.mark.parametrize("url", ["postgresql://u:s3cret@[::1/db", "postgresql://u:s3%zzcret@host/db",
+                                 "postgresql://u@h/db?password=s3cret&foo=bar"])
+def test_a_malformed_postgresql_url_never_echoes_its_password(url):
+    pytest.importorskip("psycopg")
+    from spotfree.errors import InputError
+    from spotfree.ride.postgres import PostgresConnection
+
+    with pytest.raises(InputError) as refused:
+        PostgresConnection(url)
+    assert "s3" not in str(refused.value) and "***" in str(refused.value) and "\n" not in str(refused.value)
+

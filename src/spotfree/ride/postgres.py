@@ -7,7 +7,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 
 from spotfree.errors import InputError
-from spotfree.ride.redact import redact_location
+from spotfree.ride.redact import redact_location, scrub
 
 
 class PostgresConnection:
@@ -23,7 +23,7 @@ class PostgresConnection:
         try:
             self._connection = psycopg.connect(url, autocommit=True)
         except psycopg.Error as exc:
-            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            first = scrub(str(exc).strip().splitlines()[0], url) if str(exc).strip() else type(exc).__name__
             raise InputError(f"{redact_location(url)}: cannot connect ({first}); check the URL and that the server "
                              "runs") from None
 
