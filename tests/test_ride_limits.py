@@ -317,3 +317,13 @@ def test_a_malformed_postgresql_url_never_echoes_its_password(url):
         PostgresConnection(url)
     assert "s3" not in str(refused.value) and "***" in str(refused.value) and "\n" not in str(refused.value)
 
+
+def test_the_watch_greeting_lists_a_device_only_its_own_open_rides(client):
+    mine, theirs = enrol(client, client.operator), enrol(client, client.operator, "other")
+    start = {"vehicle": "v", "rider_id": "r"}
+    own = client.post("/api/rides", json=start, headers=bearer(mine)).json()["ride_id"]
+    other = client.post("/api/rides", json=start, headers=bearer(theirs)).json()["ride_id"]
+    with client.websocket_connect("/ws/watch", headers=bearer(mine)) as view:
+        assert view.receive_json()["open"] == [own]
+    with client.websocket_connect("/ws/watch", headers=client.operator) as view:
+        assert set(view.receive_json()["open"]) == {own, other}

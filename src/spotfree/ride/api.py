@@ -421,7 +421,7 @@ def create_app(service: RideService) -> FastAPI:
         queue = service.watch(websocket.query_params.get("ride"), who)
 
         async def forward() -> None:
-            await websocket.send_json({"type": "hello", "role": who.role, "open": service.open_rides()})
+            await websocket.send_json({"type": "hello", "role": who.role, "open": service.open_rides_for(who)})
             while True:
                 await websocket.send_json(await queue.get())
         # the socket is read as well as written: a watcher that leaves (or a server shutting down) is noticed at

@@ -367,6 +367,14 @@ class RideService:
         with self._lock:
             return list(self._open)
 
+    def open_rides_for(self, who: Identity) -> list[str]:
+        """The open rides ``who`` may know of: every one for the operator, for a device those its token started."""
+        rides = self.open_rides()
+        if who.role == OPERATOR:
+            return rides
+        with self._lock:
+            return [r for r in rides if self._owners.get(r) == who.token_hash]
+
     def health(self) -> dict:
         """``status`` (``"ok"``, or ``"degraded"`` while a ride worker is down), ``open_rides`` and, with worker
         processes, one ``{"index", "alive", "rides"}`` per worker and the ``restarts`` so far."""
