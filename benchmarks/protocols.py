@@ -12,8 +12,8 @@ stream (each recording an experiment of it, so that no window spans two). A prot
 (stratified over the draws of a set: :func:`draws`), a clip length from 2 to 20 s (log-uniform) and how many clips
 each training subject gives, from 4 to all of those that fit in its stream (log-spaced); the clips are placed at
 random in the stream without overlap, and a clip declares only the set of the classes in it. A clip longer than a
-recording runs over into the next one (a run of concatenated clips). The whole recordings of the test subjects are
-labelled per sample. Each draw is run with the channels named generically (``c1 .. c6``: spotfree sees plain
+recording runs over into the next one (a run of concatenated clips). Whole recordings of the test subjects are
+labelled per sample (at most :data:`TESTS` of them per set, spread evenly over the test subjects). Each draw is run with the channels named generically (``c1 .. c6``: spotfree sees plain
 channels) and as an IMU log (``ax ay az gx gy gz``: spotfree's own feature choice applies); the two namings are two
 protocols for spotfree, while every other method reads the same six channels under either name and runs once per
 draw. Per set: two splits of its subjects, each with every seed of ``--seeds``, and both namings: 12 protocols
@@ -147,7 +147,7 @@ CLIP_SECONDS = (2.0, 20.0)
 FEWEST_CLIPS = 4
 """Fewest clips a training subject gives (all of them when fewer fit)."""
 SPLITS = ("first", "last")
-PEER_WINDOWS = 4_000
+PEER_WINDOWS = 2_000
 """Most training windows a window method fits on per alignment (every k-th window of each recording)."""
 MINIROCKET_KERNELS = 1_008
 """MiniRocket features (aeon rounds to a multiple of 84): fewer than ``real_har.py``'s 2,016 so that the run fits
@@ -155,8 +155,12 @@ its time on the shared 2-core machine."""
 FOREST_TREES = 100
 REAL_SETS = ("sp", "sw", "hapt", "basicmotions")
 SIMULATED_SETS = ("braking", "lateral", "road", "rare-events")
+TESTS = {"sp": 36, "sw": 36, "hapt": 6, "basicmotions": 5}
+"""Most test recordings per real set, spread evenly over its test subjects' recordings (each whole), so that the
+run fits its time: a third of sp_sw_har's, six of HAPT's sessions of the test users (about 6 min each), every
+joined BasicMotions recording."""
 QUICK_TESTS = 6
-"""Test recordings per real set in a ``--quick`` run."""
+"""Most test recordings per real set in a ``--quick`` run."""
 HAPT_SESSIONS = 1
 """Sessions per HAPT user read (each user recorded two): the first only, so that the run fits its time."""
 SIMULATOR_CLIP = 10.0
@@ -271,8 +275,9 @@ def declared(rec: Recording) -> list[str]:
 
 
 def real_task(subjects: dict[str, list[Recording]], train_ids: list[str], test_ids: list[str], draw: Draw,
-              events: tuple[str, ...], quick: bool) -> Task:
-    """The :class:`Task` of ``draw``: clips of the training subjects' streams, the test subjects' recordings."""
+              events: tuple[str, ...], most_tests: int) -> Task:
+    """The :class:`Task` of ``draw``: clips of the training subjects' streams, and at most ``most_tests`` of the
+    test subjects' recordings, spread evenly over them."""
     rng = np.random.default_rng([draw.seed, int(draw.clip * 10), SPLITS.index(draw.split)])
     train, per_subject = [], []
     for s in train_ids:
@@ -280,8 +285,7 @@ def real_task(subjects: dict[str, list[Recording]], train_ids: list[str], test_i
         train += placed
         per_subject.append(len(placed))
     tests = [r for s in test_ids for r in subjects[s]]
-    if quick:
-        tests = tests[::max(1, len(tests) // QUICK_TESTS)][:QUICK_TESTS]
+    tests = [tests[k] for k in np.unique(np.linspace(0, len(tests) - 1, most_tests).round().astype(int))]
     sets = [declared(c) for c in train]
     params = {"split": draw.split, "seed": draw.seed, "clip s": draw.clip,
               "clips per subject": f"{min(per_subject)}-{max(per_subject)}", "clips": len(train),
@@ -305,18 +309,19 @@ class RealSet:
             self.events = tuple(HAPT_CLASSES[k] for k in TRANSITIONS)
 
     def task(self, draw: Draw, quick: bool) -> Task:
+        most_tests = min(TESTS[self.name], QUICK_TESTS) if quick else TESTS[self.name]
         if self.name == "basicmotions":  # the archive's own split; the order of the cases is the protocol's seed
             data = basic_motions_subjects(draw.seed)
             train, test = ("train", "test") if draw.split == "first" else ("test", "train")
             return real_task({**data[train], **data[test]}, list(data[train]), list(data[test]), draw, self.events,
-                             quick)
+                             most_tests)
         if self._subjects is None:
             self._subjects = hapt_subjects() if self.name == "hapt" else har_subjects(self.name)
         ids = sorted(self._subjects)
         if draw.split == "last":
             ids = ids[::-1]
         first = 12 if self.name in ("sp", "sw") else len(ids) // 2
-        return real_task(self._subjects, ids[:first], ids[first:], draw, self.events, quick)
+        return real_task(self._subjects, ids[:first], ids[first:], draw, self.events, most_tests)
 
 
 @functools.lru_cache(maxsize=None)
