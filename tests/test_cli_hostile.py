@@ -79,6 +79,10 @@ BROKEN = {
     "no channels": lambda b: _metadata(b, lambda m: {k: v for k, v in m.items() if k != "channels"}),
     "negative rate": lambda b: _metadata(b, lambda m: {**m, "rate": -20}),
     "not an array": lambda b: _npz({**_members(b), "notes.txt": b"hello"}),
+    "rate 1e300": lambda b: _metadata(b, lambda m: {**m, "rate": 1e300}),
+    "100k duplicate classes": lambda b: _metadata(b, lambda m: {**m, "classes": ["a"] * 100_000}),
+    "NaN dictionary": lambda b: _with(b, dictionary=_npy(np.full((4, 3), np.nan))),
+    "infinite scale": lambda b: _with(b, scale=_npy(np.array([np.inf]))),
 }
 
 

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from spotfree.errors import InputError
-from spotfree.io.checks import replacing
+from spotfree.io.checks import MAX_RATE, MIN_RATE, replacing
 from spotfree.representation import REPRESENTATIONS, represent, representation_size
 from spotfree.signal.features import CHANNEL_CHANGED, FEATURE_CHANGES, FEATURE_VERSION
 
@@ -79,6 +79,15 @@ class DictionaryModel:
         self.column_class = np.asarray(self.column_class, dtype=int)
         if self.representation not in REPRESENTATIONS:
             raise InputError(f"model representation {self.representation!r} is not one of {', '.join(REPRESENTATIONS)}")
+        if not all(isinstance(c, str) and c for c in self.classes) or len(set(self.classes)) != len(self.classes):
+            raise InputError("model classes must be distinct, non-empty names; retrain the model")
+        if isinstance(self.rate, bool) or not isinstance(self.rate, (int, float, np.number)) or \
+                not MIN_RATE <= self.rate <= MAX_RATE:
+            raise InputError(f"model rate {self.rate!r} is not a sampling rate from {MIN_RATE:g} to {MAX_RATE:g} Hz; "
+                             "retrain the model")
+        for name in ("scale", "dictionary"):
+            if not np.isfinite(getattr(self, name)).all():
+                raise InputError(f"model {name} holds values that are not finite (NaN or infinite); retrain the model")
         d = representation_size(len(self.channels), self.window, self.representation)
         if self.representation == "summary":
             self.feature_offset = np.zeros(d) if self.feature_offset is None else np.asarray(self.feature_offset, float)
@@ -100,6 +109,8 @@ class DictionaryModel:
         if self.causal_dictionary is not None:
             self.causal_dictionary = np.asarray(self.causal_dictionary, dtype=float)
             self.causal_column_class = np.asarray(self.causal_column_class, dtype=int)
+            if not np.isfinite(self.causal_dictionary).all():
+                raise InputError("model causal_dictionary holds values that are not finite; retrain the model")
             if self.causal_dictionary.ndim != 2 or self.causal_dictionary.shape[0] != d or \
                     self.causal_column_class.shape != (self.causal_dictionary.shape[1],) or \
                     (len(self.causal_column_class) and not 0 <= self.causal_column_class.min()
@@ -189,6 +200,13 @@ class DictionaryModel:
             changed = max(CHANNEL_CHANGED[c] for c in stale)
             raise InputError(f"{path}: trained on {', '.join(stale)} as computed before feature version {changed} "
                              f"({FEATURE_CHANGES[changed]}); retrain it with 'spotfree train'")
+        try:
+            return cls._from_file(meta, arrays)
+        except InputError as exc:
+            raise InputError(f"{path}: not a spotfree model file ({exc})") from None
+
+    @classmethod
+    def _from_file(cls, meta: dict, arrays: dict) -> "DictionaryModel":
         return cls(
             classes=meta["classes"],
             channels=meta["channels"],
