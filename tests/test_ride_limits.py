@@ -327,3 +327,51 @@ def test_the_watch_greeting_lists_a_device_only_its_own_open_rides(client):
         assert view.receive_json()["open"] == [own]
     with client.websocket_connect("/ws/watch", headers=client.operator) as view:
         assert set(view.receive_json()["open"]) == {own, other}
+
+
+def test_a_ride_rebuilt_after_a_restart_does_not_stall_the_loop(tmp_path, model, raw):
+    """A long open ride's first batch after a restart: its rebuild from the store runs in a thread while the
+    event loop keeps ticking (before, the loop stopped for the whole replay)."""
+    import asyncio
+    import time
+
+    from spotfree.ride.service import RideService
+    from spotfree.ride.store import RideStore
+    from test_ride_service import _columns
+
+    rows = _rides(raw)
+    path = tmp_path / "rides.db"
+    first = RideService(model, RideStore(path, synchronous="normal"))
+    _, token = first.register_device("phone")
+    ride = first.start_ride(token, "v", "r")
+    shift = np.zeros(rows.shape[1])
+    long = np.vstack([rows + np.r_[k * (rows[-1, 0] + 0.05), shift[1:]] for k in range(8)])
+    for k in range(0, len(long), 5000):
+        first.ingest(token, ride, _columns(long[k:k + 5000]), check_rate=False)
+    first.close()
+    again = RideService(model, RideStore(path, synchronous="normal"))
+    batch = _columns(rows[:20] + np.r_[long[-1, 0] + 0.05, shift[1:]])
+
+    async def run():
+        gaps, last, done = [], time.perf_counter(), asyncio.Event()
+
+        async def tick():
+            nonlocal last
+            while not done.is_set():
+                await asyncio.sleep(0.005)
+                now = time.perf_counter()
+                gaps.append(now - last)
+                last = now
+        ticker = asyncio.create_task(tick())
+        started = time.perf_counter()
+        ack = await again.ingest_async(token, ride, batch)
+        took = time.perf_counter() - started
+        done.set()
+        await ticker
+        return ack, took, max(gaps)
+    try:
+        ack, took, gap = asyncio.run(run())
+    finally:
+        again.close()
+    assert ack["count"] == 20
+    assert gap < max(0.1, took / 3), (gap, took)  # the loop ticked all along the rebuild

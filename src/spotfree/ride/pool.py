@@ -210,6 +210,9 @@ class RideServicePool(RideService):
         answer.add_done_callback(refused)
         return answer
 
+    def _holds(self, ride_id: str) -> bool:
+        return True  # the workers rebuild rides; routing one costs this process one small store query
+
     def _worker(self, ride_id: str) -> "_Worker":
         """The worker holding ``ride_id``; an open ride of the store that no worker holds (after a restart, or
         its worker's death) is given to the least loaded one, which rebuilds it from the store on this call."""

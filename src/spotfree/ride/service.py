@@ -396,7 +396,10 @@ class RideService:
 
     async def ingest_async(self, token: str, ride_id: str, samples: Mapping[str, Sequence[float]]) -> dict:
         """:meth:`ingest` on the event loop: the batch is classified at once, and the commit is awaited without
-        holding a thread, so that many devices' batches share one commit (:mod:`spotfree.ride.commit`)."""
+        holding a thread, so that many devices' batches share one commit (:mod:`spotfree.ride.commit`). A ride
+        this process does not hold yet (after a restart) is rebuilt from the store in a thread first."""
+        if not self._holds(ride_id):  # rebuilt from the store in a thread, not on the loop
+            await asyncio.to_thread(self._own, token, ride_id)
         ack, message = await asyncio.wrap_future(self._submit(token, ride_id, samples, True, bool(self._watchers)))
         return self._acknowledge(ack, message, ride_id)
 
@@ -442,6 +445,11 @@ class RideService:
             self._publish(message, ride_id)
         return ack
 
+    def _holds(self, ride_id: str) -> bool:
+        """Whether a call on ``ride_id`` finds its state here at once (else :meth:`_own` rebuilds it)."""
+        with self._lock:
+            return ride_id in self._open
+
     def _own(self, token: str, ride_id: str) -> _OpenRide:
         with self._lock:
             ride = self._open.get(ride_id)
@@ -478,8 +486,8 @@ class RideService:
         columns = self.store.samples(ride_id)
         table = np.column_stack([np.asarray(columns[c], dtype=float) for c in SAMPLE_COLUMNS])
         ride = self._new_ride(ride_id, owner)
-        for start in range(0, len(table), validation.MAX_BATCH):
-            block = table[start:start + validation.MAX_BATCH]
+        for start in range(0, len(table), _REPLAY_BLOCK):
+            block = table[start:start + _REPLAY_BLOCK]
             _, labels = ride.live.update_block(block)
             ride.assistant.update_block(block[:, _ASSISTED].tolist(), labels)
             ride.live.pop_events()
@@ -539,6 +547,9 @@ class RideService:
                 loop.call_soon_threadsafe(_offer, queue, message)
 
 
+_REPLAY_BLOCK = 256
+"""Rows per block when a ride is rebuilt: short enough that the thread rebuilding it lets the event loop run
+between blocks (each block holds the interpreter while it is classified)."""
 _ASSISTED = [SAMPLE_COLUMNS.index(c) for c in ("time", "lat", "lon", "speed")]
 """The sample columns the assistant takes."""
 
