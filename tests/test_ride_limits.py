@@ -375,3 +375,28 @@ def test_a_ride_rebuilt_after_a_restart_does_not_stall_the_loop(tmp_path, model,
         again.close()
     assert ack["count"] == 20
     assert gap < max(0.1, took / 3), (gap, took)  # the loop ticked all along the rebuild
+
+
+def test_the_idle_ride_thread_survives_any_error(tmp_path, model, monkeypatch, caplog):
+    import time
+
+    from spotfree.ride.service import RideService
+    from spotfree.ride.store import RideStore
+
+    service = RideService(model, RideStore(tmp_path / "rides.db", synchronous="normal"))
+    rounds = []
+
+    def flaky(*args, **kwargs):
+        rounds.append(1)
+        if len(rounds) == 2:
+            raise KeyError("a corrupt row")  # not a SpotfreeError
+        return []
+    monkeypatch.setattr(service, "close_idle_rides", flaky)
+    try:
+        service.keep_tidy(every=0.02)
+        deadline = time.monotonic() + 5
+        while len(rounds) < 4 and time.monotonic() < deadline:
+            time.sleep(0.02)
+    finally:
+        service.close()
+    assert len(rounds) >= 4 and "closing idle rides failed" in caplog.text

@@ -33,6 +33,7 @@ from __future__ import annotations
 import asyncio
 import functools
 import hmac
+import logging
 import math
 import threading
 import time as clock
@@ -53,6 +54,7 @@ from spotfree.ride.records import FEATURE_COLUMNS, SAMPLE_COLUMNS
 from spotfree.ride.store import AccessError, ForbiddenError, RideStore
 from spotfree.ride.tokens import token_hash
 
+_log = logging.getLogger("spotfree.ride")
 PLOT_CHANNELS = ("pitch", "pitch_rate", "acc_long")
 """Features sent to the operator view's live plot (rad, rad/s, m/s^2)."""
 RATE_FACTOR = 4.0
@@ -347,7 +349,7 @@ class RideService:
 
     def keep_tidy(self, every: float = IDLE_SECONDS / 6) -> None:
         """Close idle rides now (:meth:`close_idle_rides`) and then every ``every`` s in a daemon thread, until
-        :meth:`close`."""
+        :meth:`close`; a round that fails is logged (``spotfree.ride``) and the thread goes on."""
         self.close_idle_rides()
 
         def loop() -> None:
@@ -356,6 +358,8 @@ class RideService:
                     self.close_idle_rides()
                 except SpotfreeError:  # a store error now: tried again next round
                     pass
+                except Exception:  # noqa: BLE001 - any other fault is logged; the next round runs all the same
+                    _log.exception("closing idle rides failed; tried again in %g s", every)
         threading.Thread(target=loop, name="spotfree-idle-rides", daemon=True).start()
 
     def close(self) -> None:
