@@ -85,15 +85,17 @@ from __future__ import annotations
 import argparse
 import functools
 import math
+import queue
 import shlex
 import subprocess
 import sys
 import time
 import zlib
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
+from multiprocessing import Manager
 from pathlib import Path
 
 import numpy as np
@@ -163,6 +165,9 @@ QUICK_TESTS = 6
 """Most test recordings per real set in a ``--quick`` run."""
 HAPT_SESSIONS = 1
 """Sessions per HAPT user read (each user recorded two): the first only, so that the run fits its time."""
+SIMULATOR_EVENTS = {"braking": (SUDDEN,), "rare-events": (SUDDEN,), "lateral": MODELS["lateral"].detections,
+                    "road": MODELS["road"].detections}
+"""The short classes of each simulator set scored as events too."""
 SIMULATOR_CLIP = 10.0
 """Clip length of the rare-event protocol, s (``rare_events.py``'s default)."""
 
@@ -338,14 +343,12 @@ def simulated_task(name: str, seed: int) -> Task:
         train = [feats[s].select_experiment(1) for s in BRAKING_SCENARIOS]
         sets = [list(CLASSES[s]) for s in BRAKING_SCENARIOS]
         tests = [feats[s].select_experiment(k) for s in BRAKING_SCENARIOS for k in range(2, 8)]
-        events = (SUDDEN,)
     elif name == "rare-events":
         feats = braking_rides(seed)
         train = [c for s in BRAKING_SCENARIOS for k in (1, 2)
                  for c in clips(two_classes(feats[s].select_experiment(k)), SIMULATOR_CLIP)]
         sets = [declared(c) for c in train]
         tests = [two_classes(feats[s].select_experiment(k)) for s in BRAKING_SCENARIOS for k in range(3, 8)]
-        events = (SUDDEN,)
     else:
         spec = MODELS[name]
         data = spec_split(spec, seed)
@@ -353,10 +356,10 @@ def simulated_task(name: str, seed: int) -> Task:
         test = data.test
         if spec.moving_only:
             test.truth["scored"] = data.speed >= STANDING_SPEED
-        tests, events = [test], spec.detections
+        tests = [test]
     params = {"seed": seed, "training recordings": len(train), "distinct sets": len({tuple(s) for s in sets}),
               "test recordings": len(tests)}
-    return Task(train, sets, tests, events, params)
+    return Task(train, sets, tests, SIMULATOR_EVENTS[name], params)
 
 
 # ------------------------------------------------------------------ methods
@@ -585,9 +588,12 @@ def settings() -> list[str]:
             "centred labels, live = causal labels; the worst case is the lowest figure over a set's protocols"]
 
 
-def report(name: str, runs: list[tuple[dict, dict]], events: tuple[str, ...], seconds: float) -> list[str]:
-    """The section of set ``name``: summary, goals and the per-protocol table."""
-    lines = [f"## {name}", "", f"{len(runs)} protocol draw(s), {seconds / 60:.1f} min.", ""]
+def report(name: str, runs: list[tuple[dict, dict]], events: tuple[str, ...], seconds: float,
+           planned: int) -> list[str]:
+    """The section of set ``name`` (``runs`` of its ``planned`` protocol draws or seeds): summary, goals and the
+    per-protocol table."""
+    state = "" if len(runs) == planned else f" of {planned} (the others not run yet)"
+    lines = [f"## {name}", "", f"{len(runs)}{state} protocol draw(s) or seed(s), {seconds / 60:.1f} min.", ""]
     if events:
         lines += [f"Events: {', '.join(events)}, pooled over these classes (F1; detected / true, false alarms per "
                   "hour without the event).", ""]
@@ -602,27 +608,27 @@ def report(name: str, runs: list[tuple[dict, dict]], events: tuple[str, ...], se
     return lines
 
 
-def run_set(name: str, seeds: list[int], quick: bool) -> list[str]:
-    """Every protocol of set ``name``; returns its section of the report."""
+def run_set(name: str, seeds: list[int], quick: bool, progress) -> None:
+    """Every protocol of set ``name``; after each, its section of the report so far goes to the queue ``progress``
+    as ``(name, lines, finished)``. The draws of a real set run from the fewest clips per subject to the most, so
+    that a run stopped early has its cheaper protocols."""
     started, runs = time.perf_counter(), []
     if name in REAL_SETS:
         data = RealSet(name)
         protocols = [replace(draws(name, seeds)[0], share=0.0)] if quick else draws(name, seeds)
-        for k, draw in enumerate(protocols, 1):
-            task = data.task(draw, quick)
-            params = {"draw": k, **task.params}
-            print(f"{name} draw {k}: " + ", ".join(f"{key} {value}" for key, value in params.items()),
-                  file=sys.stderr, flush=True)
-            runs.append((params, run_task(task, f"{name} draw {k}")))
+        cases = sorted(enumerate(protocols, 1), key=lambda case: case[1].share)
         events = data.events
     else:
-        for seed in seeds[:1] if quick else seeds:
-            task = simulated_task(name, seed)
-            print(f"{name}: " + ", ".join(f"{key} {value}" for key, value in task.params.items()), file=sys.stderr,
-                  flush=True)
-            runs.append((task.params, run_task(task, f"{name} seed {seed}")))
-        events = task.events
-    return report(name, runs, events, time.perf_counter() - started)
+        cases = [(seed, seed) for seed in (seeds[:1] if quick else seeds)]
+        events = SIMULATOR_EVENTS[name]
+    for k, case in cases:
+        task = data.task(case, quick) if name in REAL_SETS else simulated_task(name, case)
+        params = {"draw": k, **task.params} if name in REAL_SETS else task.params
+        print(f"{name}: " + ", ".join(f"{key} {value}" for key, value in params.items()), file=sys.stderr, flush=True)
+        runs.append((params, run_task(task, f"{name} {'draw' if name in REAL_SETS else 'seed'} {k}")))
+        runs.sort(key=lambda run: tuple(run[0].values())[0])
+        progress.put((name, report(name, runs, events, time.perf_counter() - started, len(cases)),
+                      len(runs) == len(cases)))
 
 
 def source() -> str:
@@ -660,19 +666,31 @@ def main() -> None:
               " ".join(__doc__.split("\n\n")[0].split()), "", *settings(), ""]
     sections: list[str] = []
     print("\n".join(header))
-    done: dict[str, list[str]] = {}
-    with ProcessPoolExecutor(max_workers=args.jobs) as pool:
-        running = {pool.submit(run_set, name, args.seeds, args.quick): name for name in args.sets}
-        for finished in as_completed(running):
-            done[running[finished]] = finished.result()
-            print("\n".join(done[running[finished]]), flush=True)
-            left = [name for name in args.sets if name not in done]
-            footer = (f"Sets still to run: {', '.join(left)}." if left else
+    sections: dict[str, list[str]] = {}
+    finished: set[str] = set()
+    with Manager() as manager, ProcessPoolExecutor(max_workers=args.jobs) as pool:
+        progress = manager.Queue()
+        running = [pool.submit(run_set, name, args.seeds, args.quick, progress) for name in args.sets]
+        while len(finished) < len(args.sets):
+            try:
+                name, lines, complete = progress.get(timeout=10)
+            except queue.Empty:
+                failed = [f for f in running if f.done() and f.exception()]
+                if failed:
+                    raise failed[0].exception()
+                continue
+            sections[name] = lines
+            if complete:
+                finished.add(name)
+                print("\n".join(lines), flush=True)
+            left = [n for n in args.sets if n not in finished]
+            footer = (f"Sets still running or to run: {', '.join(left)}." if left else
                       f"Wall time of the run: {(time.perf_counter() - started) / 60:.1f} min.")
-            if not args.quick:  # after every set, so that a run stopped early leaves what it measured
-                sections = [line for name in args.sets if name in done for line in done[name]]
+            if not args.quick:  # after every protocol, so that a run stopped early leaves what it measured
                 RESULTS.mkdir(exist_ok=True)
-                (RESULTS / "protocols.md").write_text("\n".join([*header, *sections, footer]) + "\n")
+                (RESULTS / "protocols.md").write_text(
+                    "\n".join([*header, *(line for n in args.sets if n in sections for line in sections[n]),
+                               footer]) + "\n")
     print(footer)
 
 
