@@ -400,3 +400,46 @@ def test_the_idle_ride_thread_survives_any_error(tmp_path, model, monkeypatch, c
     finally:
         service.close()
     assert len(rounds) >= 4 and "closing idle rides failed" in caplog.text
+
+
+def test_a_worker_being_replaced_stalls_no_other_call(model, raw, tmp_path, monkeypatch):
+    """A killed worker's replacement is started outside the pool's lock: while it starts (made slow here), health
+    answers at once and says degraded, the other worker's rides go on, and new rides go to the live worker."""
+    import os
+    import signal
+    import time
+
+    from spotfree.ride.pool import RideServicePool
+    from spotfree.ride.store import RideStore
+    from test_ride_service import _columns
+
+    rows = _rides(raw)
+    pool = RideServicePool(model, RideStore(tmp_path / "rides.db", synchronous="normal"), processes=2)
+    try:
+        _, token = pool.register_device("phone")
+        doomed, spared = pool.start_ride(token, "v", "r"), pool.start_ride(token, "v", "r")
+        start = pool._start_worker
+
+        def slow_start(index):
+            time.sleep(2.0)  # a large model takes seconds to reach a new process
+            return start(index)
+        monkeypatch.setattr(pool, "_start_worker", slow_start)
+        victim = pool._home[doomed]
+        os.kill(victim._process.pid, signal.SIGKILL)
+        victim._process.join(30)
+        time.sleep(0.3)  # the reader thread has noticed and is starting the replacement
+        began = time.monotonic()
+        health = pool.health()
+        assert time.monotonic() - began < 0.5 and health["status"] == "degraded" and health["restarts"] == 0
+        began = time.monotonic()
+        assert pool.ingest(token, spared, _columns(rows[:20]))["count"] == 20
+        fresh = pool.start_ride(token, "v", "r")
+        assert time.monotonic() - began < 1.5 and pool._home[fresh] is pool._home[spared]
+        deadline = time.monotonic() + 120
+        while pool.health()["status"] != "ok":
+            assert time.monotonic() < deadline, pool.health()
+            time.sleep(0.1)
+        assert pool.health()["restarts"] == 1
+        assert pool.ingest(token, doomed, _columns(rows[:20]))["count"] == 20  # rebuilt from the store
+    finally:
+        pool.close()

@@ -104,19 +104,35 @@ class RideServicePool(RideService):
 
     def _replace(self, dead: "_Worker") -> None:
         """Supervision: a worker that stopped while serving is replaced by a new process at its index; its rides
-        are no longer homed, so the next call on each goes to a live worker, which rebuilds it from the store."""
+        are no longer homed, so the next call on each goes to a live worker, which rebuilds it from the store.
+        The new process is started and waited for outside the lock every call takes (starting one sends it the
+        model and takes seconds); until it is ready the dead worker keeps its place, so :meth:`health` says
+        ``degraded`` and new or unhomed rides go to the live workers only."""
         with self._lock:
             if self._closing or self._workers[dead.index] is not dead:
                 return
             for ride_id in [r for r, w in self._home.items() if w is dead]:
                 del self._home[ride_id]
-            fresh = self._start_worker(dead.index)
-            self._workers[dead.index] = fresh
-            self.restarts += 1
+            dead.rides = 0
+        fresh = self._start_worker(dead.index)
         try:
             fresh.ready()
-        except Exception:  # noqa: BLE001 - the replacement's own failure ends it, and _replace runs again
+        except Exception:  # noqa: BLE001 - the replacement's own failure ends it, and _replace runs again for it
             pass
+        with self._lock:
+            closing = self._closing
+            if not closing:
+                self._workers[dead.index] = fresh
+                self.restarts += 1
+        if closing:
+            fresh.stop()
+
+    def _live_worker(self) -> "_Worker":
+        """The live worker with the fewest open rides (under the lock); UnavailableError while none is alive."""
+        alive = [w for w in self._workers if w.alive()]
+        if not alive:
+            raise WorkerError("every ride worker is being replaced; send again in a second")
+        return min(alive, key=lambda w: w.rides)
 
     def close(self) -> None:
         """Stop the workers (each commits what it holds first), then close the server's store."""
@@ -157,7 +173,7 @@ class RideServicePool(RideService):
 
     def _open_ride(self, token: str, vehicle: str, rider_id: str, meta: dict) -> str:
         with self._lock:
-            worker = min(self._workers, key=lambda w: w.rides)
+            worker = self._live_worker()
             worker.rides += 1
         try:
             ride_id = worker.call("open", token, vehicle, rider_id, meta).result()
@@ -225,7 +241,7 @@ class RideServicePool(RideService):
         with self._lock:
             worker = self._home.get(ride_id)
             if worker is None:
-                worker = min(self._workers, key=lambda w: w.rides)
+                worker = self._live_worker()
                 worker.rides += 1
                 self._home[ride_id] = worker
         return worker
