@@ -443,3 +443,30 @@ def test_a_worker_being_replaced_stalls_no_other_call(model, raw, tmp_path, monk
         assert pool.ingest(token, doomed, _columns(rows[:20]))["count"] == 20  # rebuilt from the store
     finally:
         pool.close()
+
+
+def test_reading_a_long_ride_does_not_stall_the_loop(client, raw, monkeypatch):
+    """GET /api/rides/{id}: the ride is read and encoded in a thread; the event loop only sends the bytes."""
+    import asyncio
+
+    from spotfree.ride import api
+    from test_ride_service import _columns
+
+    phone = bearer(enrol(client, client.operator))
+    ride = client.post("/api/rides", json={"vehicle": "v", "rider_id": "r"}, headers=phone).json()["ride_id"]
+    rows = _rides(raw)[:200]
+    assert client.post(f"/api/rides/{ride}/samples", json={"samples": _columns(rows)}, headers=phone).status_code == 200
+    on_loop, clean = [], api._clean
+
+    def watched(value):
+        try:
+            asyncio.get_running_loop()
+            on_loop.append(True)
+        except RuntimeError:  # no loop runs in this thread
+            on_loop.append(False)
+        return clean(value)
+    monkeypatch.setattr(api, "_clean", watched)
+    got = client.get(f"/api/rides/{ride}", headers=phone)
+    assert got.status_code == 200 and len(got.json()["samples"]["time"]) == 200
+    assert got.json()["samples"]["lat"][1] is None  # NaN as null, as before
+    assert on_loop and not any(on_loop)

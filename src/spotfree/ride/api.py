@@ -64,7 +64,7 @@ from pathlib import Path
 
 import orjson
 from fastapi import FastAPI, HTTPException, Request, WebSocket, WebSocketDisconnect
-from fastapi.responses import FileResponse, JSONResponse
+from fastapi.responses import FileResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
 from starlette.concurrency import run_in_threadpool
 from starlette.websockets import WebSocketState
@@ -337,11 +337,12 @@ def create_app(service: RideService) -> FastAPI:
     async def ride(ride_id: str, request: Request):
         who, _ = await _identify(service, request)
 
-        def read():
-            return {"ride": vars(service.readable(who, ride_id)), "samples": service.store.samples(ride_id),
-                    "features": service.store.features(ride_id), "labels": service.store.labels(ride_id),
-                    "events": [vars(e) for e in service.store.events(ride_id)], "model": service.model_name}
-        return JSONResponse(_clean(await _call(read)))
+        def read() -> bytes:  # read and encoded in a thread: a long ride's JSON is tens of MB
+            return orjson.dumps(_clean({
+                "ride": vars(service.readable(who, ride_id)), "samples": service.store.samples(ride_id),
+                "features": service.store.features(ride_id), "labels": service.store.labels(ride_id),
+                "events": [vars(e) for e in service.store.events(ride_id)], "model": service.model_name}))
+        return Response(await _call(read), media_type="application/json")
 
     @app.post("/push", openapi_extra=_BODIES["push"])
     async def push(request: Request, platform: str = "android"):
