@@ -404,13 +404,15 @@ def test_the_idle_ride_thread_survives_any_error(tmp_path, model, monkeypatch, c
 
 def test_a_worker_being_replaced_stalls_no_other_call(model, raw, tmp_path, monkeypatch):
     """A killed worker's replacement is started outside the pool's lock: while it starts (made slow here), health
-    answers at once and says degraded, the other worker's rides go on, and new rides go to the live worker."""
+    answers at once and says degraded, the other worker's rides go on, and new rides go to the live worker; a ride
+    whose owner this process does not know (a restart) has it again once resumed."""
     import os
     import signal
     import time
 
     from spotfree.ride.pool import RideServicePool
     from spotfree.ride.store import RideStore
+    from spotfree.ride.tokens import token_hash
     from test_ride_service import _columns
 
     rows = _rides(raw)
@@ -440,6 +442,10 @@ def test_a_worker_being_replaced_stalls_no_other_call(model, raw, tmp_path, monk
             assert time.monotonic() < deadline, pool.health()
             time.sleep(0.1)
         assert pool.health()["restarts"] == 1
+        # as after a restart of the server: the ride's owner is known again once its device resumes it
+        pool._owners.pop(doomed)
+        assert pool.resume(token, doomed) is None
+        assert pool._owners[doomed] == token_hash(token)
         assert pool.ingest(token, doomed, _columns(rows[:20]))["count"] == 20  # rebuilt from the store
     finally:
         pool.close()

@@ -195,9 +195,19 @@ class RideServicePool(RideService):
 
     def set_destination(self, token: str, ride_id: str, lat: float, lon: float) -> None:
         self._worker(ride_id).call("destination", token, ride_id, lat, lon).result()
+        self._claim(token, ride_id)
 
     def resume(self, token: str, ride_id: str) -> float | None:
-        return self._worker(ride_id).call("resume", token, ride_id).result()
+        last = self._worker(ride_id).call("resume", token, ride_id).result()
+        self._claim(token, ride_id)
+        return last
+
+    def _claim(self, token: str, ride_id: str) -> None:
+        """Once a worker took a call of ``token`` on ``ride_id`` (so the token is the ride's), the views know the
+        ride's owner, also for a ride started before this server process (a restart): a device's views get its
+        messages."""
+        with self._lock:
+            self._owners.setdefault(ride_id, token_hash(token))
 
     def open_rides(self) -> list[str]:
         with self._lock:
@@ -219,11 +229,13 @@ class RideServicePool(RideService):
             bucket.give(n)
             raise
 
-        def refused(done: Future) -> None:
+        def settled(done: Future) -> None:
             if done.exception() is not None:
                 with self._lock:
                     bucket.give(n)
-        answer.add_done_callback(refused)
+            else:
+                self._claim(token, ride_id)
+        answer.add_done_callback(settled)
         return answer
 
     def _holds(self, ride_id: str) -> bool:
