@@ -476,3 +476,15 @@ def test_reading_a_long_ride_does_not_stall_the_loop(client, raw, monkeypatch):
     assert got.status_code == 200 and len(got.json()["samples"]["time"]) == 200
     assert got.json()["samples"]["lat"][1] is None  # NaN as null, as before
     assert on_loop and not any(on_loop)
+
+
+def test_enrolment_code_guesses_are_throttled_per_address(client):
+    from spotfree.ride.api import ENROLMENT_GUESSES
+
+    answers = [client.post("/api/devices", json={"code": f"guess-{k}"}).status_code
+               for k in range(ENROLMENT_GUESSES + 1)]
+    assert answers == [403] * ENROLMENT_GUESSES + [429]
+    code = client.post("/api/enrolments", json={}, headers=client.operator).json()["code"]
+    refused = client.post("/api/devices", json={"code": code})  # even a good code waits its turn
+    assert refused.status_code == 429 and int(refused.headers["retry-after"]) >= 1
+    assert "refused codes from this address" in refused.json()["detail"]

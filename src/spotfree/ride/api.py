@@ -28,7 +28,8 @@ Pages: ``/`` the phone page (streams DeviceMotion and Geolocation), ``/rider`` a
   sensor filled, within :data:`~spotfree.ride.sensorpush.STALE_SECONDS`); a refused message (4xx) changes nothing
   and may be sent again.
 
-Operator: ``POST /api/enrolments`` ``{"uses"?, "ttl"?}`` -> ``{"code", "expires", "uses"}``. Views (the operator;
+An address whose enrolment codes were refused :data:`ENROLMENT_GUESSES` times is answered 429 until its
+guesses refill. Operator: ``POST /api/enrolments`` ``{"uses"?, "ttl"?}`` -> ``{"code", "expires", "uses"}``. Views (the operator;
 a device for its own rides): ``GET /api/rides``, ``GET /api/rides/{id}`` (samples, features, labels, events, for
 replay) and ``WS /ws/watch`` (``?ride=`` one ride; the credential in the ``Authorization`` header or in a first
 message ``{"type": "auth", "token"}`` sent within :data:`AUTH_SECONDS`) stream what the service publishes.
@@ -59,6 +60,7 @@ import contextlib
 import inspect
 import math
 import re
+import time as clock
 from importlib.resources import files
 from pathlib import Path
 
@@ -72,7 +74,7 @@ from starlette.websockets import WebSocketState
 from spotfree.errors import InputError, SpotfreeError
 from spotfree.ride import validation
 from spotfree.ride.sensorpush import PushResampler, PushSessions, parse_push
-from spotfree.ride.service import OPERATOR, Identity, RateError, RideService, UnavailableError
+from spotfree.ride.service import OPERATOR, Identity, RateError, RideService, SampleBucket, UnavailableError
 from spotfree.ride.store import AccessError, ForbiddenError, NotFoundError, QuotaError
 from spotfree.ride.tokens import token_hash
 
@@ -81,6 +83,9 @@ MAX_BODY = 2_000_000
 MAX_UNAUTHENTICATED_BODY = 4096
 """Bytes in a body or WebSocket message read before its sender is known: an enrolment, a ride socket's ``start``
 or ``resume``, a watcher's ``auth``."""
+ENROLMENT_GUESSES = 10
+"""Refused enrolment codes one client address may send at once; then one more per ``60 / ENROLMENT_GUESSES`` s
+(429 with ``Retry-After`` meanwhile)."""
 AUTH_SECONDS = 10.0
 """Seconds a socket has to give its credential once connected: a watcher its ``{"type": "auth", "token"}``, a ride
 socket a ``start`` or ``resume`` that is taken (else it is closed, 1008)."""
@@ -285,10 +290,30 @@ def create_app(service: RideService) -> FastAPI:
         report = service.health()
         return JSONResponse(report, status_code=200 if report["status"] == "ok" else 503)
 
+    guesses: dict[str, SampleBucket] = {}
+
     @app.post("/api/devices", openapi_extra=_BODIES["devices"])
     async def register(request: Request):
+        address = request.client.host if request.client else ""
+        if len(guesses) > 10_000:  # addresses whose bucket is full again hold nothing worth keeping
+            now = clock.monotonic()
+            for stale in [a for a, b in guesses.items() if b.full(now)]:
+                del guesses[stale]
+        bucket = guesses.setdefault(address, SampleBucket(ENROLMENT_GUESSES, ENROLMENT_GUESSES / 60.0))
+        try:
+            bucket.take(1, "enrolment")
+        except RateError as exc:
+            raise HTTPException(429, f"enrolment: {ENROLMENT_GUESSES} refused codes from this address; send again in "
+                                     f"{math.ceil(exc.retry_after)} s with the code the operator gave",
+                                headers={"Retry-After": str(math.ceil(exc.retry_after))}) from None
         body = await _body(request, MAX_UNAUTHENTICATED_BODY)
-        device_id, token = await _call(service.enrol_device, body.get("code"), body.get("name", ""))
+        try:
+            device_id, token = await _call(service.enrol_device, body.get("code"), body.get("name", ""))
+        except HTTPException as exc:
+            if exc.status_code != 403:  # only a refused code counts as a guess
+                bucket.give(1)
+            raise
+        bucket.give(1)
         return {"device_id": device_id, "token": token}
 
     @app.post("/api/enrolments", openapi_extra=_BODIES["enrolments"])
