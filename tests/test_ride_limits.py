@@ -488,3 +488,24 @@ def test_enrolment_code_guesses_are_throttled_per_address(client):
     refused = client.post("/api/devices", json={"code": code})  # even a good code waits its turn
     assert refused.status_code == 429 and int(refused.headers["retry-after"]) >= 1
     assert "refused codes from this address" in refused.json()["detail"]
+
+
+def test_an_operator_token_rotated_elsewhere_is_seen_here(tmp_path, model, monkeypatch):
+    from spotfree.ride import service as service_module
+    from spotfree.ride.service import RideService
+    from spotfree.ride.store import AccessError, RideStore
+
+    path = tmp_path / "rides.db"
+    here = RideService(model, RideStore(path, synchronous="normal"))
+    elsewhere = RideService(model, RideStore(path, synchronous="normal"))  # another worker process or server
+    try:
+        old = here.new_operator_token()
+        monkeypatch.setattr(service_module, "OPERATOR_RECHECK_SECONDS", 0.0)
+        assert elsewhere.require_operator(old).role == "operator"
+        new = here.new_operator_token()  # rotated while both serve
+        assert elsewhere.require_operator(new).role == "operator"
+        with pytest.raises(AccessError):
+            elsewhere.require_operator(old)
+    finally:
+        here.close()
+        elsewhere.close()

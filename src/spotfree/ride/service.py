@@ -64,6 +64,8 @@ BACKLOG_SECONDS = 60.0
 IDLE_SECONDS = 3600.0
 """Seconds without a sample after which an open ride is closed (:meth:`RideService.close_idle_rides`): the
 longest pause within a ride (:data:`spotfree.limits.MAX_STEP`)."""
+OPERATOR_RECHECK_SECONDS = 5.0
+"""Seconds a server trusts the operator token's hash it read from the store before reading it again."""
 MAX_OPEN_RIDES = 8
 """Rides one device may hold open at once (a phone rides one at a time; a ride it left open closes after
 :data:`IDLE_SECONDS`)."""
@@ -200,6 +202,7 @@ class RideService:
         self._owners: dict[str, str] = {}
         self._devices: dict[str, str] = {}
         self._operator_hash = store.operator_token_hash()
+        self._operator_read = clock.monotonic()
         self._restoring = threading.Lock()
         self._stopping = threading.Event()
         self._end_listeners: list[Callable[[str], None]] = []
@@ -210,11 +213,16 @@ class RideService:
 
     def identify(self, token: object) -> Identity:
         """Who holds ``token``: the operator, or a device (:class:`AccessError` for no token or an unknown one).
-        A device's token, once found in the store, is remembered (tokens are never revoked while serving)."""
+        A device's token, once found in the store, is remembered (device tokens are never revoked while serving);
+        the operator token's hash is read from the store again every :data:`OPERATOR_RECHECK_SECONDS`, so that a
+        token rotated by another process or server replaces the old one here too."""
         if not isinstance(token, str) or not token:
             raise AccessError("no credential; send 'Authorization: Bearer <token>' (a device's token, or the "
                               "operator token)")
         digest = token_hash(token)
+        now = clock.monotonic()
+        if now - self._operator_read > OPERATOR_RECHECK_SECONDS:  # rotated by another process or server
+            self._operator_hash, self._operator_read = self.store.operator_token_hash(), now
         operator = self._operator_hash
         if operator is not None and hmac.compare_digest(digest, operator):
             return Identity(OPERATOR, None, digest)
