@@ -509,3 +509,34 @@ def test_an_operator_token_rotated_elsewhere_is_seen_here(tmp_path, model, monke
     finally:
         here.close()
         elsewhere.close()
+
+
+def test_a_damaged_ride_is_unreadable_alone(client, raw, tmp_path):
+    from spotfree.fleet.ingest import ingest_store
+    from spotfree.ride.store import DamagedRideError, RideStore
+    from test_ride_service import _columns
+
+    phone = bearer(enrol(client, client.operator))
+    rows = _rides(raw)[:100]
+    rides = []
+    for _ in range(2):
+        ride = client.post("/api/rides", json={"vehicle": "v", "rider_id": "r"}, headers=phone).json()["ride_id"]
+        assert client.post(f"/api/rides/{ride}/samples", json={"samples": _columns(rows)},
+                           headers=phone).status_code == 200
+        rides.append(ride)
+    damaged, sound = rides
+    store = client.service.store
+    with store._transaction() as db:  # a block cut short, as a damaged disk or a hand edit leaves it
+        db.execute("UPDATE sample_blocks SET samples = substr(samples, 1, 13) WHERE ride_id = ?", (damaged,))
+    with pytest.raises(DamagedRideError, match=f"ride {damaged}: its stored samples are damaged"):
+        store.samples(damaged)
+    answer = client.get(f"/api/rides/{damaged}", headers=phone)
+    assert answer.status_code == 500 and "damaged" in answer.json()["detail"]
+    assert client.get(f"/api/rides/{sound}", headers=phone).status_code == 200
+    # the idle check closes it all the same (without replaying it), and closes the sound one
+    client.service._open.clear()  # as after a restart: both rebuilt from the store
+    closed = client.service.close_idle_rides(now=store.ride(sound).started + 10 * 3600)
+    assert set(closed) == {damaged, sound}
+    with RideStore(tmp_path / "fleet.db") as fleet:
+        report = ingest_store(fleet, store)
+    assert len(report.added) == 1 and report.damaged == [damaged] and "1 damaged" in str(report)

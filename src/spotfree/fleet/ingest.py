@@ -22,7 +22,7 @@ from spotfree.errors import InputError
 from spotfree.io import read_recording
 from spotfree.io.recording import IMU_CHANNELS
 from spotfree.ride.records import GPS_COLUMNS, RIDER_FIELDS, SAMPLE_COLUMNS, Ride
-from spotfree.ride.store import RideStore
+from spotfree.ride.store import DamagedRideError, RideStore
 from spotfree.ride.validation import MAX_BATCH
 
 DEVICE_NAME = "fleet ingest"
@@ -48,10 +48,14 @@ class IngestReport:
     added: list[str] = field(default_factory=list)
     skipped: int = 0
     open: list[str] = field(default_factory=list)
+    damaged: list[str] = field(default_factory=list)
+    """Rides of the source store whose blocks could not be read (left out)."""
 
     def __str__(self) -> str:
         text = f"{len(self.added)} rides added, {self.skipped} already stored"
-        return text + (f", {len(self.open)} open (interrupted ingest or live)" if self.open else "")
+        text += f", {len(self.open)} open (interrupted ingest or live)" if self.open else ""
+        return text + (f", {len(self.damaged)} damaged in the source store and left out ({self.damaged[0]}"
+                       f"{', ...' if len(self.damaged) > 1 else ''})" if self.damaged else "")
 
 
 def read_manifest(manifest: str | Path, riders: str | Path | None = None) -> list[LogEntry]:
@@ -115,7 +119,11 @@ def ingest_store(store: RideStore, source: RideStore) -> IngestReport:
     for ride in source.rides():
         if ride.ended is None or _seen(report, known, (ride.vehicle, ride.rider_id, ride.started)):
             continue
-        samples = source.samples(ride.ride_id)
+        try:
+            samples = source.samples(ride.ride_id)
+        except DamagedRideError:
+            report.damaged.append(ride.ride_id)
+            continue
         if len(samples["time"]) == 0:
             continue
         token = token or store.register_device(DEVICE_NAME)[1]

@@ -29,8 +29,8 @@ Pages: ``/`` the phone page (streams DeviceMotion and Geolocation), ``/rider`` a
   and may be sent again.
 
 An address whose enrolment codes were refused :data:`ENROLMENT_GUESSES` times is answered 429 until its
-guesses refill. Operator: ``POST /api/enrolments`` ``{"uses"?, "ttl"?}`` -> ``{"code", "expires", "uses"}``. Views (the operator;
-a device for its own rides): ``GET /api/rides``, ``GET /api/rides/{id}`` (samples, features, labels, events, for
+guesses refill. Operator: ``POST /api/enrolments`` ``{"uses"?, "ttl"?}`` -> ``{"code", "expires", "uses"}``.
+Views (the operator; a device for its own rides): ``GET /api/rides``, ``GET /api/rides/{id}`` (samples, features, labels, events, for
 replay) and ``WS /ws/watch`` (``?ride=`` one ride; the credential in the ``Authorization`` header or in a first
 message ``{"type": "auth", "token"}`` sent within :data:`AUTH_SECONDS`) stream what the service publishes.
 ``GET /api/model`` is the pipeline for the page (:func:`~spotfree.ride.live.pipeline_spec`); ``GET /api/health``
@@ -48,9 +48,11 @@ load and connect only to this server and not be framed. A body with a credential
 
 Refusals (one line in ``detail``): 400 bad input, 401 no or unknown credential, 403 a ride of another device, a
 view without the operator token or a bad enrolment code, 404 unknown ride, 413 a body over :data:`MAX_BODY` bytes
-(:data:`MAX_UNAUTHENTICATED_BODY` for an enrolment; refused while it is read), 415 a body that is not JSON, 429 samples sent faster than the service takes them
-(``Retry-After``) or a start beyond the device's open rides (see :mod:`spotfree.ride.service`), 503 a ride worker being replaced (``Retry-After``: send
-again).
+(:data:`MAX_UNAUTHENTICATED_BODY` for an enrolment; refused while it is read), 415 a body that is not JSON, 429
+samples sent faster than the service takes them (``Retry-After``), a start beyond the device's open rides (see
+:mod:`spotfree.ride.service`) or too many refused enrolment codes, 500 a ride whose stored blocks are damaged
+(:class:`~spotfree.ride.store.DamagedRideError`: that ride only), 503 a ride worker being replaced
+(``Retry-After``: send again).
 """
 
 from __future__ import annotations
@@ -75,7 +77,7 @@ from spotfree.errors import InputError, SpotfreeError
 from spotfree.ride import validation
 from spotfree.ride.sensorpush import PushResampler, PushSessions, parse_push
 from spotfree.ride.service import OPERATOR, Identity, RateError, RideService, SampleBucket, UnavailableError
-from spotfree.ride.store import AccessError, ForbiddenError, NotFoundError, QuotaError
+from spotfree.ride.store import AccessError, DamagedRideError, ForbiddenError, NotFoundError, QuotaError
 from spotfree.ride.tokens import token_hash
 
 MAX_BODY = 2_000_000
@@ -131,6 +133,8 @@ class SecurityHeaders:
 
 
 def _status(exc: Exception) -> int:
+    if isinstance(exc, DamagedRideError):
+        return 500
     if isinstance(exc, NotFoundError):
         return 404
     if isinstance(exc, (RateError, QuotaError)):

@@ -51,7 +51,7 @@ from spotfree.ride import validation
 from spotfree.ride.assistant import RideAssistant
 from spotfree.ride.live import LiveRide, pipeline_spec
 from spotfree.ride.records import FEATURE_COLUMNS, SAMPLE_COLUMNS
-from spotfree.ride.store import AccessError, ForbiddenError, RideStore
+from spotfree.ride.store import AccessError, DamagedRideError, ForbiddenError, RideStore
 from spotfree.ride.tokens import token_hash
 
 _log = logging.getLogger("spotfree.ride")
@@ -531,7 +531,13 @@ class RideService:
             with self._lock:
                 ride = self._open.pop(ride_id, None)
             if ride is None:
-                ride = self._replay(ride_id, "")
+                try:
+                    ride = self._replay(ride_id, "")
+                except DamagedRideError as exc:  # closed as it is, without the episodes a replay would end
+                    _log.warning("closing idle ride %s without replaying it: %s", ride_id, exc)
+                    if self.store.close_idle_ride(ride_id, max(last, self.store.ride(ride_id).started), []):
+                        closed[ride_id] = []
+                    continue
             with ride.lock:
                 ride.assistant.finish()
                 events = ride.assistant.pop_events()

@@ -83,6 +83,11 @@ class NotFoundError(InputError, LookupError):
     """A ride id that the store does not hold."""
 
 
+class DamagedRideError(InputError):
+    """A ride whose stored blocks cannot be decoded (a damaged or hand-edited store): that ride is unreadable,
+    the others are not."""
+
+
 class QuotaError(InputError):
     """A device asking for more than its share: more open rides than it may hold at once."""
 
@@ -410,7 +415,8 @@ class RideStore:
         after ``since`` (s) when given, e.g. for a view that polls a live ride."""
         self.ride(ride_id)
         rows = self._blocks("n, samples", ride_id, since)
-        table = blocks.samples_table(rows)
+        with _decoding(ride_id, "samples"):
+            table = blocks.samples_table(rows)
         if since is not None:
             table = table[table[:, 0] > since]
         return dict(zip(SAMPLE_COLUMNS, table.T))
@@ -419,7 +425,9 @@ class RideStore:
         """The ride's features: ``time`` and :data:`FEATURE_COLUMNS` (NaN where none was recorded)."""
         self.ride(ride_id)
         sets = dict(self._query("SELECT set_id, columns FROM feature_sets"))
-        table = blocks.features_table(self._blocks("n, samples, feature_set, features", ride_id), sets)
+        rows = self._blocks("n, samples, feature_set, features", ride_id)
+        with _decoding(ride_id, "features"):
+            table = blocks.features_table(rows, sets)
         return dict(zip(("time", *FEATURE_COLUMNS), table.T))
 
     def labels(self, ride_id: str) -> dict[str, np.ndarray]:
@@ -428,8 +436,9 @@ class RideStore:
         self.ride(ride_id)
         rows = self._query("SELECT model, n, times, labels FROM label_blocks WHERE ride_id = ? ORDER BY model, t0",
                            (ride_id,))
-        per_model = {model: blocks.label_lists([r[1:] for r in rows if r[0] == model])
-                     for model in dict.fromkeys(r[0] for r in rows)}
+        with _decoding(ride_id, "labels"):
+            per_model = {model: blocks.label_lists([r[1:] for r in rows if r[0] == model])
+                         for model in dict.fromkeys(r[0] for r in rows)}
         times = np.unique(np.concatenate([t for t, _ in per_model.values()])) if per_model else np.empty(0)
         columns: dict[str, np.ndarray] = {"time": times}
         for model, (t, values) in per_model.items():
@@ -503,6 +512,18 @@ class _SampleWrite:
         validation.check_times(self.t, last, f"ride {self.ride_id}")
         _insert(db, [self])
         return len(self.t)
+
+
+@contextmanager
+def _decoding(ride_id: str, what: str) -> Iterator[None]:
+    """A block of ride ``ride_id`` that does not decode as :mod:`spotfree.ride.blocks` wrote it raises
+    :class:`DamagedRideError` (one line) instead of the decoder's own error."""
+    try:
+        yield
+    except (ValueError, TypeError, KeyError, IndexError, AttributeError) as exc:
+        raise DamagedRideError(f"ride {ride_id}: its stored {what} are damaged ({type(exc).__name__}: "
+                               f"{' '.join(str(exc).split())[:80]}); this ride cannot be read, the others can") \
+            from None
 
 
 def _insert(db, writes: list[_SampleWrite]) -> None:
