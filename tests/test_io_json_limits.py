@@ -41,3 +41,22 @@ def test_a_model_whose_metadata_the_parser_cannot_hold(tmp_path, metadata):
              scale=np.ones(1))
     with pytest.raises(InputError, match="model.npz.*metadata is not a JSON object"):
         DictionaryModel.load(path)
+
+
+@pytest.mark.parametrize("where, timestamp, message", [
+    (25, -1e30, "field 'timestamp' must be the frame time in microseconds"),
+    (25, 1e30, "field 'timestamp' must be the frame time in microseconds"),
+    (49, 1e15, "its frames span 1e\\+09 s, more than 172800 s"),  # 31 years: a grid of 20 billion samples
+])
+def test_a_hand_timestamp_far_out_is_one_line_not_a_huge_grid(tmp_path, where, timestamp, message):
+    import json
+
+    from spotfree.hand.log import read_hand_log
+    from test_hand_frames import SERVICE_FRAME
+
+    frames = [{**json.loads(json.dumps(SERVICE_FRAME)), "timestamp": k * 10_000, "id": k} for k in range(50)]
+    frames[where]["timestamp"] = timestamp
+    path = tmp_path / "hand.jsonl"
+    path.write_text("".join(json.dumps(f) + "\n" for f in frames))
+    with pytest.raises(InputError, match=message):
+        read_hand_log(path)

@@ -108,6 +108,10 @@ def is_frame(message: dict) -> bool:
     return "event" not in message and "version" not in message
 
 
+MAX_TIMESTAMP = 2 ** 53
+"""Microseconds: a frame's timestamp is below it (exact as a float; 285 years of a running service)."""
+
+
 def parse_frame(message: dict, where: str) -> HandFrame:
     """A frame object of the service (already decoded from JSON) as a :class:`HandFrame`.
 
@@ -117,8 +121,10 @@ def parse_frame(message: dict, where: str) -> HandFrame:
     if not isinstance(message, dict):
         raise InputError(f"{where}: a frame must be a JSON object, got {type(message).__name__}")
     timestamp = message.get("timestamp")
-    if isinstance(timestamp, bool) or not isinstance(timestamp, (int, float)) or not math.isfinite(timestamp):
-        raise InputError(f"{where}: field 'timestamp' must be the frame time in microseconds, got {timestamp!r}")
+    if isinstance(timestamp, bool) or not isinstance(timestamp, (int, float)) or not math.isfinite(timestamp) \
+            or not 0 <= timestamp < MAX_TIMESTAMP:
+        raise InputError(f"{where}: field 'timestamp' must be the frame time in microseconds (0 to 2^53), got "
+                         f"{timestamp!r:.40}")
     hands = _list(message, "hands", where)
     pointables = _list(message, "pointables", where)
     fingers: dict[object, dict[int, dict]] = {}

@@ -37,6 +37,7 @@ from spotfree.io import checks
 from spotfree.io.csvlog import _concatenate
 from spotfree.io.recording import Recording
 from spotfree.io.resample import Stream, merge_streams
+from spotfree.limits import MAX_RIDE_SECONDS
 
 HAND_RATE = 20.0
 """Hz: the default grid of a hand-tracking Recording."""
@@ -176,6 +177,9 @@ def _session(
             f"recording needs at least two (was a hand over the sensor?)"
         )
     first, last = t[usable][[0, -1]]
+    if t[-1] - t[0] > MAX_RIDE_SECONDS:
+        raise InputError(f"{where}: its frames span {t[-1] - t[0]:.4g} s, more than {MAX_RIDE_SECONDS:g} s; check "
+                         "the timestamps (microseconds) or split the log")
     if first - t[0] > max_gap or t[-1] - last > max_gap:
         warnings.append(
             f"{where}: no hand in the first {first - t[0]:.2f} s and the last {t[-1] - last:.2f} s; the recording "
