@@ -72,12 +72,12 @@ classes also as events (a true run detected by a run of its label within 0.5 s; 
 without the event). Per set and method: the median and the worst case over its protocols, offline and live.
 
     python benchmarks/protocols.py [--sets sp sw hapt basicmotions braking lateral road rare-events]
-                                   [--seeds 0 1 2] [--jobs 1] [--quick]
+                                   [--seeds 0 1 2] [--jobs 1] [--results protocols] [--quick]
 
-``--jobs N``: N sets at once, each in its own process. ``--quick``: one protocol draw per real set (seed 0, split
+``--jobs N``: N sets at once, each in its own process; ``--results NAME``: write ``NAME.md`` instead. ``--quick``: one protocol draw per real set (seed 0, split
 ``first``, four clips per subject, both namings) on a few test recordings and seed 0 of each simulator set, printed
 only (a smoke run). Otherwise writes ``benchmarks/results/protocols.md`` (command, machine, date, the measured
-spotfree's commit, tables), after every set (the sets still to run named at its end).
+spotfree's commit, tables), after every protocol (the sets still running named at its end).
 """
 
 from __future__ import annotations
@@ -656,6 +656,8 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="one protocol per set (4 clips per subject) on a few "
                         "test recordings, printed only (a smoke run)")
     parser.add_argument("--jobs", type=int, default=1, help="sets run at once, each in its own process")
+    parser.add_argument("--results", default="protocols", help="name of the results file in benchmarks/results "
+                        "(without .md)")
     args = parser.parse_args()
     if args.jobs < 1:
         parser.error("--jobs takes a number of processes >= 1")
@@ -688,7 +690,7 @@ def main() -> None:
                       f"Wall time of the run: {(time.perf_counter() - started) / 60:.1f} min.")
             if not args.quick:  # after every protocol, so that a run stopped early leaves what it measured
                 RESULTS.mkdir(exist_ok=True)
-                (RESULTS / "protocols.md").write_text(
+                (RESULTS / f"{args.results}.md").write_text(
                     "\n".join([*header, *(line for n in args.sets if n in sections for line in sections[n]),
                                footer]) + "\n")
     print(footer)
