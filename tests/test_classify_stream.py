@@ -89,10 +89,11 @@ def test_stream_equals_batch_for_a_model_of_the_general_learner(raw):
     feats = ride_features(raw, derived=True)
     rides = [part for _, part in feats.experiments()]
     learner = SetSupervisedLearner(channels=("acc_long", "pitch_rate"), representation="hankel", prior=RidePrior(),
-                                   rounds=2).fit(rides, [{"cruising", "normal-braking", "sudden-braking"}] * len(rides))
+                                   rounds=2, window=20, share_power=0.5, column_share=0.5, smoothing=0.5).fit(rides, [{"cruising", "normal-braking", "sudden-braking"}] * len(rides))
     labels = stream_labels(RideClassifier(learner.model_), raw)
     np.testing.assert_array_equal(labels, classify_recording(learner.model_, raw).label)
-    summary = SetSupervisedLearner(channels=("acc_long", "pitch_rate"), rounds=0).fit(
+    summary = SetSupervisedLearner(channels=("acc_long", "pitch_rate"), rounds=0, window=20, share_power=0.5,
+                                   column_share=0.5, smoothing=0.5).fit(
         rides, [{"cruising", "normal-braking", "sudden-braking"}] * len(rides)).model_
     live = RideClassifier(summary)
     assert live._ring.models_["summary"].all() and live._ring.models_["compiled"].all()

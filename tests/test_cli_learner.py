@@ -101,12 +101,12 @@ def test_a_model_of_every_body_channel_refuses_a_log_without_a_gyroscope(tmp_pat
 
 
 def test_ride_features_of_a_log_not_from_a_handlebar_say_so(tmp_path):
-    """Trained on ride features (the default), pocket logs tell the mount found in each and point to --features
+    """Trained on ride features (asked for), pocket logs tell the mount found in each and point to --features
     body; --mount flat takes the nominal mount without a doubt."""
     _imu_log(tmp_path / "walk.csv", [("still", 8), ("walking", 10), ("still", 6)], 1)
     _imu_log(tmp_path / "still.csv", [("still", 20)], 2)
     args = ["train", "-o", str(tmp_path / "m.npz"), "--experiment", f"{tmp_path / 'walk.csv'}=still,walking",
-            "--experiment", f"{tmp_path / 'still.csv'}=still"]
+            "--experiment", f"{tmp_path / 'still.csv'}=still", "--features", "ride"]
     result = runner.invoke(app, args, catch_exceptions=False)
     assert result.exit_code == 0, result.output
     assert result.output.count("read: ") == 2 and result.output.count("mount: ") == 2

@@ -18,6 +18,9 @@ from spotfree.ride_prior import RidePrior
 from spotfree.windows import ChannelScaling
 
 RATE = 20.0
+FIXED = {"window": 20, "share_power": 0.5, "column_share": 0.5, "smoothing": 0.5}
+"""The settings the learner would otherwise choose (spotfree.selection, tested in test_selection.py), at their
+first candidates, so that these tests see the learner's mechanism alone and run fast."""
 
 
 def _signal(kind: str, n: int, rng: np.random.Generator) -> np.ndarray:
@@ -76,7 +79,7 @@ def test_periodic_motions_are_told_apart_whatever_their_phase():
              _recording([("still", 20.0)], rng, "still-1"), _alternating("still", "slow", rng, "slow-2"),
              _alternating("still", "fast", rng, "fast-2")]
     sets = [{"still", "slow"}, {"still", "fast"}, {"still"}, {"still", "slow"}, {"still", "fast"}]
-    learner = SetSupervisedLearner(seed=0).fit(train, sets)
+    learner = SetSupervisedLearner(**FIXED, seed=0).fit(train, sets)
     tests = [_recording([("still", 5), ("slow", 5), ("fast", 5), ("still", 5), ("fast", 4), ("slow", 4)], rng, "t")]
     accuracy = _away_accuracy(learner, tests)
     assert min(accuracy.values()) >= 0.9, accuracy
@@ -89,7 +92,7 @@ def test_levels_a_hard_stop_against_a_soft_one():
                          ("still", 6)], rng, "hard"),
              _recording([("still", 20)], rng, "still")]
     sets = [{"still", "soft"}, {"still", "soft", "hard"}, {"still"}]
-    learner = SetSupervisedLearner(seed=0).fit(train, sets)
+    learner = SetSupervisedLearner(**FIXED, seed=0).fit(train, sets)
     tests = [_recording([("still", 5), ("soft", 3), ("still", 5), ("soft", 2), ("hard", 2), ("still", 5)], rng, "t")]
     accuracy = _away_accuracy(learner, tests)
     assert min(accuracy.values()) >= 0.9, accuracy
@@ -101,7 +104,7 @@ def test_a_short_rare_event_is_found():
     for _ in range(6):
         parts += [("still", rng.uniform(5, 9)), ("strike", 0.6)]
     train = [_recording(parts + [("still", 5)], rng, "strikes"), _recording([("still", 30)], rng, "quiet")]
-    learner = SetSupervisedLearner(seed=0).fit(train, [{"still", "strike"}, {"still"}])
+    learner = SetSupervisedLearner(**FIXED, seed=0).fit(train, [{"still", "strike"}, {"still"}])
     test = _recording([("still", 6), ("strike", 0.6), ("still", 6), ("strike", 0.6), ("still", 6)], rng, "t")
     predicted = learner.predict(test)
     truth = test.truth["label"]
@@ -139,14 +142,12 @@ def _strike_windows(learner, train) -> tuple[int, int]:
     return named, true
 
 
-def test_a_pattern_that_also_occurs_without_the_event_is_not_named_the_event(monkeypatch):
+def test_a_pattern_that_also_occurs_without_the_event_is_not_named_the_event():
     """The soft level is far more frequent where strikes are declared, but it occurs without them: the absence
     evidence keeps it from the strike, which the strike would otherwise claim (as the standing after a sudden
     stop)."""
-    import spotfree.learner as learner_module
-
     train, sets, test = _strikes_with_aftermath(np.random.default_rng(0))
-    learner = SetSupervisedLearner(seed=0).fit(train, sets)
+    learner = SetSupervisedLearner(**FIXED, seed=0).fit(train, sets)
     named, true = _strike_windows(learner, train)
     assert named <= 3 * true, (named, true)
     predicted, truth = learner.predict(test), test.truth["label"]
@@ -154,8 +155,7 @@ def test_a_pattern_that_also_occurs_without_the_event_is_not_named_the_event(mon
     assert all(np.any(predicted[a:a + 12] == "strike") for a in onsets), "a strike went unlabelled"
     assert np.sum(predicted == "strike") <= 3 * np.sum(truth == "strike")
 
-    monkeypatch.setattr(learner_module, "ABSENCE", 0.0)
-    without, _ = _strike_windows(SetSupervisedLearner(seed=0).fit(train, sets), train)
+    without, _ = _strike_windows(SetSupervisedLearner(**FIXED, absence=0.0, seed=0).fit(train, sets), train)
     assert without >= 5 * true, (without, true)
 
 
@@ -163,21 +163,20 @@ def _absence_ratios(learner, train, sets) -> tuple[np.ndarray, np.ndarray, _Wind
     """The absence evidence ``r_c`` of every training window of the fitted ``learner`` (module docstring, step 2),
     the true label at each window's centre, and the windows."""
     allowed = np.array([[c in s for c in learner.classes_] for s in sets])
-    data = learner._windows(train, ("u", "v"), ChannelScaling(("u", "v")).fit(train))
+    data = learner._windows(train, ("u", "v"), ChannelScaling(("u", "v")).fit(train), learner.settings_["window"])
     ratio = learner._absence(data.X, data, allowed, np.random.default_rng(0))
-    truth = np.concatenate([rec.truth["label"][ends - learner.window // 2] for rec, ends in zip(train, data.ends)])
+    truth = np.concatenate([rec.truth["label"][ends - learner.settings_["window"] // 2]
+                            for rec, ends in zip(train, data.ends)])
     return ratio, truth, data
 
 
-def test_the_absence_evidence_reaches_a_class_declared_in_a_single_recording(monkeypatch):
+def test_the_absence_evidence_reaches_a_class_declared_in_a_single_recording():
     """One recording declares the strikes and one does not: no two halves of the recordings each hold both kinds, so
     the evidence is cross-fitted over time blocks, and the soft level after each strike, which the quiet recording
     holds too, is still kept from the strike (without the evidence the strike claims it)."""
-    import spotfree.learner as learner_module
-
     train, sets, test = _strikes_with_aftermath(np.random.default_rng(4))
     train, sets = [train[0], train[2]], [sets[0], sets[2]]
-    learner = SetSupervisedLearner(seed=0).fit(train, sets)
+    learner = SetSupervisedLearner(**FIXED, seed=0).fit(train, sets)
     ratio, truth, data = _absence_ratios(learner, train, sets)
     strike, declares = learner.classes_.index("strike"), data.recording == 0
     assert np.median(ratio[declares & (truth == "strike"), strike]) < 0.2
@@ -185,8 +184,7 @@ def test_the_absence_evidence_reaches_a_class_declared_in_a_single_recording(mon
     named, true = _strike_windows(learner, train)
     assert named <= 3 * true, (named, true)
 
-    monkeypatch.setattr(learner_module, "ABSENCE", 0.0)
-    without, _ = _strike_windows(SetSupervisedLearner(seed=0).fit(train, sets), train)
+    without, _ = _strike_windows(SetSupervisedLearner(**FIXED, absence=0.0, seed=0).fit(train, sets), train)
     assert without >= 5 * true, (without, true)
 
 
@@ -195,7 +193,7 @@ def test_the_absence_evidence_is_none_for_a_class_every_recording_declares():
     train = [_alternating("still", "slow", rng, "a"), _alternating("still", "fast", rng, "b"),
              _alternating("still", "slow", rng, "c"), _alternating("still", "fast", rng, "d")]
     sets = [{"still", "slow"}, {"still", "fast"}, {"still", "slow"}, {"still", "fast"}]
-    learner = SetSupervisedLearner(seed=0).fit(train, sets)
+    learner = SetSupervisedLearner(**FIXED, seed=0).fit(train, sets)
     ratio, truth, _ = _absence_ratios(learner, train, sets)
     assert np.all(ratio[:, learner.classes_.index("still")] == 0)
     slow = learner.classes_.index("slow")
@@ -222,7 +220,8 @@ def test_the_columns_are_drawn_from_the_share_of_a_class_s_windows_named_most_su
     train = [_alternating("still", "slow", rng, "a"), _alternating("still", "slow", rng, "b"),
              _recording([("still", 20)], rng, "c")]
     sets = [{"still", "slow"}, {"still", "slow"}, {"still"}]
-    models = {share: SetSupervisedLearner(column_share=share, max_columns=100_000, seed=0).fit(train, sets)
+    models = {share: SetSupervisedLearner(**{**FIXED, "column_share": share}, max_columns=100_000, seed=0).fit(
+        train, sets)
               for share in (0.25, 0.5, 1.0)}
     named = np.concatenate(models[1.0].window_labels_)
     for share, learner in models.items():
@@ -245,7 +244,7 @@ def test_no_class_in_every_recording_and_windows_keep_to_their_sets():
     train = [_alternating("slow", "hard", rng, "a"), _alternating("fast", "soft", rng, "b"),
              _alternating("slow", "soft", rng, "c")]
     sets = [{"slow", "hard"}, {"fast", "soft"}, {"slow", "soft"}]
-    learner = SetSupervisedLearner(seed=0).fit(train, sets)
+    learner = SetSupervisedLearner(**FIXED, seed=0).fit(train, sets)
     for names, declared in zip(learner.window_labels_, sets):
         assert set(names) == declared  # every declared class found, nothing else
     assert set(learner.classes_) == {"slow", "hard", "fast", "soft"}
@@ -260,7 +259,7 @@ def test_same_inputs_and_seed_give_the_same_model(tmp_path):
     sets = [{"still", "slow"}, {"still"}]
     paths = []
     for k in range(2):
-        model = SetSupervisedLearner(seed=3).fit(train, sets).model_
+        model = SetSupervisedLearner(**FIXED, seed=3).fit(train, sets).model_
         paths.append(tmp_path / f"m{k}.npz")
         model.save(paths[-1])
     first, second = DictionaryModel.load(paths[0]), DictionaryModel.load(paths[1])
@@ -277,7 +276,7 @@ def test_a_last_bit_difference_of_exp_and_log_does_not_change_the_model(monkeypa
     train = [_alternating("still", kind, rng, f"{kind}-{k}", other_seconds=(1.0, 3.0))
              for k in range(3) for kind in ("slow", "soft")] + [_recording([("still", 20)], rng, "still")]
     sets = [{"still", "slow"}, {"still", "soft"}] * 3 + [{"still"}]
-    reference = SetSupervisedLearner(seed=0).fit(train, sets)
+    reference = SetSupervisedLearner(**FIXED, seed=0).fit(train, sets)
     jitter = np.random.default_rng(0)
 
     def one_ulp_off(method):
@@ -289,7 +288,7 @@ def test_a_last_bit_difference_of_exp_and_log_does_not_change_the_model(monkeypa
 
     for name in ("_cross_fitted", "_absence"):
         monkeypatch.setattr(SetSupervisedLearner, name, one_ulp_off(getattr(SetSupervisedLearner, name)))
-    perturbed = SetSupervisedLearner(seed=0).fit(train, sets)
+    perturbed = SetSupervisedLearner(**FIXED, seed=0).fit(train, sets)
     for ours, theirs in zip(reference.window_labels_, perturbed.window_labels_):
         np.testing.assert_array_equal(ours, theirs)
     np.testing.assert_array_equal(reference.model_.dictionary, perturbed.model_.dictionary)
@@ -303,8 +302,8 @@ def test_the_ride_prior_never_engages_for_other_data():
     prior = RidePrior()
     for rec in train:
         assert not prior.log_prior(rec, np.arange(len(rec)), ["slow", "still"]).any()  # no GPS speed here
-    with_prior = SetSupervisedLearner(prior=prior, seed=0).fit(train, sets).model_
-    without = SetSupervisedLearner(seed=0).fit(train, sets).model_
+    with_prior = SetSupervisedLearner(**FIXED, prior=prior, seed=0).fit(train, sets).model_
+    without = SetSupervisedLearner(**FIXED, seed=0).fit(train, sets).model_
     np.testing.assert_array_equal(with_prior.dictionary, without.dictionary)
     n = 100  # a ride's channels, but classes the prior does not name; the names it knows, but no ride channels
     ride = Recording(time=np.arange(n) / RATE, channels={"yaw_rate": np.full(n, 0.5), "speed": np.r_[5.0, np.full(
@@ -347,8 +346,8 @@ def test_decode_runs_every_class_appears_and_runs_are_kept():
 
 @pytest.mark.parametrize("smoothing", [0.05, 0.1, 0.15, 0.2, 0.5])
 def test_the_margins_are_averaged_over_windows_centred_on_each(smoothing):
-    learner = SetSupervisedLearner(smoothing=smoothing)
-    learner.rate_ = 20.0
+    learner = SetSupervisedLearner(**{**FIXED, "smoothing": smoothing})
+    learner.rate_, learner.settings_ = 20.0, learner.get_params()
     runs = _Windows(X=np.zeros((41, 1)), recording=np.zeros(41, dtype=int), ends=[np.arange(41)], runs=[(0, 41)],
                     offsets=np.array([0, 41]))
     impulse = np.zeros((41, 2))
@@ -385,7 +384,7 @@ def test_bad_input_is_refused_with_a_clear_message(case, message):
     elif case == "rates":
         train[1] = Recording(time=train[1].time, channels=train[1].channels, rate=40.0, source="fast")
     with pytest.raises(InputError, match=message):
-        SetSupervisedLearner().fit(train, sets)
+        SetSupervisedLearner(**FIXED).fit(train, sets)
 
 
 def test_a_class_that_looks_like_another_is_warned_about():
@@ -393,7 +392,7 @@ def test_a_class_that_looks_like_another_is_warned_about():
     summary says it could not be told apart."""
     rng = np.random.default_rng(8)
     train = [_alternating("still", "slow", rng, "a"), _recording([("still", 30)], rng, "ghost")]
-    learner = SetSupervisedLearner(seed=0).fit(train, [{"still", "slow"}, {"still", "ghost"}])
+    learner = SetSupervisedLearner(**FIXED, seed=0).fit(train, [{"still", "slow"}, {"still", "ghost"}])
     assert any("class ghost is not told apart" in w for w in learner.warnings_), learner.warnings_
     assert learner.model_.summary["warnings"] == learner.warnings_
     assert not any("class slow" in w or "class still" in w for w in learner.warnings_)
@@ -407,7 +406,7 @@ def test_thousands_of_short_recordings():
         kind = ("slow", "fast")[k % 2]
         train.append(_recording([("still", 2.0), (kind, 2.0)], rng, f"r{k}"))
         sets.append({"still", kind})
-    learner = SetSupervisedLearner(seed=0).fit(train, sets)
+    learner = SetSupervisedLearner(**FIXED, seed=0).fit(train, sets)
     assert all(set(names) == declared for names, declared in zip(learner.window_labels_, sets))
     assert set(learner.model_.summary["columns_per_class"]) == {"still", "slow", "fast"}
 
@@ -435,7 +434,7 @@ def test_any_input_trains_or_is_refused_with_an_input_error(data):
                                     source=f"r{k}"))
         sets.append(set(data.draw(st.lists(st.sampled_from(classes), min_size=1, max_size=3))))
     try:
-        learner = SetSupervisedLearner(rounds=1, seed=0).fit(recordings, sets)
+        learner = SetSupervisedLearner(**FIXED, rounds=1, seed=0).fit(recordings, sets)
     except InputError:
         return
     for names, declared in zip(learner.window_labels_, sets):
@@ -455,7 +454,7 @@ def test_a_class_that_always_comes_with_another_is_named():
                                  ("still", 4)], rng, f"hard-{k}"))
     train.append(_recording([("still", 20)], rng, "still"))
     sets = [{"still", "soft"}, {"still", "soft", "hard"}] * 3 + [{"still"}]
-    learner = SetSupervisedLearner(seed=0).fit(train, sets)
+    learner = SetSupervisedLearner(**FIXED, seed=0).fit(train, sets)
     for rec, names, ends in zip(train, learner.window_labels_, learner.window_ends_):
         truth = rec.truth["label"][ends - learner.window // 2]
         away = ~near_transitions(rec.truth["label"], rate=rec.rate)[ends - learner.window // 2]
@@ -470,18 +469,18 @@ def test_classes_declared_together_everywhere_are_warned_about_unless_a_prior_te
     hold one without the other, or a prior, silence it."""
     rng = np.random.default_rng(9)
     both = [_alternating("still", "slow", rng, f"r{k}") for k in range(2)]
-    learner = SetSupervisedLearner(seed=0).fit(both, [{"still", "slow"}] * 2)
+    learner = SetSupervisedLearner(**FIXED, seed=0).fit(both, [{"still", "slow"}] * 2)
     assert any("classes slow, still are declared by the same recordings" in w for w in learner.warnings_), \
         learner.warnings_
     apart = both + [_recording([("still", 20)], rng, "rest")]
-    learner = SetSupervisedLearner(seed=0).fit(apart, [{"still", "slow"}] * 2 + [{"still"}])
+    learner = SetSupervisedLearner(**FIXED, seed=0).fit(apart, [{"still", "slow"}] * 2 + [{"still"}])
     assert not any("declared by the same recordings" in w for w in learner.warnings_), learner.warnings_
 
     class Flat:
         def log_prior(self, recording, centres, classes):
             return np.zeros((len(centres), len(classes)))
 
-    learner = SetSupervisedLearner(seed=0, prior=Flat()).fit(both, [{"still", "slow"}] * 2)
+    learner = SetSupervisedLearner(**FIXED, seed=0, prior=Flat()).fit(both, [{"still", "slow"}] * 2)
     assert not any("declared by the same recordings" in w for w in learner.warnings_)
 
 
@@ -490,8 +489,8 @@ def test_class_names_that_differ_only_in_case_are_warned_about():
     rng = np.random.default_rng(3)
     recordings = [_alternating("still", "slow", rng, "a"), _recording([("still", 20)], rng, "b"),
                   _alternating("still", "slow", rng, "c")]
-    learner = SetSupervisedLearner(seed=0, rounds=1).fit(recordings, [{"still", "slow"}, {"still"}, {"Slow ", "still"}])
+    learner = SetSupervisedLearner(**FIXED, seed=0, rounds=1).fit(recordings, [{"still", "slow"}, {"still"}, {"Slow ", "still"}])
     assert any(w.startswith("classes 'Slow ', 'slow' differ only in case or spaces") for w in learner.warnings_), \
         learner.warnings_
-    learner = SetSupervisedLearner(seed=0, rounds=1).fit(recordings, [{"still", "slow"}, {"still"}, {"slow", "still"}])
+    learner = SetSupervisedLearner(**FIXED, seed=0, rounds=1).fit(recordings, [{"still", "slow"}, {"still"}, {"slow", "still"}])
     assert not any("differ only in case" in w for w in learner.warnings_)

@@ -304,12 +304,14 @@ def train(
                                         "(PATH or PATH@K, relative to the file), classes (that occur in it) and "
                                         "optionally start, end (s: a span of the log)"),
     channels: Optional[str] = typer.Option(None, "--channels", help="feature channels, comma-separated"),
-    window: int = typer.Option(20, "--window", min=1, help="window length, samples"),
+    window: Optional[int] = typer.Option(None, "--window", min=1, help="window length, samples (default: chosen "
+                                         "from the sets, 1 or 2 s; the preset's)"),
     step: int = typer.Option(1, "--step", min=1, help="stride of the windows, samples (training and classification)"),
     orientation: str = typer.Option("default", "--orientation", help="default | paper | vqf"),
-    features: str = typer.Option("ride", "--features", help="what a raw IMU log becomes: ride (a phone on the "
-                                 "handlebar: vehicle-frame ride features) | body (a phone in a pocket, a watch: device "
-                                 "axes and magnitudes)"),
+    features: Optional[str] = typer.Option(None, "--features", help="what a raw IMU log becomes: ride (a phone on "
+                                           "the handlebar: vehicle-frame ride features) | body (a phone in a pocket, "
+                                           "a watch: device axes and magnitudes); default: chosen from the sets "
+                                           "(ride with a preset or --channels)"),
     preset: Optional[str] = typer.Option(None, "--preset", help="braking | lateral | road: the channels, window, "
                                          "representation, prior, column share and most columns of spotfree's ride "
                                          "model of that name (any of them given here overrides it)"),
@@ -325,13 +327,15 @@ def train(
                                        "windows)"),
     max_columns: int = typer.Option(300, "--max-columns", min=1,
                                     help="most dictionary columns per class (300, or the preset's)"),
-    column_share: float = typer.Option(0.5, "--column-share", help="sets learner: share of each class's windows, "
-                                       "those named most surely, that its columns are drawn from, > 0 and <= 1; 1 "
-                                       "where each recording declares one class beside a background "
-                                       "(docs/training.md)"),
-    share_power: float = typer.Option(0.5, "--share-power", help="sets learner: how much a class's share of the "
-                                      "windows weighs in its names, >= 0; 1 for a short rare event (it then claims "
-                                      "less than 0.5 lets it), 0.5 where classes come together (docs/training.md)"),
+    column_share: Optional[float] = typer.Option(None, "--column-share", help="sets learner: share of each "
+                                                 "class's windows, those named most surely, that its columns are "
+                                                 "drawn from, > 0 and <= 1 (default: chosen from the sets)"),
+    share_power: Optional[float] = typer.Option(None, "--share-power", help="sets learner: how much a class's share "
+                                                "of the windows weighs in its names, >= 0 (default: chosen from the "
+                                                "sets)"),
+    smoothing: Optional[float] = typer.Option(None, "--smoothing", help="sets learner: seconds a change of class "
+                                              "must gain, and the offline labels' vote (default: chosen from the "
+                                              "sets)"),
     seed: int = typer.Option(0, "--seed"),
     figure: Optional[Path] = typer.Option(None, "--figure", help="also draw the training logs (the first 12; the "
                                           "spans of a log on its row) coloured by "
@@ -340,6 +344,8 @@ def train(
     quiet: bool = QUIET,
     as_json: bool = _json_option('{"output", "learner" (sets | paper), "features", "channels", '
                                  '"representation", "window", "step", "prior", "column_share" (sets learner), '
+                                 '"settings" ([{"setting", "value", "given", "candidates": {value: set risk}}], '
+                                 'sets learner; "features" among them), '
                                  '"classes", "columns", '
                                  '"columns_per_class", "recordings" ([{"source", "declared", '
                                  '"windows"}], sets learner), "rounds_changed" (fraction of names moved per '
@@ -350,7 +356,7 @@ def train(
     """Build a dictionary of pure class representatives from whole recordings, without spotting."""
     from spotfree.pipeline import FEATURES
 
-    if features not in FEATURES:
+    if features is not None and features not in FEATURES:
         raise InputError(f"--features {features!r}: use one of {', '.join(FEATURES)}")
     from spotfree.presets import PRESETS, PRIORS, prior_named
     from spotfree.representation import REPRESENTATIONS
@@ -363,34 +369,41 @@ def train(
     given = [p.opts[0] for p in ctx.command.params
              if p.name and getattr(ctx.get_parameter_source(p.name), "name", "") == "COMMANDLINE"]
     misplaced = [o for o in given if o in ("--prior", "--representation", "--column-share", "--share-power",
-                                           "--figure", "--preset", "--role")
+                                           "--smoothing", "--figure", "--preset", "--role")
                  and recipe != "sets"]
     if misplaced:
         raise InputError(f"{misplaced[0]} is an option of --recipe sets; leave it out with --recipe {recipe}")
     chosen = tuple(c.strip() for c in channels.split(",")) if channels else None
-    params = {"step": step, "share_power": share_power, "seed": seed}
+    params = {"step": step, "seed": seed}
     settings = {"--channels": ("channels", chosen), "--window": ("window", window),
                 "--representation": ("representation", representation), "--prior": ("prior", prior_named(prior)),
-                "--column-share": ("column_share", column_share), "--max-columns": ("max_columns", max_columns)}
+                "--column-share": ("column_share", column_share), "--max-columns": ("max_columns", max_columns),
+                "--share-power": ("share_power", share_power), "--smoothing": ("smoothing", smoothing)}
     params.update(item for option, item in settings.items() if preset is None or option in given)  # else the preset's
+    if features is None and (preset or chosen or recipe != "sets"):
+        features = "ride"  # the presets' channels are ride channels; named channels are of one kind
     from spotfree.io.class_sets import read_class_sets
 
     declared = [_parse_experiment(spec) for spec in experiment] + (read_class_sets(sets) if sets else [])
     if not declared:
         raise InputError("no training recording: give --experiment PATH=CLASS[,CLASS...] or --sets FILE")
-    summary = _train(output, declared, orientation, features, recipe, preset, params, figure, mount, role)
+    summary = _train(output, declared, orientation, features, recipe, preset, params, figure, mount, role,
+                     [o for o in given if o in ("--window", "--share-power", "--column-share", "--smoothing",
+                                                "--features", "--channels")])
     if as_json:
         _print_json(summary)
 
 
 def _train(output: Path, declared: list, orientation: str, features: str, recipe: str, preset: Optional[str],
-           params: dict, figure: Optional[Path], mount: str, roles: list[str] = ()) -> dict:
+           params: dict, figure: Optional[Path], mount: str, roles: list[str] = (), said: list[str] = ()) -> dict:
     """``spotfree train``: :class:`~spotfree.learner.SetSupervisedLearner` (``recipe`` sets; of ``preset``'s
     settings when given, :func:`~spotfree.presets.preset_learner`, ``params`` overriding them) or
     :class:`~spotfree.paper_recipe.PaperRecipe` (``recipe`` paper) on the ``declared`` recordings and their sets
     (:class:`~spotfree.io.class_sets.Declared`: each log read and turned into features once, then cut into its
-    spans), the ride prior's ``roles`` (``--role CLASS=ROLE``: :func:`_prior_roles`); prints the summary and returns
-    it (the document of ``--json``)."""
+    spans), the ride prior's ``roles`` (``--role CLASS=ROLE``: :func:`_prior_roles`); ``features`` None: ride or
+    body features, chosen from the sets (:func:`~spotfree.selection.select_features`) for raw IMU logs; ``said``:
+    the learner's options given on the command line (a preset's others are the preset's). Prints the summary and
+    returns it (the document of ``--json``)."""
     from collections import Counter
 
     from spotfree.learner import SetSupervisedLearner
@@ -398,36 +411,46 @@ def _train(output: Path, declared: list, orientation: str, features: str, recipe
     from spotfree.pipeline import feature_recording
     from spotfree.presets import preset_learner, prior_name
 
-    read: dict[str, tuple] = {}  # log spec: (log, its features)
+    logs = {}
     for item in declared:
-        if item.recording not in read:
-            log = _read_log(item.recording, 20.0)
-            if features == "ride":
-                log.meta["mount_choice"] = mount
-            read[item.recording] = (log, feature_recording(log, orientation=orientation, features=features))
-    recordings = [item.take(read[item.recording][1]) for item in declared]
+        if item.recording not in logs:
+            logs[item.recording] = _read_log(item.recording, 20.0)
+            logs[item.recording].meta["mount_choice"] = mount
+    kinds = [features] if features else (["ride", "body"] if all(log.has_imu for log in logs.values()) else ["ride"])
+    read = {kind: {spec: feature_recording(log, orientation=orientation, features=kind) for spec, log in logs.items()}
+            for kind in kinds}  # per kind, each log's features: a span is cut from its log's
+    candidates = {kind: [item.take(read[kind][item.recording]) for item in declared] for kind in kinds}
     sets = [list(item.classes) for item in declared]
-    logs = [log for log, _ in read.values()]
     if recipe == "paper":
-        learner = PaperRecipe(**{k: params[k] for k in ("channels", "window", "step", "max_columns", "seed")})
+        learner = PaperRecipe(**{"window": 20, **{k: params[k] for k in ("channels", "window", "step", "max_columns",
+                                                                         "seed") if params.get(k) is not None}})
     else:
         learner = preset_learner(preset, **params) if preset else SetSupervisedLearner(**params)
     roled, unroled = "", []
     if recipe == "sets":
         roled, learner.prior, unroled = _prior_roles(learner.prior, preset, sets, roles)
+    kind, risks = kinds[0], {}
+    if len(kinds) > 1:
+        from spotfree.selection import select_features
+
+        kind, risks = select_features(learner, candidates, [set(s) for s in sets])
+    recordings, read, logs = candidates[kind], read[kind], list(logs.values())
     learner.fit(recordings, sets)
     model = learner.model_
     model.save(output)
     said = _report_logs(logs, [(rec.meta["mount"], rec.meta["mount_warnings"]) if "mount" in rec.meta else None
-                               for _, rec in read.values()])
-    if any(rec.meta.get("mount_warnings") for rec in recordings):
+                               for rec in read.values()])
+    if kind == "ride" and not risks and mount in ("auto", "estimate") and any(
+            rec.meta.get("mount_warnings") for rec in recordings):  # chosen features weighed body already
         err.print("note: ride features assume a phone on a vehicle's handlebar; for a phone in a pocket or a watch, "
                   "train with --features body")
     counts = Counter(model.classes[k] for k in model.column_class)
     summary = {"output": output, "learner": recipe, "features": model.features, "channels": model.channels,
                "representation": model.representation, "window": model.window, "step": model.step,
                "prior": prior_name(learner.prior) if recipe == "sets" else None,
-               "column_share": learner.column_share if recipe == "sets" else None, "classes": model.classes,
+               "column_share": learner.settings_["column_share"] if recipe == "sets" else None,
+               "settings": _settings_rows(learner, kind, risks, preset, said) if recipe == "sets" else None,
+               "classes": model.classes,
                "columns": model.dictionary.shape[1], "columns_per_class": {c: counts[c] for c in model.classes},
                "recordings": [{"source": rec["source"], "declared": rec["classes"], "windows": rec["windows"]}
                               for rec in model.summary.get("recordings", [])],
@@ -439,7 +462,9 @@ def _train(output: Path, declared: list, orientation: str, features: str, recipe
         out.print("columns per class: " + ", ".join(f"{c} {counts[c]}" for c in model.classes))
         return summary
     out.print(f"learner: sets ({model.representation} of {_channels_said(model)}; "
-              f"prior: {prior_name(learner.prior) or 'none'}{roled}; column share {learner.column_share:g})")
+              f"prior: {prior_name(learner.prior) or 'none'}{roled}; column share {learner.settings_['column_share']:g})")
+    for line in _settings_lines(summary["settings"], model.rate):
+        out.print(line)
     for warning in unroled:
         err.print(f"[bold yellow]warning:[/] {escape(warning)}", markup=True)
     out.print(_naming_table(model.summary["recordings"], f"{output}: {model.dictionary.shape[1]} columns, window "
@@ -482,6 +507,40 @@ def _prior_roles(prior, preset: Optional[str], sets: list, given: list[str]) -> 
     prior, warnings = with_roles(prior, classes, known, roles)
     said = "; ".join(f"{r}: {','.join(c for c, x in roles.items() if x == r)}" for r in ROLES if r in roles.values())
     return f" ({said})" if said else "", prior, warnings
+
+
+def _settings_rows(learner, kind: str, risks: dict, preset: Optional[str], said: list[str]) -> list[dict]:
+    """The learner's :attr:`~spotfree.learner.SetSupervisedLearner.selection_` with the features first, each row's
+    ``given`` said as ``"option"`` (on the command line), ``"preset"`` (the preset's), or False (chosen)."""
+    implied = "preset" if preset and "--features" not in said and "--channels" not in said else "option"
+    rows = [{"setting": "features", "value": kind, "given": False if risks else implied,
+             "candidates": {k: None if r is None else round(float(r), 4) for k, r in risks.items()}}]
+    for row in learner.selection_:
+        option = "--" + row["setting"].replace("_", "-")
+        source = False if not row["given"] else ("preset" if preset and option not in said else "option")
+        rows.append({**row, "given": source})
+    return rows
+
+
+def _settings_lines(rows: list[dict], rate: float) -> list[str]:
+    """One line per setting of :func:`_settings_rows`: its value and whether it was given, the preset's, or chosen
+    with the set risk of each candidate (lower is better)."""
+    def value(row, v):
+        return f"{v} samples = {v / rate:.2f} s" if row["setting"] == "window" else f"{v:g}" \
+            if isinstance(v, (int, float)) else str(v)
+
+    lines = []
+    for row in rows:
+        if row["given"]:
+            how = "given" if row["given"] == "option" else "the preset's"
+        elif row["candidates"]:
+            how = "chosen; set risk " + ", ".join(
+                f"{f'{v / rate:g} s' if row['setting'] == 'window' else value(row, v)} "
+                f"{'-' if r is None else f'{r:.3f}'}" for v, r in row["candidates"].items())
+        else:
+            how = "default; too little to hold out"
+        lines.append(f"setting: {row['setting']} {value(row, row['value'])} ({how})")
+    return lines
 
 
 TABLE_ROWS = 20

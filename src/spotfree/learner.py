@@ -24,14 +24,14 @@ Method (``docs/training.md`` has the derivation and the references):
 
    ``r_c`` is near 0 for a window of ``c`` and near 1 or above for one of a class that occurs without ``c`` as often
    as with it: a window that is more frequent around an event than elsewhere, but does occur elsewhere, is not the
-   event. ``exp(-ABSENCE r_c(x))`` multiplies the names as a prior does (:data:`ABSENCE`).
+   event. ``exp(-absence r_c(x))`` multiplies the names as a prior does (parameter ``absence``).
 3. **Rounds.** For ``rounds`` rounds, a classifier (extremely randomised trees) is fitted on the windows with their
    soft names as sample weights, each class's weights summing alike, cross-fitted so that no window is scored by a
-   model that saw it (two folds of alternating :data:`BLOCK_SECONDS` blocks). Its balanced posterior ``p(c | x)``
+   model that saw it (two folds of alternating ``block_seconds`` blocks). Its balanced posterior ``p(c | x)``
    gives the new names, restricted to the candidates, sharpened and weighed by a power of each class's share of the
    names:
 
-       w(c) ∝ p(c | x)^t pr(c)^t pi(c)^a     for c in S_r, 0 elsewhere   (t = SHARPEN, a = share_power)
+       w(c) ∝ p(c | x)^t pr(c)^t pi(c)^a     for c in S_r, 0 elsewhere   (t = sharpen, a = share_power)
 
    (``pr``: the prior times the absence evidence; ``pi(c)``: the mean of the names ``w(c)`` over all windows). This
    is the progressive identification of true labels of Lv et al. (ICML 2020), with a forest for the network. A
@@ -42,7 +42,7 @@ Method (``docs/training.md`` has the derivation and the references):
    the balanced posterior alone pull every class towards an equal share of the windows, and names weighed by the shares
    themselves let a common class absorb, round after round, the windows of a rarer one declared with it. The default
    ``share_power`` 1/2 lies between, as square-root class sampling does in long-tailed learning (Kang et al.,
-   ICLR 2020). The rounds stop early when the names move by less than :data:`CHANGED` (mean total variation).
+   ICLR 2020). The rounds stop early when the names move by less than ``changed`` (mean total variation).
    Then the windows of each recording are decoded into runs (:func:`decode_runs`): the class sequence inside
    ``S_r`` that maximises ``sum_i log w_i(z_i)`` minus ``smoothing * rate / step`` per change of class, in which every
    declared class occurs (a class lasts longer than one window; every declared class finds its windows).
@@ -53,11 +53,16 @@ Method (``docs/training.md`` has the derivation and the references):
    windows named by the class at their last sample. Classification is kernel CRC_RLS on the dictionary
    (:class:`~spotfree.classify.kcrc.KernelCRCClassifier`).
 
+**Settings.** The window, the share power, the column share and the smoothing (:data:`SELECTED`) are chosen from the
+recordings and their sets when left at None, before the steps above run (:mod:`spotfree.selection`: held-out
+recordings scored by the windows named outside their sets and the declared classes named nowhere); a value given
+is kept.
+
 Domain knowledge enters only through ``prior``: an object whose ``log_prior(recording, centres, classes)`` returns an
 ``(m, C)`` array, ``log pr``, for the windows centred at sample indices ``centres``, multiplied into the names at the
 start and in every round; the generic learner knows nothing of any domain.
 
-The learner's cost is linear in the number of windows: the forests are fitted on at most ``FIT_WINDOWS`` windows
+The learner's cost is linear in the number of windows: the forests are fitted on at most ``fit_windows`` windows
 per class, and every other step is a pass over the windows.
 """
 
@@ -76,38 +81,21 @@ from spotfree.errors import InputError
 from spotfree.io.recording import GPS_CHANNELS, Recording
 from spotfree.model import DictionaryModel
 from spotfree.representation import REPRESENTATIONS, represent
+from spotfree.selection import select_settings
 from spotfree.windows import ChannelScaling, recording_windows
 
-FIT_WINDOWS = 2000
-"""Most windows per class the forests of the rounds are fitted on (times the classes: the same windows every round,
-drawn at random among all)."""
-CHANGED = 0.002
-"""Mean total variation of the soft names between two rounds below which the rounds stop."""
-BLOCK_SECONDS = 2.0
-"""Length of the time blocks that alternate between the two cross-fitting folds: short, so that a class that occurs
-in a few short runs still has windows in both folds (a forest that saw none of a class's windows cannot find them)."""
-SHARPEN = 2.0
-"""Exponent ``t`` of the posterior in each round's names: above 1 the soft names harden over the rounds."""
 SEPARABLE = 0.5
 """Ratio, from which the summary warns, of a class's mean cross-fitted posterior on the windows of recordings without
 it that it is given most (as large a part of them as it names of its own recordings' windows) to that on the windows
 it names."""
-LANDMARKS = 128
-"""Nystroem landmarks of the kernel CRC_RLS that labels with the dictionary
-(:class:`~spotfree.classify.kcrc.KernelCRCClassifier`; a window costs about ``m d + 2 C m^2`` operations)."""
 AFFINE = 6.0
 """Constant row appended to a ``hankel`` window and to every column when classifying (``parameters["affine"]``): a
 window is then represented by an affine combination of columns, which CRC_RLS needs once a class holds as many columns
 as a window has values (every class then spans every window); the kernel's distances do not change."""
-ABSENCE = 3.0
-"""Weight ``gamma`` of the absence evidence (module docstring, step 2): the names are multiplied by
-``exp(-gamma r_c(x))``, so that a window as frequent in recordings without ``c`` as in those with it keeps about
-``e^-3`` of its name ``c`` before the sharpening."""
 ABSENCE_CAP = 10.0
 """Largest density ratio ``r_c(x)`` used: beyond it a window is as good as absent from ``c``."""
-LEAF = 8
-"""Fewest windows in a leaf of the trees of the rounds: a posterior averages several windows, so that a few wrong
-names among the training windows do not decide a leaf."""
+SELECTED = ("window", "share_power", "column_share", "smoothing")
+"""Parameters that :mod:`spotfree.selection` chooses from the class sets when they are left at None."""
 
 
 @dataclass
@@ -127,15 +115,38 @@ class _Windows:
 
 
 
+@dataclass
+class _Named:
+    """What :meth:`SetSupervisedLearner._name` leaves for :meth:`SetSupervisedLearner._build`: the represented
+    windows ``X`` and their final log names ``log_q`` (and the last round's posterior ``log_p``; None without
+    rounds), with what the dictionary is built from."""
+
+    X: np.ndarray
+    log_q: np.ndarray
+    log_p: np.ndarray | None
+    data: _Windows
+    allowed: np.ndarray
+    channels: tuple[str, ...]
+    scaling: ChannelScaling
+    offset: np.ndarray
+    scale: np.ndarray
+    sets: list[set[str]]
+    recordings: list[Recording]
+    warnings: list[str]
+
+
 class SetSupervisedLearner(BaseEstimator):
     """Learn a dictionary model from recordings that each declare only the set of classes occurring in them.
+
+    The four settings of :data:`SELECTED` left at None are chosen by :func:`spotfree.selection.select_settings` from
+    the recordings and their sets alone (held-out recordings scored by the set risk); a value given is kept as it is.
 
     Parameters
     ----------
     channels : tuple of str or None
         Channels windowed, in order; None: every channel of the first recording but the sparse GPS ones.
-    window : int
-        Window length ``L``, samples.
+    window : int or None
+        Window length ``L``, samples; None: chosen (1 or 2 s).
     step : int
         Stride of the windows, samples (training and classification).
     representation : {"summary", "hankel"}
@@ -143,26 +154,51 @@ class SetSupervisedLearner(BaseEstimator):
     rounds : int
         Most rounds of step 3; 0 decodes the starting names (uniform over each set, times the prior and the absence
         evidence of step 2).
-    smoothing : float
+    smoothing : float or None
         Seconds of windows whose log-posterior a change of class must gain to be made (the switching cost of
-        :func:`decode_runs`); the dictionary's margins are averaged over as many windows.
+        :func:`decode_runs`); the dictionary's margins are averaged over as many windows, and the offline labels are
+        voted over as many seconds. None: chosen.
     max_columns : int
         Most dictionary columns per class.
-    column_share : float
+    column_share : float or None
         Share ``0 < s <= 1`` of each class's windows, those named with the largest margins, that its columns are
         drawn from (step 4): 0.5, the half above the class's median margin, keeps out most misnamed windows where the
         sets leave the names uncertain; 1 draws from every window of the class, its onsets and ends included, which
         pays where the sets pin the names down (each recording declares one class beside a background that other
-        recordings declare alone).
-    share_power : float
+        recordings declare alone); a short event that claims more than itself keeps only its surest windows at 0.25.
+        None: chosen.
+    share_power : float or None
         Exponent ``a >= 0`` of each class's share of the names in the next round's names (module docstring, step
         3): 0 names from the balanced posterior alone, under which every class tends to an equal share of the
         windows and a short event declared in few recordings claims more than itself; 1 weighs the names by the
-        shares, under which a common class grows at the expense of a rarer one declared with it.
+        shares, under which a common class grows at the expense of a rarer one declared with it. None: chosen.
     prior : object or None
         Domain prior with ``log_prior(recording, centres, classes) -> (m, C)`` (module docstring); None: none.
     seed : int
         Seed of the forests and of their samples; the same data and seed give the same model.
+    sharpen : float
+        Exponent ``t >= 1`` of the posterior in each round's names: above 1 the soft names harden over the rounds.
+    absence : float
+        Weight ``gamma >= 0`` of the absence evidence (module docstring, step 2): the names are multiplied by
+        ``exp(-gamma r_c(x))``, so that a window as frequent in recordings without ``c`` as in those with it keeps
+        about ``e^-gamma`` of its name ``c`` before the sharpening.
+    changed : float
+        Mean total variation of the soft names between two rounds below which the rounds stop.
+    fit_windows : int
+        Most windows per class the forests are fitted on (times the classes: the same windows every round, drawn at
+        random among all), which keeps the cost linear in the data.
+    block_seconds : float
+        Length, s, of the time blocks that alternate between the two cross-fitting folds: short, so that a class that
+        occurs in a few short runs still has windows in both folds (a forest that saw none of a class's windows cannot
+        find them).
+    trees : int
+        Extremely randomised trees per forest (absence evidence and rounds).
+    leaf : int
+        Fewest windows in a leaf of those trees: a posterior averages several windows, so that a few wrong names
+        among the training windows do not decide a leaf.
+    landmarks : int
+        Nystroem landmarks of the kernel CRC_RLS that labels with the dictionary
+        (:class:`~spotfree.classify.kcrc.KernelCRCClassifier`; a window costs about ``m d + 2 C m^2`` operations).
 
     Attributes
     ----------
@@ -170,8 +206,13 @@ class SetSupervisedLearner(BaseEstimator):
         Declared classes, sorted.
     rate_ : float
         Sampling rate of the recordings, Hz.
+    settings_ : dict
+        The value of each parameter of :data:`SELECTED` the model was fitted with, given or chosen.
+    selection_ : list of dict
+        One row per setting of :data:`SELECTED`: ``{"setting", "value", "given", "candidates": {value: risk}}``
+        (:func:`spotfree.selection.select_settings`; no candidates for a given setting).
     model_ : DictionaryModel
-        The dictionary (``model_.summary`` holds the training summary).
+        The dictionary (``model_.summary`` holds the training summary, the settings and the selection).
     window_labels_ : list of ndarray of str
         Final name of every training window, per recording.
     window_ends_ : list of ndarray of int
@@ -183,10 +224,12 @@ class SetSupervisedLearner(BaseEstimator):
     warnings_ : list of str
     """
 
-    def __init__(self, channels: tuple[str, ...] | None = None, window: int = 20, step: int = 1,
-                 representation: str = "summary", rounds: int = 5, smoothing: float = 0.5,
-                 max_columns: int = 300, column_share: float = 0.5, share_power: float = 0.5, prior=None,
-                 seed: int = 0):
+    def __init__(self, channels: tuple[str, ...] | None = None, window: int | None = None, step: int = 1,
+                 representation: str = "summary", rounds: int = 5, smoothing: float | None = None,
+                 max_columns: int = 300, column_share: float | None = None, share_power: float | None = None,
+                 prior=None, seed: int = 0, sharpen: float = 2.0, absence: float = 3.0, changed: float = 0.002,
+                 fit_windows: int = 2000, block_seconds: float = 2.0, trees: int = 100, leaf: int = 8,
+                 landmarks: int = 128):
         self.channels = channels
         self.window = window
         self.step = step
@@ -198,11 +241,31 @@ class SetSupervisedLearner(BaseEstimator):
         self.share_power = share_power
         self.prior = prior
         self.seed = seed
+        self.sharpen = sharpen
+        self.absence = absence
+        self.changed = changed
+        self.fit_windows = fit_windows
+        self.block_seconds = block_seconds
+        self.trees = trees
+        self.leaf = leaf
+        self.landmarks = landmarks
 
     # ------------------------------------------------------------------ fit
-    def fit(self, recordings: list[Recording], class_sets: list[list[str]] | list[set[str]]):
-        """Learn from ``recordings`` (feature Recordings of one rate) and the set of classes each declares."""
+    def fit(self, recordings: Recording | list[Recording], class_sets):
+        """Learn from ``recordings`` (a feature Recording or a list of them, of one rate) and the set of classes each
+        declares (one set for one recording, a list of sets for a list); the settings left at None are chosen first
+        (:func:`spotfree.selection.select_settings`)."""
         recordings, sets = self._check_input(recordings, class_sets)
+        self.settings_, self.selection_ = select_settings(self, recordings, sets)
+        self._name(recordings, sets)
+        self._build()
+        del self._named  # the training windows: not needed to label
+        return self
+
+    def _name(self, recordings: list[Recording], sets: list[set[str]]) -> None:
+        """Steps 1-3 up to the names: windows, absence evidence and rounds, with :attr:`settings_`; keeps what
+        :meth:`_build` needs."""
+        window, share_power = self.settings_["window"], self.settings_["share_power"]
         channels = (tuple(self.channels) if self.channels else
                     tuple(c for c in recordings[0].names if c not in GPS_CHANNELS))
         self.classes_ = sorted(set().union(*sets))
@@ -215,7 +278,7 @@ class SetSupervisedLearner(BaseEstimator):
         self._warn_alike_names()
 
         scaling = ChannelScaling(channels).fit(recordings)
-        data = self._windows(recordings, channels, scaling)
+        data = self._windows(recordings, channels, scaling, window)
         offset, scale = data.X.mean(axis=0), data.X.std(axis=0)
         scale = np.where(scale > 1e-12 * max(scale.max(), 1.0), scale, 1.0)
         if self.representation == "hankel":  # the paper's windows, as the streaming classifiers take them
@@ -223,44 +286,57 @@ class SetSupervisedLearner(BaseEstimator):
         X = (data.X - offset) / scale
         rng = np.random.default_rng(self.seed)
         mask = allowed[data.recording]
-        prior = self._log_prior(recordings, data) - ABSENCE * self._absence(X, data, allowed, rng)
+        prior = self._log_prior(recordings, data, window) - self.absence * self._absence(X, data, allowed, rng)
 
         fitted = np.arange(len(X))
-        if len(X) > FIT_WINDOWS * n_classes:  # the same windows in every round, so that the rounds can settle
-            fitted = np.sort(rng.choice(len(X), FIT_WINDOWS * n_classes, replace=False))
+        if len(X) > self.fit_windows * n_classes:  # the same windows in every round, so that the rounds can settle
+            fitted = np.sort(rng.choice(len(X), self.fit_windows * n_classes, replace=False))
         log_q = _single(np.where(mask, prior, -np.inf))
         weights = _normalised(log_q)
+        log_p = None
         self.history_ = []
         for _ in range(self.rounds):
             log_p = self._cross_fitted(X, weights, data, fitted)
             share = np.maximum(weights.mean(axis=0), 1.0 / len(weights))
-            log_q = _single(np.where(mask, SHARPEN * (log_p + prior) + self.share_power * np.log(share), -np.inf))
+            log_q = _single(np.where(mask, self.sharpen * (log_p + prior) + share_power * np.log(share), -np.inf))
             new = _normalised(log_q)
             changed = 0.5 * float(np.abs(new - weights).sum(axis=1).mean())
             weights = new
             self.history_.append(changed)
-            if changed < CHANGED:
+            if changed < self.changed:
                 break
-        labels = self._decide(log_q, data, allowed)  # log weights up to a constant per window
+        self._named = _Named(X=X, log_q=log_q, log_p=log_p, data=data, allowed=allowed, channels=channels,
+                             scaling=scaling, offset=offset, scale=scale, sets=sets, recordings=recordings,
+                             warnings=list(self.warnings_))
+
+    def _build(self) -> None:
+        """Step 3's decoding and step 4 on the names of :meth:`_name`, with :attr:`settings_`'s smoothing and column
+        share: the fitted model and classifiers."""
+        named = self._named
+        self.warnings_ = list(named.warnings)
+        labels = self._decide(named.log_q, named.data, named.allowed)  # log weights up to a constant per window
         if self.prior is None:
-            self._warn_declared_together(allowed)
-        if self.rounds:
-            self._warn_inseparable(log_p, labels, mask)
-        margin = _margins(self._smoothed(log_q, data), labels)
-        self.model_ = self._dictionary(X, labels, margin, data, channels, scaling, offset, scale, sets, recordings)
+            self._warn_declared_together(named.allowed)
+        if named.log_p is not None:
+            self._warn_inseparable(named.log_p, labels, named.allowed[named.data.recording])
+        margin = _margins(self._smoothed(named.log_q, named.data), labels)
+        self.model_ = self._dictionary(named.X, labels, margin, named)
         names = np.asarray(self.classes_, dtype=object)
-        self.window_labels_ = [names[labels[data.rows(r)]].astype(str) for r in range(len(recordings))]
-        self.window_ends_ = data.ends
+        self.window_labels_ = [names[labels[named.data.rows(r)]].astype(str) for r in range(len(named.recordings))]
+        self.window_ends_ = named.data.ends
         self.classifier_ = dictionary_classifier(self.model_)
         self.causal_classifier_ = dictionary_classifier(self.model_, causal=True)
-        return self
 
-    def predict(self, recording: Recording, centred: bool = True, smoothing: int | None = None) -> np.ndarray:
-        """One class name per sample of ``recording`` (``""`` where no window labels it); ``centred``: each window
-        labels its centre (offline), else its last sample (live); ``smoothing``: majority vote over that many
-        samples (0: none; None: the alignment's default, :func:`~spotfree.classify.smoothing.alignment_smoothing`)."""
+    def predict(self, recording: Recording | list[Recording], centred: bool = True,
+                smoothing: int | None = None) -> np.ndarray | list[np.ndarray]:
+        """One class name per sample of ``recording`` (``""`` where no window labels it), or a list of such arrays
+        for a list of recordings; ``centred``: each window labels its centre (offline), else its last sample (live);
+        ``smoothing``: majority vote over that many samples (0: none; None: the alignment's default,
+        :func:`~spotfree.classify.smoothing.alignment_smoothing`)."""
         if not hasattr(self, "model_"):
             raise InputError("the learner is not fitted; call fit(recordings, class_sets) first")
+        if not isinstance(recording, Recording):
+            return [self.predict(r, centred, smoothing) for r in recording]
         classifier = self.classifier_ if centred else self.causal_classifier_
         return classify_recording(self.model_, recording, centred=centred, smoothing=smoothing,
                                   classifier=classifier).label.astype(str)
@@ -270,27 +346,25 @@ class SetSupervisedLearner(BaseEstimator):
         if self.representation not in REPRESENTATIONS:
             raise InputError(f"representation {self.representation!r} is unknown; use one of "
                              f"{', '.join(REPRESENTATIONS)}")
-        for name in ("window", "step", "max_columns"):
-            value = getattr(self, name)
-            if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < 1:
-                raise InputError(f"{name}={value!r}: give a whole number >= 1")
-        if not isinstance(self.rounds, (int, np.integer)) or self.rounds < 0:
-            raise InputError(f"rounds={self.rounds!r}: give a whole number >= 0")
-        if not (np.isfinite(self.smoothing) and self.smoothing >= 0):
-            raise InputError(f"smoothing={self.smoothing!r}: give seconds >= 0")
-        share = self.column_share
-        if not isinstance(share, (int, float, np.integer, np.floating)) or isinstance(share, bool) or not (
-                0 < share <= 1):
-            raise InputError(f"column_share={self.column_share!r}: give a share > 0 and <= 1 (0.5 by default)")
-        power = self.share_power
-        if not isinstance(power, (int, float, np.integer, np.floating)) or isinstance(power, bool) or not (
-                np.isfinite(power) and power >= 0):
-            raise InputError(f"share_power={self.share_power!r}: give a number >= 0 (0.5 by default, 1 for a rare "
-                             "event)")
+        for name in ("step", "max_columns", "fit_windows", "trees", "leaf", "landmarks") + (
+                ("window",) if self.window is not None else ()):
+            _check_number(self, name, whole=True, low=1)
+        _check_number(self, "rounds", whole=True, low=0)
+        for name, low in (("sharpen", 1), ("absence", 0), ("changed", 0)):
+            _check_number(self, name, low=low)
+        _check_number(self, "block_seconds", low=0, open_low=True)
+        if self.smoothing is not None:
+            _check_number(self, "smoothing", low=0)
+        if self.share_power is not None:
+            _check_number(self, "share_power", low=0)
+        if self.column_share is not None:
+            _check_number(self, "column_share", low=0, open_low=True, high=1, what="a share")
+        if isinstance(recordings, Recording):
+            recordings, class_sets = [recordings], [class_sets]
         recordings = list(recordings)
         sets = [set(s) for s in class_sets]
         if not recordings:
-            raise InputError("no training recording: give at least one --experiment PATH=CLASS[,CLASS...]")
+            raise InputError("no training recording: give at least one recording and the classes that occur in it")
         if len(sets) != len(recordings):
             raise InputError(f"{len(recordings)} recordings but {len(sets)} class sets: give one set per recording")
         for rec, s in zip(recordings, sets):
@@ -299,13 +373,14 @@ class SetSupervisedLearner(BaseEstimator):
         rates = {float(r.rate) for r in recordings}
         if len(rates) > 1:
             raise InputError(f"the recordings have different rates ({', '.join(f'{r:g}' for r in sorted(rates))} Hz); "
-                             "read them at one --rate")
+                             "read them at one rate")
         return recordings, sets
 
-    def _windows(self, recordings: list[Recording], channels: tuple[str, ...], scaling: ChannelScaling) -> _Windows:
+    def _windows(self, recordings: list[Recording], channels: tuple[str, ...], scaling: ChannelScaling,
+                 window: int) -> _Windows:
         rows, owner, ends, runs, start = [], [], [], [], 0
         for r, rec in enumerate(recordings):
-            w = recording_windows(rec, channels, self.window, self.step, scaling)
+            w = recording_windows(rec, channels, window, self.step, scaling)
             rows.append(represent(w.matrix, len(channels), self.representation))
             owner.append(np.full(len(w.ends), r))
             ends.append(w.ends)
@@ -319,11 +394,11 @@ class SetSupervisedLearner(BaseEstimator):
         return _Windows(X=X, recording=np.concatenate(owner), ends=ends, runs=runs,
                         offsets=np.r_[0, np.cumsum([len(e) for e in ends])])
 
-    def _log_prior(self, recordings: list[Recording], data: _Windows) -> np.ndarray:
+    def _log_prior(self, recordings: list[Recording], data: _Windows, window: int) -> np.ndarray:
         n = len(data.X)
         if self.prior is None:
             return np.zeros((n, len(self.classes_)))
-        parts = [np.asarray(self.prior.log_prior(rec, ends - self.window // 2, self.classes_), dtype=float)
+        parts = [np.asarray(self.prior.log_prior(rec, ends - window // 2, self.classes_), dtype=float)
                  for rec, ends in zip(recordings, data.ends)]
         prior = np.vstack(parts)
         if prior.shape != (n, len(self.classes_)) or np.isnan(prior).any():
@@ -354,8 +429,8 @@ class SetSupervisedLearner(BaseEstimator):
                 train = np.flatnonzero(half != h)
                 if declares[train].all() or not declares[train].any() or not (half == h).any():
                     continue
-                if len(train) > FIT_WINDOWS * n_classes:
-                    train = np.sort(rng.choice(train, FIT_WINDOWS * n_classes, replace=False))
+                if len(train) > self.fit_windows * n_classes:
+                    train = np.sort(rng.choice(train, self.fit_windows * n_classes, replace=False))
                 model = self._forest(X[train], declares[train])
                 # s is kept from 0 only so that the odds are finite; the cap bounds the ratio
                 s = np.maximum(model.predict_proba(X[half == h])[:, 1], 1.0 / ABSENCE_CAP ** 2)
@@ -402,7 +477,7 @@ class SetSupervisedLearner(BaseEstimator):
     def _span(self) -> float:
         """``smoothing`` in windows: the switching cost of :func:`decode_runs` and the length of the margins'
         average."""
-        return float(self.smoothing * self.rate_ / self.step)
+        return float(self.settings_["smoothing"] * self.rate_ / self.step)
 
     def _warn_alike_names(self) -> None:
         """Warn about class names that differ only in case or surrounding spaces (``Walking``, ``walking``): they are
@@ -433,7 +508,7 @@ class SetSupervisedLearner(BaseEstimator):
         not see the windows gives it, on average, at least :data:`SEPARABLE` times as much on the windows of
         recordings that do not declare it as on the windows it names, both chosen alike: of the windows without it,
         those it gives the class most, as large a part of them as the class names of its own recordings' windows;
-        or it names fewer windows than :data:`LEAF`."""
+        or it names fewer windows than ``leaf``."""
         p = np.exp(log_p)
         for c, name in enumerate(self.classes_):
             own, elsewhere = labels == c, ~mask[:, c]
@@ -441,7 +516,7 @@ class SetSupervisedLearner(BaseEstimator):
                 continue
             part = own.sum() / mask[:, c].sum()
             alike = np.sort(p[elsewhere, c])[-max(1, int(round(part * elsewhere.sum()))):]
-            if own.sum() < LEAF:
+            if own.sum() < self.leaf:
                 reason = f"it names only {int(own.sum())} windows, fewer than a leaf of the trees holds"
             elif alike.mean() >= SEPARABLE * p[own, c].mean():
                 reason = (f"its windows get it {p[own, c].mean():.2f} on average, as large a part of the "
@@ -452,9 +527,9 @@ class SetSupervisedLearner(BaseEstimator):
                                   "that it happens in the recordings that declare it")
 
     def _folds(self, data: _Windows) -> np.ndarray:
-        """Cross-fitting fold (0 or 1) of every window: alternating :data:`BLOCK_SECONDS` blocks of each recording,
+        """Cross-fitting fold (0 or 1) of every window: alternating ``block_seconds`` blocks of each recording,
         the first block's fold alternating between recordings."""
-        block = max(1, int(round(BLOCK_SECONDS * self.rate_ / self.step)))
+        block = max(1, int(round(self.block_seconds * self.rate_ / self.step)))
         position = np.arange(len(data.X)) - data.offsets[data.recording]
         return (data.recording + position // block) % 2
 
@@ -462,7 +537,7 @@ class SetSupervisedLearner(BaseEstimator):
         """The extremely randomised trees of the absence evidence and of the rounds, fitted on ``X``, ``y``; they
         predict on one thread, since the threads of ``predict_proba`` add the trees up in any order (not
         reproducible)."""
-        model = ExtraTreesClassifier(n_estimators=100, min_samples_leaf=LEAF, max_features="sqrt", n_jobs=-1,
+        model = ExtraTreesClassifier(n_estimators=self.trees, min_samples_leaf=self.leaf, max_features="sqrt", n_jobs=-1,
                                      random_state=self.seed).fit(X, y, sample_weight=sample_weight)
         model.n_jobs = 1
         return model
@@ -485,8 +560,11 @@ class SetSupervisedLearner(BaseEstimator):
             log_p[held] = np.log(proba / proba.sum(axis=1, keepdims=True))
         return log_p
 
-    def _dictionary(self, X, labels, margin, data, channels, scaling, offset, scale, sets, recordings):
-        half = max(1, self.window // 2 // self.step)
+    def _dictionary(self, X: np.ndarray, labels: np.ndarray, margin: np.ndarray, named: _Named) -> DictionaryModel:
+        """Step 4: the dictionary of the windows named ``labels`` with their smoothed ``margin``."""
+        data, recordings, channels, sets = named.data, named.recordings, named.channels, named.sets
+        window, share = self.settings_["window"], self.settings_["column_share"]
+        half = max(1, window // 2 // self.step)
         names = np.asarray(self.classes_)
         causal = np.full(len(labels), -1)
         causal_margin = np.full(len(labels), -np.inf)
@@ -494,8 +572,8 @@ class SetSupervisedLearner(BaseEstimator):
             if b - a > half:
                 causal[a:b - half] = labels[a + half:b]
                 causal_margin[a:b - half] = margin[a + half:b]
-        columns, column_class = _pick(labels, margin, len(names), self.max_columns, self.column_share)
-        causal_columns, causal_class = _pick(causal, causal_margin, len(names), self.max_columns, self.column_share)
+        columns, column_class = _pick(labels, margin, len(names), self.max_columns, share)
+        causal_columns, causal_class = _pick(causal, causal_margin, len(names), self.max_columns, share)
         found = np.bincount(column_class, minlength=len(names))
         for c in np.flatnonzero(found == 0):
             self.warnings_.append(f"class {names[c]} names no window; declare it in recordings where it lasts longer "
@@ -512,26 +590,39 @@ class SetSupervisedLearner(BaseEstimator):
                             "windows": {str(names[c]): int(k) for c, k in enumerate(per_recording[r]) if k}}
                            for r, (rec, s) in enumerate(zip(recordings, sets))],
             "warnings": self.warnings_,
+            "selection": getattr(self, "selection_", []),
         }
         return DictionaryModel(
-            classes=list(self.classes_), channels=list(channels), rate=self.rate_, window=self.window,
-            step=self.step, normalisation="scale", scale=scaling.scale, dictionary=X[columns].T,
+            classes=list(self.classes_), channels=list(channels), rate=self.rate_, window=window,
+            step=self.step, normalisation="scale", scale=named.scaling.scale, dictionary=X[columns].T,
             column_class=column_class,
             causal_dictionary=X[causal_columns].T if len(causal_columns) else None,  # none: live uses the others
             causal_column_class=causal_class if len(causal_columns) else None,
             representation=self.representation,
-            feature_offset=offset if self.representation == "summary" else None,
-            feature_scale=scale if self.representation == "summary" else None,
+            feature_offset=named.offset if self.representation == "summary" else None,
+            feature_scale=named.scale if self.representation == "summary" else None,
             features=recordings[0].meta.get("features", "channels"),
             orientation=recordings[0].meta.get("orientation", "default"),
-            parameters={"affine": AFFINE if self.representation == "hankel" else 0.0,
-                        "rounds": self.rounds, "smoothing": self.smoothing,
-                        "max_columns": self.max_columns, "column_share": self.column_share,
-                        "share_power": self.share_power, "seed": self.seed,
-                        "landmarks": LANDMARKS,
+            parameters={**{name: value for name, value in self.get_params().items()
+                           if name not in ("channels", "prior", "representation", "step") and name not in SELECTED},
+                        **self.settings_, "affine": AFFINE if self.representation == "hankel" else 0.0,
                         "prior": type(self.prior).__name__ if self.prior is not None else None},
             summary=summary,
         )
+
+
+def _check_number(learner: SetSupervisedLearner, name: str, low: float, whole: bool = False,
+                  open_low: bool = False, high: float | None = None, what: str | None = None) -> None:
+    """Refuse parameter ``name`` of ``learner`` unless it is a finite number (a whole one with ``whole``) ``>= low``
+    (``> low`` with ``open_low``) and ``<= high``, naming the parameter and ``what`` to give."""
+    value = getattr(learner, name)
+    kinds = (int, np.integer) if whole else (int, float, np.integer, np.floating)
+    ok = isinstance(value, kinds) and not isinstance(value, bool) and np.isfinite(value)
+    ok = ok and (value > low if open_low else value >= low) and (high is None or value <= high)
+    if not ok:
+        what = what or ("a whole number" if whole else "a number")
+        bound = f"{'>' if open_low else '>='} {low:g}" + (f" and <= {high:g}" if high is not None else "")
+        raise InputError(f"{name}={value!r}: give {what} {bound}")
 
 
 def _margins(log_q: np.ndarray, labels: np.ndarray) -> np.ndarray:

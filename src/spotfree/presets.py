@@ -26,7 +26,7 @@ spans many more windows than its turns, and a few hundred spread evenly over it 
 turn, which the live labels get wrong most. With its names sure, more of them serve; where names are less sure,
 more columns also let in more wrong ones.
 
-A preset fixes only these six settings; every other parameter of
+A preset fixes only these eight settings; every other parameter of
 :class:`~spotfree.learner.SetSupervisedLearner` keeps its default unless given.
 """
 
@@ -41,14 +41,15 @@ PRIORS = {"ride": RidePrior}
 
 PRESETS = {
     "braking": {"channels": ("acc_long", "pitch_rate"), "window": 20, "representation": "hankel", "prior": "ride",
-                "column_share": 0.75, "max_columns": 300},
+                "column_share": 0.75, "max_columns": 300, "share_power": 0.5, "smoothing": 0.5},
     "lateral": {"channels": ("yaw_rate",), "window": 40, "representation": "summary", "prior": "ride",
-                "column_share": 1.0, "max_columns": 3000},
+                "column_share": 1.0, "max_columns": 3000, "share_power": 0.5, "smoothing": 0.5},
     "road": {"channels": ("rough_y", "rough_z"), "window": 10, "representation": "summary", "prior": None,
-             "column_share": 1.0, "max_columns": 300},
+             "column_share": 1.0, "max_columns": 300, "share_power": 0.5, "smoothing": 0.5},
 }
-"""Per preset: channels, window (samples at 20 Hz), representation, prior name, column share and most columns per
-class (module docstring)."""
+"""Per preset: channels, window (samples at 20 Hz), representation, prior name, column share, most columns per
+class, share power and smoothing (module docstring). A preset fixes every setting the learner would otherwise choose
+(:data:`~spotfree.learner.SELECTED`); one of them given as None is chosen again."""
 
 PRESET_ROLES = {
     "braking": {"cruising": "none", "normal-braking": "slowing", "sudden-braking": "slowing"},

@@ -75,13 +75,14 @@ HOLD = "hold"
 """Background class of the gesture stage's training (the postures at the ends of a gesture stretch)."""
 
 STAGE_PARAMETERS = {
-    "state": {"channels": ("speed", "turn"), "window": 4, "smoothing": 0.1, "column_share": 1.0},
+    "state": {"channels": ("speed", "turn"), "window": 4, "smoothing": 0.1, "column_share": 1.0,
+              "share_power": 0.5},
     "live-state": {"channels": ("speed", "turn"), "window": 4, "smoothing": 0.1, "representation": "hankel",
-                   "column_share": 1.0},
+                   "column_share": 1.0, "share_power": 0.5},
     "posture": {"channels": ("pos_x", "pos_y", "pos_z", "normal_y", "normal_z", *DIRECTION), "window": 6,
-                "smoothing": 0.1, "column_share": 1.0},
+                "smoothing": 0.1, "column_share": 1.0, "share_power": 0.5},
     "gesture": {"channels": (*VELOCITY, *NORMAL, *DIRECTION, *NORMAL_RATE, *DIRECTION_RATE), "window": 6,
-                "smoothing": 0.1, "representation": "hankel", "column_share": 1.0},
+                "smoothing": 0.1, "representation": "hankel", "column_share": 1.0, "share_power": 0.5},
 }
 """Parameters of each stage's :class:`~spotfree.learner.SetSupervisedLearner` beyond its defaults (``seed`` is
 :attr:`HandTrainingConfig.seed`).
@@ -93,7 +94,8 @@ gesture alternates with postures of a few seconds, and a longer cost merges it i
 every stage: each session declares one posture, or one or two movements, beside the straight hand or the posture
 held around them, which names the windows surely, so every window of a class may be a column, its slow starts and
 ends included (the learner's step 4; measured on held-out people in ``benchmarks/hand_eval.py`` and
-``benchmarks/evaluate_seeds.py``).
+``benchmarks/evaluate_seeds.py``). ``share_power`` is the learner's first candidate, 0.5, given so that no stage's setting is
+searched (:mod:`spotfree.selection`): the stages were measured with it.
 
 Representations: the ``live-state`` stage (the state stage of live labels, learnt from the same sessions and class
 sets as ``state``) and the gesture stage keep their windows whole (``hankel``), because the ``summary`` of a window
