@@ -12,8 +12,8 @@ from spotfree.reproducible import rerun_pinned
 print("started", flush=True)
 rerun_pinned()
 import numpy as np
-features = np._core._multiarray_umath.__cpu_features__
-print(os.environ["{variable}"], [f for f in {avx512!r} if features.get(f)])
+umath = np._core._multiarray_umath
+print(os.environ["{variable}"], [f for f in umath.__cpu_dispatch__ if f in {avx512!r} and umath.__cpu_features__[f]])
 """
 
 

@@ -19,8 +19,10 @@ import sys
 
 VARIABLE = "NPY_DISABLE_CPU_FEATURES"
 AVX512 = ("AVX512F", "AVX512CD", "AVX512_KNL", "AVX512_KNM", "AVX512_SKX", "AVX512_CLX", "AVX512_CNL", "AVX512_ICL",
-          "AVX512_SPR")
-"""numpy's names of the AVX-512 feature groups it dispatches to (a name the processor lacks is ignored)."""
+          "AVX512_SPR", "X86_V4")
+"""numpy's names of the AVX-512 feature groups it dispatches to: those of numpy 2.3 and before, and ``X86_V4`` (the
+x86-64-v4 level, AVX-512), which numpy 2.4 dispatches to in their place beside ``AVX512_ICL`` and ``AVX512_SPR`` (a
+name the processor or the numpy version lacks is ignored)."""
 SETTING = " ".join(AVX512)
 """The value of :data:`VARIABLE` that switches them all off."""
 
