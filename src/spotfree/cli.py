@@ -525,18 +525,18 @@ def _settings_rows(learner, kind: str, risks: dict, preset: Optional[str], said:
 def _settings_lines(rows: list[dict], rate: float) -> list[str]:
     """One line per setting of :func:`_settings_rows`: its value and whether it was given, the preset's, or chosen
     with the set risk of each candidate (lower is better)."""
-    def value(row, v):
-        return f"{v} samples = {v / rate:.2f} s" if row["setting"] == "window" else f"{v:g}" \
-            if isinstance(v, (int, float)) else str(v)
+    def value(row: dict, v, short: bool = False) -> str:
+        if row["setting"] == "window":
+            return f"{v / rate:g} s" if short else f"{v} samples = {v / rate:.2f} s"
+        return f"{v:g}" if isinstance(v, (int, float)) else str(v)
 
     lines = []
     for row in rows:
         if row["given"]:
             how = "given" if row["given"] == "option" else "the preset's"
         elif row["candidates"]:
-            how = "chosen; set risk " + ", ".join(
-                f"{f'{v / rate:g} s' if row['setting'] == 'window' else value(row, v)} "
-                f"{'-' if r is None else f'{r:.3f}'}" for v, r in row["candidates"].items())
+            how = "chosen; set risk " + ", ".join(f"{value(row, v, short=True)} {'-' if r is None else f'{r:.3f}'}"
+                                                  for v, r in row["candidates"].items())
         else:
             how = "default; too little to hold out"
         lines.append(f"setting: {row['setting']} {value(row, row['value'])} ({how})")

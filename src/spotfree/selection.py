@@ -88,11 +88,8 @@ def select_settings(learner, recordings: list[Recording], sets: list[set[str]]) 
     :class:`~spotfree.learner.SetSupervisedLearner`; given ones kept) and one row per setting: ``{"setting",
     "value", "given", "candidates"}``, ``candidates`` mapping each value tried to the set risk of the settings
     chosen with it (empty for a given setting, or where nothing could be held out)."""
-    rate = float(recordings[0].rate)
-    values = {name: [getattr(learner, name)] if getattr(learner, name) is not None else
-              [_in_samples(v, rate) if name == "window" else v for v in CANDIDATES[name]]
-              for name in CANDIDATES}
-    values["window"] = _fitting_windows(values["window"], recordings, getattr(learner, "window") is not None)
+    values = _candidate_values(learner, float(recordings[0].rate))
+    values["window"] = _fitting_windows(values["window"], recordings, learner.window is not None)
     searched = any(len(v) > 1 for v in values.values())
     folds = held_out_folds(recordings, sets, np.random.default_rng(learner.seed), max(values["window"])) if searched \
         else []
@@ -101,13 +98,8 @@ def select_settings(learner, recordings: list[Recording], sets: list[set[str]]) 
     if folds:
         search = _Search(learner, folds, max(values["window"]))
         for name in CANDIDATES:  # one setting at a time, the others at the values chosen so far
-            for value in values[name]:
-                tried[name][value] = search.risk({**chosen, name: value})
-            best = values[name][0]
-            for value in values[name][1:]:
-                if tried[name][value] < tried[name][best] - TOLERANCE:
-                    best = value
-            chosen[name] = best
+            tried[name] = {value: search.risk({**chosen, name: value}) for value in values[name]}
+            chosen[name] = _first_unless_beaten(tried[name])
     rows = [{"setting": name, "value": chosen[name], "given": getattr(learner, name) is not None,
              "candidates": {} if getattr(learner, name) is not None else
              {v: round(float(r), 4) for v, r in tried[name].items()}} for name in CANDIDATES]
@@ -119,16 +111,11 @@ def select_features(learner, candidates: dict[str, list[Recording]], sets: list[
     of preference), whose held-out set risk (:func:`held_out_risk`) is the lowest, with ``learner``'s settings as
     given or, where not given, at their first candidates; a later kind wins only when lower by more than
     :data:`TOLERANCE`. Returns the kind and each kind's risk (None where nothing could be held out)."""
-    rate = float(next(iter(candidates.values()))[0].rate)
-    first = {name: getattr(learner, name) if getattr(learner, name) is not None else
-             (_in_samples(values[0], rate) if name == "window" else values[0]) for name, values in CANDIDATES.items()}
-    fixed = clone(learner).set_params(**first)
+    values = _candidate_values(learner, float(next(iter(candidates.values()))[0].rate))
+    fixed = clone(learner).set_params(**{name: v[0] for name, v in values.items()})
     risks = {kind: held_out_risk(fixed, recordings, sets) for kind, recordings in candidates.items()}
-    best = next(iter(candidates))
-    for kind, risk in risks.items():
-        if risk is not None and risks[best] is not None and risk < risks[best] - TOLERANCE:
-            best = kind
-    return best, risks
+    known = {kind: risk for kind, risk in risks.items() if risk is not None}
+    return (_first_unless_beaten(known) if next(iter(candidates)) in known else next(iter(candidates))), risks
 
 
 def held_out_risk(learner, recordings: list[Recording], sets: list[set[str]]) -> float | None:
@@ -286,6 +273,24 @@ def _fitting_windows(windows: list[int], recordings: list[Recording], given: boo
         return windows
     length = float(np.median([len(rec) for rec in recordings])) / 2
     return windows[:1] + [w for w in windows[1:] if length - 1.5 * w >= SCORED_WINDOWS * w]
+
+
+def _candidate_values(learner, rate: float) -> dict[str, list]:
+    """Per setting of :data:`CANDIDATES`, ``learner``'s value alone where given, else the candidates (the window in
+    samples at ``rate``)."""
+    return {name: [getattr(learner, name)] if getattr(learner, name) is not None else
+            [_in_samples(v, rate) if name == "window" else v for v in values] for name, values in CANDIDATES.items()}
+
+
+def _first_unless_beaten(risks: dict):
+    """The first key of ``risks`` (the default), replaced in order by any whose risk is lower than the one in hand's by
+    more than :data:`TOLERANCE`."""
+    keys = list(risks)
+    best = keys[0]
+    for key in keys[1:]:
+        if risks[key] < risks[best] - TOLERANCE:
+            best = key
+    return best
 
 
 def _joined(recordings: list[Recording]) -> Recording:
