@@ -3,7 +3,8 @@ simulator's protocols, each beside supervised peers and a naive set-supervised b
 
 spotfree is called through one function, :func:`spotfree_default`, with the training recordings and their class
 sets and nothing else: a raw IMU log (channels ``ax ay az gx gy gz``) gets the features ``spotfree train`` gives it
-with no option (:func:`spotfree.pipeline.feature_recording`), any other recording is used as it is.
+with no option (ride or body features, chosen from the sets: :func:`spotfree.selection.select_features`), any other
+recording is used as it is.
 
 Real sets (``sp``, ``sw``, ``hapt``, ``basicmotions``): every recording is put on a 20 Hz grid with its six raw IMU
 channels (accelerations in m/s^2 with gravity, rotation rates in rad/s) and, as truth, the label of the nearest raw
@@ -113,6 +114,7 @@ from spotfree.evaluation.peers.base import WindowClassifierPeer
 from spotfree.io.recording import GPS_CHANNELS, IMU_CHANNELS, Recording
 from spotfree.learner import SetSupervisedLearner
 from spotfree.paper_recipe import PaperRecipe
+from spotfree.selection import select_features
 from spotfree.pipeline import feature_recording
 from spotfree.representation import represent
 from spotfree.signal.features import ride_features
@@ -120,22 +122,26 @@ from spotfree.sim.scenarios import CLASSES, simulate_scenario
 
 
 def spotfree_default(train_recordings, class_sets):
-    """spotfree with no option beyond the recordings and their class sets, as ``spotfree train`` trains: each
-    recording's features as the command line makes them (a raw IMU log's ride features, other channels as they
-    are), then :class:`~spotfree.learner.SetSupervisedLearner` with its defaults. Returns a model whose
-    ``predict(recording, centred=bool)`` labels every sample of a recording read the same way."""
-    learner = SetSupervisedLearner().fit([feature_recording(r) for r in train_recordings], class_sets)
-    return _Featured(learner)
+    """spotfree with no option beyond the recordings and their class sets, as ``spotfree train`` trains: raw IMU logs
+    become ride or body features, whichever the held-out set risk prefers
+    (:func:`spotfree.selection.select_features`), other channels are used as they are; then
+    :class:`~spotfree.learner.SetSupervisedLearner` with its defaults (its settings chosen from the sets). Returns a
+    model whose ``predict(recording, centred=bool)`` labels every sample of a recording read the same way."""
+    learner = SetSupervisedLearner()
+    kinds = ("ride", "body") if all(r.has_imu for r in train_recordings) else ("ride",)
+    candidates = {kind: [feature_recording(r, features=kind) for r in train_recordings] for kind in kinds}
+    kind = select_features(learner, candidates, [set(s) for s in class_sets])[0] if len(kinds) > 1 else kinds[0]
+    return _Featured(learner.fit(candidates[kind], class_sets), kind)
 
 
 class _Featured:
-    """A fitted learner that turns each recording it labels into the features it was trained on."""
+    """A fitted learner that turns each recording it labels into the features (``kind``) it was trained on."""
 
-    def __init__(self, learner):
-        self.learner = learner
+    def __init__(self, learner, kind: str):
+        self.learner, self.kind = learner, kind
 
     def predict(self, recording: Recording, centred: bool = True) -> np.ndarray:
-        return self.learner.predict(feature_recording(recording), centred=centred)
+        return self.learner.predict(feature_recording(recording, features=self.kind), centred=centred)
 
 
 TITLE = "spotfree's defaults across protocols"
