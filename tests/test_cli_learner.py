@@ -238,3 +238,27 @@ def test_train_without_recordings_or_with_a_bad_sets_file_exits_2(tmp_path):
     assert "walk.csv[30-40 s]: no sample in this span; the log runs from 0 s to 11.95 s" in " ".join(
         empty.output.split())
     assert not (tmp_path / "m.npz").exists()
+
+
+def test_auto_settings_choose_the_settings_not_given_and_say_each_candidate_s_risk(tmp_path):
+    """--auto-settings: the learner's settings not given are chosen from the sets (spotfree.selection), one line
+    each with the set risk of its candidates; the features of raw IMU logs are chosen without it; a given one is said
+    given; --json carries the rows."""
+    args = ["train", "-o", str(tmp_path / "m.npz")]
+    for k in (1, 2):
+        _imu_log(tmp_path / f"walk{k}.csv", [("still", 6), ("walking", 8), ("still", 6)], k)
+        _imu_log(tmp_path / f"still{k}.csv", [("still", 20)], 10 + k)
+        args += ["--experiment", f"{tmp_path / f'walk{k}.csv'}=still,walking",
+                 "--experiment", f"{tmp_path / f'still{k}.csv'}=still"]
+    result = runner.invoke(app, [*args, "--auto-settings", "--window", "20", "--json"], catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    document = json.loads(result.output[result.output.index("{"):])
+    rows = {row["setting"]: row for row in document["settings"]}
+    assert rows["window"]["given"] == "option" and rows["window"]["value"] == 20
+    assert set(rows["features"]["candidates"]) == {"ride", "body"}
+    for name in ("share_power", "column_share", "smoothing"):
+        assert rows[name]["given"] is False and len(rows[name]["candidates"]) >= 2
+        assert rows[name]["value"] in [float(v) for v in rows[name]["candidates"]]
+    plain = runner.invoke(app, args, catch_exceptions=False)
+    assert "setting: share_power 0.5 (the learner's default)" in plain.output
+    assert "setting: features " in plain.output and "(chosen; set risk ride " in plain.output

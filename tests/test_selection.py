@@ -13,6 +13,7 @@ from spotfree.selection import CANDIDATES, TOLERANCE, held_out_folds, set_risk
 
 RATE = 20.0
 FIXED = {"window": 20, "share_power": 0.5, "column_share": 0.5, "smoothing": 0.5}
+AUTO = {name: "auto" for name in FIXED}
 
 
 def _labels(*parts: tuple[str, int]) -> np.ndarray:
@@ -85,7 +86,8 @@ def _protocol(rng):
 
 def test_given_settings_are_kept_and_said_given_and_nothing_is_searched_when_all_are_given():
     train, sets = _protocol(np.random.default_rng(1))
-    learner = SetSupervisedLearner(**FIXED, trees=20, seed=0).fit(train, sets)
+    assert SetSupervisedLearner().get_params()["window"] == 20  # the defaults are given values: no search
+    learner = SetSupervisedLearner(trees=20, seed=0).fit(train, sets)
     assert learner.settings_ == FIXED
     assert [row["setting"] for row in learner.selection_] == list(SELECTED)
     assert all(row["given"] and row["candidates"] == {} for row in learner.selection_)
@@ -95,7 +97,7 @@ def test_given_settings_are_kept_and_said_given_and_nothing_is_searched_when_all
 
 def test_the_search_scores_every_candidate_keeps_a_given_one_and_repeats_itself():
     train, sets = _protocol(np.random.default_rng(2))
-    learner = SetSupervisedLearner(window=20, trees=20, seed=0).fit(train, sets)
+    learner = SetSupervisedLearner(**{**AUTO, "window": 20}, trees=20, seed=0).fit(train, sets)
     rows = {row["setting"]: row for row in learner.selection_}
     assert rows["window"]["given"] and rows["window"]["candidates"] == {} and learner.settings_["window"] == 20
     for name in ("share_power", "column_share", "smoothing"):
@@ -104,7 +106,7 @@ def test_the_search_scores_every_candidate_keeps_a_given_one_and_repeats_itself(
         chosen = rows[name]["value"]
         assert rows[name]["candidates"][chosen] == min(rows[name]["candidates"].values()) or \
             rows[name]["candidates"][chosen] <= min(rows[name]["candidates"].values()) + 0.02
-    again = SetSupervisedLearner(window=20, trees=20, seed=0).fit(train, sets)
+    again = SetSupervisedLearner(**{**AUTO, "window": 20}, trees=20, seed=0).fit(train, sets)
     assert again.settings_ == learner.settings_
     assert np.array_equal(again.model_.dictionary, learner.model_.dictionary)
 
@@ -135,10 +137,10 @@ def test_the_search_picks_the_candidates_of_least_risk_and_keeps_the_defaults_wi
 
     monkeypatch.setattr(selection._Search, "risk", risk)
     train, sets = _protocol(np.random.default_rng(4))
-    chosen, rows = selection.select_settings(SetSupervisedLearner(), train, sets)
+    chosen, rows = selection.select_settings(SetSupervisedLearner(**AUTO), train, sets)
     assert chosen == {"window": 20, "share_power": 1.0, "column_share": 0.25, "smoothing": 0.25}
     by_name = {row["setting"]: row for row in rows}
     assert by_name["window"]["candidates"] == {20: 0.2, 40: round(0.2 - TOLERANCE / 2, 4)}
     assert by_name["smoothing"]["candidates"][0.25] == round(0.08, 4)
-    given, _ = selection.select_settings(SetSupervisedLearner(share_power=0.5), train, sets)
+    given, _ = selection.select_settings(SetSupervisedLearner(**{**AUTO, "share_power": 0.5}), train, sets)
     assert given["share_power"] == 0.5 and given["column_share"] == 0.5  # 0.25 pays only with share power 1

@@ -304,8 +304,8 @@ def train(
                                         "(PATH or PATH@K, relative to the file), classes (that occur in it) and "
                                         "optionally start, end (s: a span of the log)"),
     channels: Optional[str] = typer.Option(None, "--channels", help="feature channels, comma-separated"),
-    window: Optional[int] = typer.Option(None, "--window", min=1, help="window length, samples (default: chosen "
-                                         "from the sets, 1 or 2 s; the preset's)"),
+    window: Optional[int] = typer.Option(None, "--window", min=1, help="window length, samples (20, or the "
+                                         "preset's)"),
     step: int = typer.Option(1, "--step", min=1, help="stride of the windows, samples (training and classification)"),
     orientation: str = typer.Option("default", "--orientation", help="default | paper | vqf"),
     features: Optional[str] = typer.Option(None, "--features", help="what a raw IMU log becomes: ride (a phone on "
@@ -329,13 +329,16 @@ def train(
                                     help="most dictionary columns per class (300, or the preset's)"),
     column_share: Optional[float] = typer.Option(None, "--column-share", help="sets learner: share of each "
                                                  "class's windows, those named most surely, that its columns are "
-                                                 "drawn from, > 0 and <= 1 (default: chosen from the sets)"),
+                                                 "drawn from, > 0 and <= 1 (0.5, or the preset's)"),
     share_power: Optional[float] = typer.Option(None, "--share-power", help="sets learner: how much a class's share "
-                                                "of the windows weighs in its names, >= 0 (default: chosen from the "
-                                                "sets)"),
+                                                "of the windows weighs in its names, >= 0 (0.5, or the preset's; 1 "
+                                                "for a short rare event)"),
     smoothing: Optional[float] = typer.Option(None, "--smoothing", help="sets learner: seconds a change of class "
-                                              "must gain, and the offline labels' vote (default: chosen from the "
-                                              "sets)"),
+                                              "must gain, and the offline labels' vote (0.5, or "
+                                              "the preset's)"),
+    auto_settings: bool = typer.Option(False, "--auto-settings", help="sets learner: choose the window, share "
+                                       "power, column share and smoothing not given from the sets by the held-out set "
+                                       "risk (docs/training.md; several times the training time)"),
     seed: int = typer.Option(0, "--seed"),
     figure: Optional[Path] = typer.Option(None, "--figure", help="also draw the training logs (the first 12; the "
                                           "spans of a log on its row) coloured by "
@@ -369,7 +372,7 @@ def train(
     given = [p.opts[0] for p in ctx.command.params
              if p.name and getattr(ctx.get_parameter_source(p.name), "name", "") == "COMMANDLINE"]
     misplaced = [o for o in given if o in ("--prior", "--representation", "--column-share", "--share-power",
-                                           "--smoothing", "--figure", "--preset", "--role")
+                                           "--smoothing", "--auto-settings", "--figure", "--preset", "--role")
                  and recipe != "sets"]
     if misplaced:
         raise InputError(f"{misplaced[0]} is an option of --recipe sets; leave it out with --recipe {recipe}")
@@ -379,7 +382,10 @@ def train(
                 "--representation": ("representation", representation), "--prior": ("prior", prior_named(prior)),
                 "--column-share": ("column_share", column_share), "--max-columns": ("max_columns", max_columns),
                 "--share-power": ("share_power", share_power), "--smoothing": ("smoothing", smoothing)}
-    params.update(item for option, item in settings.items() if preset is None or option in given)  # else the preset's
+    params.update(item for option, item in settings.items() if (preset is None or option in given)  # else the preset's
+                  and not (item[1] is None and option in CHOSABLE))  # else the learner's default
+    if auto_settings:
+        params.update((settings[option][0], "auto") for option in CHOSABLE if option not in given)
     if features is None and (preset or chosen or recipe != "sets"):
         features = "ride"  # the presets' channels are ride channels; named channels are of one kind
     from spotfree.io.class_sets import read_class_sets
@@ -388,20 +394,20 @@ def train(
     if not declared:
         raise InputError("no training recording: give --experiment PATH=CLASS[,CLASS...] or --sets FILE")
     summary = _train(output, declared, orientation, features, recipe, preset, params, figure, mount, role,
-                     [o for o in given if o in ("--window", "--share-power", "--column-share", "--smoothing",
-                                                "--features", "--channels")])
+                     [o for o in given if o in (*CHOSABLE, "--features", "--channels")])
     if as_json:
         _print_json(summary)
 
 
 def _train(output: Path, declared: list, orientation: str, features: str, recipe: str, preset: Optional[str],
-           params: dict, figure: Optional[Path], mount: str, roles: list[str] = (), said: list[str] = ()) -> dict:
+           params: dict, figure: Optional[Path], mount: str, roles: list[str] = (),
+           options: list[str] = ()) -> dict:
     """``spotfree train``: :class:`~spotfree.learner.SetSupervisedLearner` (``recipe`` sets; of ``preset``'s
     settings when given, :func:`~spotfree.presets.preset_learner`, ``params`` overriding them) or
     :class:`~spotfree.paper_recipe.PaperRecipe` (``recipe`` paper) on the ``declared`` recordings and their sets
     (:class:`~spotfree.io.class_sets.Declared`: each log read and turned into features once, then cut into its
     spans), the ride prior's ``roles`` (``--role CLASS=ROLE``: :func:`_prior_roles`); ``features`` None: ride or
-    body features, chosen from the sets (:func:`~spotfree.selection.select_features`) for raw IMU logs; ``said``:
+    body features, chosen from the sets (:func:`~spotfree.selection.select_features`) for raw IMU logs; ``options``:
     the learner's options given on the command line (a preset's others are the preset's). Prints the summary and
     returns it (the document of ``--json``)."""
     from collections import Counter
@@ -449,7 +455,7 @@ def _train(output: Path, declared: list, orientation: str, features: str, recipe
                "representation": model.representation, "window": model.window, "step": model.step,
                "prior": prior_name(learner.prior) if recipe == "sets" else None,
                "column_share": learner.settings_["column_share"] if recipe == "sets" else None,
-               "settings": _settings_rows(learner, kind, risks, preset, said) if recipe == "sets" else None,
+               "settings": _settings_rows(learner, kind, risks, preset, options) if recipe == "sets" else None,
                "classes": model.classes,
                "columns": model.dictionary.shape[1], "columns_per_class": {c: counts[c] for c in model.classes},
                "recordings": [{"source": rec["source"], "declared": rec["classes"], "windows": rec["windows"]}
@@ -511,13 +517,15 @@ def _prior_roles(prior, preset: Optional[str], sets: list, given: list[str]) -> 
 
 def _settings_rows(learner, kind: str, risks: dict, preset: Optional[str], said: list[str]) -> list[dict]:
     """The learner's :attr:`~spotfree.learner.SetSupervisedLearner.selection_` with the features first, each row's
-    ``given`` said as ``"option"`` (on the command line), ``"preset"`` (the preset's), or False (chosen)."""
+    ``given`` said as ``"option"`` (on the command line), ``"preset"`` (the preset's), ``"default"`` (the learner's),
+    or False (chosen)."""
     implied = "preset" if preset and "--features" not in said and "--channels" not in said else "option"
     rows = [{"setting": "features", "value": kind, "given": False if risks else implied,
              "candidates": {k: None if r is None else round(float(r), 4) for k, r in risks.items()}}]
     for row in learner.selection_:
         option = "--" + row["setting"].replace("_", "-")
-        source = False if not row["given"] else ("preset" if preset and option not in said else "option")
+        source = (False if not row["given"] else "option" if option in said else "preset" if preset else
+                  "default")
         rows.append({**row, "given": source})
     return rows
 
@@ -533,7 +541,7 @@ def _settings_lines(rows: list[dict], rate: float) -> list[str]:
     lines = []
     for row in rows:
         if row["given"]:
-            how = "given" if row["given"] == "option" else "the preset's"
+            how = {"option": "given", "preset": "the preset's", "default": "the learner's default"}[row["given"]]
         elif row["candidates"]:
             how = "chosen; set risk " + ", ".join(f"{value(row, v, short=True)} {'-' if r is None else f'{r:.3f}'}"
                                                   for v, r in row["candidates"].items())
@@ -543,6 +551,8 @@ def _settings_lines(rows: list[dict], rate: float) -> list[str]:
     return lines
 
 
+CHOSABLE = ("--window", "--share-power", "--column-share", "--smoothing")
+"""Options of the learner's settings that :mod:`spotfree.selection` can choose (``--auto-settings``)."""
 TABLE_ROWS = 20
 """Most recordings :func:`_naming_table` shows a row each; of more, a row per declared set."""
 

@@ -54,7 +54,7 @@ Method (``docs/training.md`` has the derivation and the references):
    (:class:`~spotfree.classify.kcrc.KernelCRCClassifier`).
 
 **Settings.** The window, the share power, the column share and the smoothing (:data:`SELECTED`) are chosen from the
-recordings and their sets when left at None, before the steps above run (:mod:`spotfree.selection`: held-out
+recordings and their sets when given as ``"auto"``, before the steps above run (:mod:`spotfree.selection`: held-out
 recordings scored by the windows named outside their sets and the declared classes named nowhere); a value given
 is kept.
 
@@ -81,7 +81,7 @@ from spotfree.errors import InputError
 from spotfree.io.recording import GPS_CHANNELS, Recording
 from spotfree.model import DictionaryModel
 from spotfree.representation import REPRESENTATIONS, represent
-from spotfree.selection import select_settings
+from spotfree.selection import AUTO, select_settings
 from spotfree.windows import ChannelScaling, recording_windows
 
 SEPARABLE = 0.5
@@ -95,7 +95,7 @@ as a window has values (every class then spans every window); the kernel's dista
 ABSENCE_CAP = 10.0
 """Largest density ratio ``r_c(x)`` used: beyond it a window is as good as absent from ``c``."""
 SELECTED = ("window", "share_power", "column_share", "smoothing")
-"""Parameters that :mod:`spotfree.selection` chooses from the class sets when they are left at None."""
+"""Parameters that :mod:`spotfree.selection` chooses from the class sets when given as ``"auto"``."""
 
 
 @dataclass
@@ -138,15 +138,15 @@ class _Named:
 class SetSupervisedLearner(BaseEstimator):
     """Learn a dictionary model from recordings that each declare only the set of classes occurring in them.
 
-    The four settings of :data:`SELECTED` left at None are chosen by :func:`spotfree.selection.select_settings` from
-    the recordings and their sets alone (held-out recordings scored by the set risk); a value given is kept as it is.
+    The four settings of :data:`SELECTED` given as ``"auto"`` are chosen by :func:`spotfree.selection.select_settings`
+    from the recordings and their sets alone (held-out recordings scored by the set risk); a value is kept as it is.
 
     Parameters
     ----------
     channels : tuple of str or None
         Channels windowed, in order; None: every channel of the first recording but the sparse GPS ones.
-    window : int or None
-        Window length ``L``, samples; None: chosen (1 or 2 s).
+    window : int or "auto"
+        Window length ``L``, samples; ``"auto"``: chosen (1 or 2 s).
     step : int
         Stride of the windows, samples (training and classification).
     representation : {"summary", "hankel"}
@@ -154,24 +154,25 @@ class SetSupervisedLearner(BaseEstimator):
     rounds : int
         Most rounds of step 3; 0 decodes the starting names (uniform over each set, times the prior and the absence
         evidence of step 2).
-    smoothing : float or None
+    smoothing : float or "auto"
         Seconds of windows whose log-posterior a change of class must gain to be made (the switching cost of
         :func:`decode_runs`); the dictionary's margins are averaged over as many windows, and the offline labels are
-        voted over as many seconds. None: chosen.
+        voted over as many seconds. ``"auto"``: chosen.
     max_columns : int
         Most dictionary columns per class.
-    column_share : float or None
+    column_share : float or "auto"
         Share ``0 < s <= 1`` of each class's windows, those named with the largest margins, that its columns are
         drawn from (step 4): 0.5, the half above the class's median margin, keeps out most misnamed windows where the
         sets leave the names uncertain; 1 draws from every window of the class, its onsets and ends included, which
         pays where the sets pin the names down (each recording declares one class beside a background that other
         recordings declare alone); a short event that claims more than itself keeps only its surest windows at 0.25.
-        None: chosen.
-    share_power : float or None
+        ``"auto"``: chosen.
+    share_power : float or "auto"
         Exponent ``a >= 0`` of each class's share of the names in the next round's names (module docstring, step
         3): 0 names from the balanced posterior alone, under which every class tends to an equal share of the
         windows and a short event declared in few recordings claims more than itself; 1 weighs the names by the
-        shares, under which a common class grows at the expense of a rarer one declared with it. None: chosen.
+        shares, under which a common class grows at the expense of a rarer one declared with it. ``"auto"``:
+        chosen.
     prior : object or None
         Domain prior with ``log_prior(recording, centres, classes) -> (m, C)`` (module docstring); None: none.
     seed : int
@@ -224,9 +225,9 @@ class SetSupervisedLearner(BaseEstimator):
     warnings_ : list of str
     """
 
-    def __init__(self, channels: tuple[str, ...] | None = None, window: int | None = None, step: int = 1,
-                 representation: str = "summary", rounds: int = 5, smoothing: float | None = None,
-                 max_columns: int = 300, column_share: float | None = None, share_power: float | None = None,
+    def __init__(self, channels: tuple[str, ...] | None = None, window: int | str = 20, step: int = 1,
+                 representation: str = "summary", rounds: int = 5, smoothing: float | str = 0.5,
+                 max_columns: int = 300, column_share: float | str = 0.5, share_power: float | str = 0.5,
                  prior=None, seed: int = 0, sharpen: float = 2.0, absence: float = 3.0, changed: float = 0.002,
                  fit_windows: int = 2000, block_seconds: float = 2.0, trees: int = 100, leaf: int = 8,
                  landmarks: int = 128):
@@ -253,7 +254,8 @@ class SetSupervisedLearner(BaseEstimator):
     # ------------------------------------------------------------------ fit
     def fit(self, recordings: Recording | list[Recording], class_sets):
         """Learn from ``recordings`` (a feature Recording or a list of them, of one rate) and the set of classes each
-        declares (one set for one recording, a list of sets for a list); the settings left at None are chosen first
+        declares (one set for one recording, a list of sets for a list); the settings given as ``"auto"`` are chosen
+        first
         (:func:`spotfree.selection.select_settings`)."""
         recordings, sets = self._check_input(recordings, class_sets)
         self.settings_, self.selection_ = select_settings(self, recordings, sets)
@@ -347,17 +349,17 @@ class SetSupervisedLearner(BaseEstimator):
             raise InputError(f"representation {self.representation!r} is unknown; use one of "
                              f"{', '.join(REPRESENTATIONS)}")
         for name in ("step", "max_columns", "fit_windows", "trees", "leaf", "landmarks") + (
-                ("window",) if self.window is not None else ()):
+                ("window",) if self.window != AUTO else ()):
             _check_number(self, name, whole=True, low=1)
         _check_number(self, "rounds", whole=True, low=0)
         for name, low in (("sharpen", 1), ("absence", 0), ("changed", 0)):
             _check_number(self, name, low=low)
         _check_number(self, "block_seconds", low=0, open_low=True)
-        if self.smoothing is not None:
+        if self.smoothing != AUTO:
             _check_number(self, "smoothing", low=0)
-        if self.share_power is not None:
+        if self.share_power != AUTO:
             _check_number(self, "share_power", low=0)
-        if self.column_share is not None:
+        if self.column_share != AUTO:
             _check_number(self, "column_share", low=0, open_low=True, high=1, what="a share")
         if isinstance(recordings, Recording):
             recordings, class_sets = [recordings], [class_sets]

@@ -58,6 +58,8 @@ from sklearn.base import clone
 
 from spotfree.io.recording import Recording
 
+AUTO = "auto"
+"""The value of a setting of :class:`~spotfree.learner.SetSupervisedLearner` that asks for it to be chosen."""
 CANDIDATES = {"window": (1.0, 2.0), "share_power": (0.5, 1.0), "column_share": (0.5, 0.25, 1.0),
               "smoothing": (0.5, 1.0, 0.25)}
 """Candidate values per setting, the default first: the window in seconds (made samples at the recordings' rate),
@@ -89,7 +91,7 @@ def select_settings(learner, recordings: list[Recording], sets: list[set[str]]) 
     "value", "given", "candidates"}``, ``candidates`` mapping each value tried to the set risk of the settings
     chosen with it (empty for a given setting, or where nothing could be held out)."""
     values = _candidate_values(learner, float(recordings[0].rate))
-    values["window"] = _fitting_windows(values["window"], recordings, learner.window is not None)
+    values["window"] = _fitting_windows(values["window"], recordings, learner.window != AUTO)
     searched = any(len(v) > 1 for v in values.values())
     folds = held_out_folds(recordings, sets, np.random.default_rng(learner.seed), max(values["window"])) if searched \
         else []
@@ -100,8 +102,8 @@ def select_settings(learner, recordings: list[Recording], sets: list[set[str]]) 
         for name in CANDIDATES:  # one setting at a time, the others at the values chosen so far
             tried[name] = {value: search.risk({**chosen, name: value}) for value in values[name]}
             chosen[name] = _first_unless_beaten(tried[name])
-    rows = [{"setting": name, "value": chosen[name], "given": getattr(learner, name) is not None,
-             "candidates": {} if getattr(learner, name) is not None else
+    rows = [{"setting": name, "value": chosen[name], "given": getattr(learner, name) != AUTO,
+             "candidates": {} if getattr(learner, name) != AUTO else
              {v: round(float(r), 4) for v, r in tried[name].items()}} for name in CANDIDATES]
     return chosen, rows
 
@@ -123,7 +125,7 @@ def held_out_risk(learner, recordings: list[Recording], sets: list[set[str]]) ->
     :data:`~spotfree.learner.SELECTED` given) on the folds of :func:`held_out_folds`; None where nothing can be held
     out."""
     fixed = {name: getattr(learner, name) for name in CANDIDATES}
-    if any(v is None for v in fixed.values()):
+    if any(v == AUTO for v in fixed.values()):
         raise ValueError("held_out_risk needs every selected setting given")
     folds = held_out_folds(recordings, sets, np.random.default_rng(learner.seed), fixed["window"])
     return _Search(learner, folds, fixed["window"]).risk(fixed) if folds else None
@@ -278,7 +280,7 @@ def _fitting_windows(windows: list[int], recordings: list[Recording], given: boo
 def _candidate_values(learner, rate: float) -> dict[str, list]:
     """Per setting of :data:`CANDIDATES`, ``learner``'s value alone where given, else the candidates (the window in
     samples at ``rate``)."""
-    return {name: [getattr(learner, name)] if getattr(learner, name) is not None else
+    return {name: [getattr(learner, name)] if getattr(learner, name) != AUTO else
             [_in_samples(v, rate) if name == "window" else v for v in values] for name, values in CANDIDATES.items()}
 
 
