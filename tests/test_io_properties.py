@@ -37,7 +37,9 @@ def recordings(draw):
     sparse = draw(st.lists(st.sampled_from(SPARSE), max_size=len(SPARSE), unique=True))
     channels = {c: np.array(draw(st.lists(finite, min_size=n, max_size=n))) for c in dense}
     for c in sparse:
-        values = draw(st.lists(st.one_of(finite, st.just(np.nan)), min_size=n, max_size=n))
+        # a speed of exactly -1 is iOS's mark for an unknown speed, which the reader takes as a missing sample
+        cell = finite.filter(lambda v: v != -1.0) if c == "speed" else finite
+        values = draw(st.lists(st.one_of(cell, st.just(np.nan)), min_size=n, max_size=n))
         channels[c] = np.array(values)
     truth = {c: np.array(draw(st.lists(label_text, min_size=n, max_size=n)), dtype=str)
              for c in draw(st.lists(st.sampled_from(["label", "event"]), unique=True))}
